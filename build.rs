@@ -1,0 +1,106 @@
+//! Compiles every compute kernel in `shaders/wavefront/` to SPIR-V with glslang (built from
+//! source by the `glslang` crate), resolving `#include "x.glsl"` from `shaders/inc/`, and treats
+//! any compiler warning as an error. The binary embeds the modules through `$OUT_DIR/kernels.rs`.
+
+use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
+use glslang::{
+    Compiler, CompilerOptions, ShaderInput, ShaderMessage, ShaderSource, ShaderStage,
+    SourceLanguage, SpirvVersion, Target, VulkanVersion,
+};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+struct IncludeDir(PathBuf);
+
+impl IncludeHandler for IncludeDir {
+    fn include(
+        &mut self,
+        _ty: IncludeType,
+        header_name: &str,
+        _includer_name: &str,
+        _include_depth: usize,
+    ) -> Option<IncludeResult> {
+        let path = self.0.join(header_name);
+        let data = std::fs::read_to_string(&path).ok()?;
+        Some(IncludeResult { name: path.display().to_string(), data })
+    }
+}
+
+fn compile(compiler: &Compiler, path: &Path, include_dir: &Path) -> Result<Vec<u32>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let source = ShaderSource::from(text);
+    let options = CompilerOptions {
+        source_language: SourceLanguage::GLSL,
+        target: Target::Vulkan {
+            version: VulkanVersion::Vulkan1_2,
+            spirv_version: SpirvVersion::SPIRV1_5,
+        },
+        version_profile: None,
+        messages: ShaderMessage::DEFAULT,
+    };
+    let mut includes = IncludeDir(include_dir.to_path_buf());
+    let input = ShaderInput::new(
+        &source,
+        ShaderStage::Compute,
+        &options,
+        None::<&[(&str, Option<&str>)]>,
+        Some(&mut includes),
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    let shader = compiler
+        .create_shader(input)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let log = shader.get_log();
+    if log.to_ascii_uppercase().contains("WARNING") {
+        return Err(format!("{}: warnings are errors:\n{log}", path.display()));
+    }
+    shader.compile().map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn main() {
+    let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    let kernel_dir = root.join("shaders/wavefront");
+    let include_dir = root.join("shaders/inc");
+    println!("cargo:rerun-if-changed=shaders");
+
+    let mut kernels: Vec<PathBuf> = std::fs::read_dir(&kernel_dir)
+        .expect("shaders/wavefront exists")
+        .map(|e| e.expect("readable shaders/wavefront").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "comp"))
+        .collect();
+    kernels.sort();
+    for dir in [&kernel_dir, &include_dir] {
+        for entry in std::fs::read_dir(dir).expect("shader folder exists") {
+            println!("cargo:rerun-if-changed={}", entry.unwrap().path().display());
+        }
+    }
+
+    let compiler = Compiler::acquire().expect("glslang initialises");
+    let mut table = String::from("/// Every wavefront kernel: (name, SPIR-V bytes).\n");
+    table.push_str("pub const KERNELS: &[(&str, &[u8])] = &[\n");
+    let mut failures = Vec::new();
+    for path in &kernels {
+        let name = path.file_stem().unwrap().to_str().unwrap().to_owned();
+        match compile(compiler, path, &include_dir) {
+            Ok(words) => {
+                let spv = out.join(format!("{name}.spv"));
+                std::fs::write(&spv, bytemuck_words(&words)).unwrap();
+                writeln!(table, "    ({name:?}, include_bytes!({:?})),", spv.display()).unwrap();
+            }
+            Err(e) => failures.push(e),
+        }
+    }
+    table.push_str("];\n");
+    if !failures.is_empty() {
+        for f in &failures {
+            println!("cargo:warning={}", f.lines().next().unwrap_or(""));
+        }
+        panic!("shader compilation failed:\n{}", failures.join("\n"));
+    }
+    std::fs::write(out.join("kernels.rs"), table).unwrap();
+}
+
+fn bytemuck_words(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}

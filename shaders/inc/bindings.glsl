@@ -1,0 +1,20 @@
+// The one descriptor set every wavefront kernel shares (src/gpu/pipelines.rs, `Binding`).
+#ifndef BINDINGS_GLSL
+#define BINDINGS_GLSL
+
+layout(std140, set = 0, binding = 0) uniform Frame { FrameParams frame; };
+layout(std430, set = 0, binding = 1) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Lights { LightEntry lights[]; };
+layout(std430, set = 0, binding = 5) buffer Paths { PathState paths[]; };
+// Two queues of batch_size rays each, ping-ponged by depth & 1.
+layout(std430, set = 0, binding = 6) buffer Rays { QueuedRay rays[]; };
+layout(std430, set = 0, binding = 7) buffer Hits { HitRecord hits[]; };
+layout(std430, set = 0, binding = 8) buffer Shadows { ShadowRay shadow_rays[]; };
+layout(std430, set = 0, binding = 9) buffer Film { FilmPixel film[]; };
+layout(std430, set = 0, binding = 10) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = 11) buffer Args { uvec4 dispatch_args[]; };
+layout(push_constant) uniform Push { DispatchParams params; };
+
+#endif

@@ -1,0 +1,44 @@
+// Camera rays, emission and emitter selection: twin of src/scene/camera.rs, src/cpu/path.rs.
+#ifndef SCENE_GLSL
+#define SCENE_GLSL
+
+// Pixel and sample index of path i of the current batch (src/layout.rs, DispatchParams).
+void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
+    uint pixel_count = frame.width * frame.height;
+    uint local_index = params.first_pixel + i;
+    pixel = local_index % pixel_count;
+    sample_index = params.first_sample + local_index / pixel_count;
+}
+
+// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
+vec3 camera_ray_direction(uint pixel, vec2 jitter) {
+    float px = float(pixel % frame.width) + jitter.x;
+    float py = float(pixel / frame.width) + jitter.y;
+    float sx = (2.0 * px / float(frame.width) - 1.0) * frame.tan_half_fov_y * frame.aspect;
+    float sy = (1.0 - 2.0 * py / float(frame.height)) * frame.tan_half_fov_y;
+    return normalize(frame.cam_forward + sx * frame.cam_right + sy * frame.cam_up);
+}
+
+// Radiance leaving a surface of material m towards a direction with cosine cos_out to its
+// front-face normal: one-sided unless the material is double-sided.
+vec3 emitted_radiance(GpuMaterial m, float cos_out) {
+    bool visible = cos_out > 0.0 || ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && cos_out < 0.0);
+    return visible ? m.emission : vec3(0.0);
+}
+
+// Emitter-table index for u by inverting the discrete CDF (src/sampling.rs, sample_light).
+uint sample_light(float u) {
+    uint lo = 0u;
+    uint hi = frame.light_count - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (lights[mid].cdf > u) hi = mid; else lo = mid + 1u;
+    }
+    return lo;
+}
+
+float max_component(vec3 v) {
+    return max(v.x, max(v.y, v.z));
+}
+
+#endif

@@ -1,0 +1,30 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Stage 5: add each finished path's radiance to its pixel (sum, sum of squares, count). One thread
+// per pixel of the batch, looping over the batch's samples of that pixel in sample order, so the
+// film is the same on every run. Non-finite samples are dropped and counted.
+#include "layout.glsl"
+#include "bindings.glsl"
+
+layout(local_size_x = WORKGROUP_SIZE) in;
+
+void main() {
+    uint t = gl_GlobalInvocationID.x;
+    uint pixel_count = frame.width * frame.height;
+    if (t >= min(params.batch_size, pixel_count)) return;
+    uint pixel = (params.first_pixel + t) % pixel_count;
+    FilmPixel acc = film[pixel];
+    uint dropped = 0u;
+    for (uint slot = t; slot < params.batch_size; slot += pixel_count) {
+        vec3 l = paths[slot].radiance;
+        if (any(isnan(l)) || any(isinf(l))) {
+            dropped += 1u;
+        } else {
+            acc.sum += l;
+            acc.sum_sq += l * l;
+            acc.count += 1u;
+        }
+    }
+    film[pixel] = acc;
+    if (dropped > 0u) atomicAdd(counters[COUNTER_DROPPED_SAMPLES], dropped);
+}

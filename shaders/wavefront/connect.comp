@@ -1,0 +1,18 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Stage 4: any-hit test of every shadow ray; an unoccluded one adds its contribution to its path
+// (each path has at most one shadow ray per bounce, so no atomics on radiance).
+#include "layout.glsl"
+#include "bindings.glsl"
+#include "bvh.glsl"
+
+layout(local_size_x = WORKGROUP_SIZE) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= counters[COUNTER_SHADOW]) return;
+    ShadowRay shadow = shadow_rays[i];
+    if (!bvh_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max)) {
+        paths[shadow.path].radiance += shadow.contribution;
+    }
+}

@@ -1,0 +1,18 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Stage 2: closest hit for every queued extension ray.
+#include "layout.glsl"
+#include "bindings.glsl"
+#include "bvh.glsl"
+
+layout(local_size_x = WORKGROUP_SIZE) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint queue = params.depth & 1u;
+    if (i >= counters[queue]) return;
+    QueuedRay ray = rays[queue * params.batch_size + i];
+    HitRecord hit;
+    bvh_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, hit);
+    hits[i] = hit;
+}

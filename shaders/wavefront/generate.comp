@@ -1,0 +1,32 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Stage 1 of the wavefront loop: one camera ray and a fresh path state per path of the batch.
+#include "layout.glsl"
+#include "bindings.glsl"
+#include "rng.glsl"
+#include "scene.glsl"
+
+layout(local_size_x = WORKGROUP_SIZE) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= params.batch_size) return;
+    uint pixel, sample_index;
+    path_pixel_sample(i, pixel, sample_index);
+    vec4 u = rng_uniform4(frame.seed, pixel, sample_index, CAMERA_BLOCK);
+
+    PathState state;
+    state.throughput = vec3(1.0);
+    state.prev_bsdf_pdf = 0.0;
+    state.radiance = vec3(0.0);
+    state.prev_specular = 1u;
+    state.pad = uvec4(0u);
+    paths[i] = state;
+
+    QueuedRay ray;
+    ray.origin = frame.cam_position;
+    ray.path = i;
+    ray.dir = camera_ray_direction(pixel, u.xy);
+    ray.pad = 0u;
+    rays[i] = ray;  // queue 0; its counter is set to batch_size by the host
+}

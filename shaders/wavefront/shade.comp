@@ -1,0 +1,123 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Stage 3: at each hit add MIS-weighted emission, queue one shadow ray (next event estimation),
+// sample the BSDF for the continuation ray and apply Russian roulette. Twin of src/cpu/path.rs.
+#include "layout.glsl"
+#include "bindings.glsl"
+#include "rng.glsl"
+#include "sampling.glsl"
+#include "bsdf.glsl"
+#include "mis.glsl"
+#include "scene.glsl"
+
+layout(local_size_x = WORKGROUP_SIZE) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint depth = params.depth;
+    uint queue = depth & 1u;
+    if (i >= counters[queue]) return;
+    QueuedRay ray = rays[queue * params.batch_size + i];
+    HitRecord hit = hits[i];
+    PathState state = paths[ray.path];
+    uint pixel, sample_index;
+    path_pixel_sample(ray.path, pixel, sample_index);
+    vec3 wo = -ray.dir;
+
+    // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
+    if (hit.triangle == NO_HIT) {
+        state.radiance += state.throughput * frame.environment;
+        paths[ray.path] = state;
+        return;
+    }
+    GpuTriangle tri = triangles[hit.triangle];
+    GpuMaterial mat = materials[tri.material];
+    vec3 p = tri.p0 + hit.u * tri.e1 + hit.v * tri.e2;
+    vec3 ng = normalize(cross(tri.e1, tri.e2));
+    float cos_out = dot(ng, wo);
+    vec3 n = cos_out >= 0.0 ? ng : -ng;  // shading normal on wo's side
+
+    // Direct emission, weighted against emitter sampling from the previous vertex.
+    vec3 le = emitted_radiance(mat, cos_out);
+    if (max_component(le) > 0.0) {
+        float w = 1.0;
+        if (state.prev_specular == 0u) {
+            float light_pdf = tri.light_pmf * hit.t * hit.t / (abs(cos_out) * tri.area);
+            w = mis_power2(state.prev_bsdf_pdf, light_pdf);
+        }
+        state.radiance += state.throughput * w * le;
+    }
+    if (depth >= frame.max_depth) {
+        paths[ray.path] = state;
+        return;
+    }
+
+    // Emitter sampling: one point on one emitting triangle, chosen by power.
+    vec4 u_light = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth));
+    if (frame.light_count > 0u && (frame.debug_flags & DEBUG_NO_NEE) == 0u) {
+        LightEntry entry = lights[sample_light(u_light.x)];
+        GpuTriangle light = triangles[entry.triangle];
+        vec2 b = sample_uniform_triangle(u_light.yz);
+        vec3 y = light.p0 + b.x * light.e1 + b.y * light.e2;
+        vec3 light_n = normalize(cross(light.e1, light.e2));
+        vec3 to_light = y - p;
+        float dist2 = dot(to_light, to_light);
+        float dist = sqrt(dist2);
+        vec3 wi = to_light / dist;
+        float cos_light = dot(light_n, -wi);
+        float cos_surface = dot(n, wi);
+        vec3 light_le = emitted_radiance(materials[light.material], cos_light);
+        // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
+        float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);
+        if (cos_surface > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
+            float w = mis_power2(light_pdf, bsdf_pdf(n, wo, wi));
+            vec3 f = bsdf_eval(mat.base_color, n, wo, wi);
+            vec3 origin = offset_ray_origin(p, n);
+            vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
+            vec3 d = target - origin;
+            float t_max = length(d);
+            ShadowRay shadow;
+            shadow.origin = origin;
+            shadow.path = ray.path;
+            shadow.dir = d / t_max;
+            shadow.t_max = t_max;
+            shadow.contribution = state.throughput * f * cos_surface * light_le * (w / light_pdf);
+            shadow.pad = 0u;
+            shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+        }
+    }
+
+    // BSDF sampling of the continuation ray.
+    vec4 u_bsdf = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth) + 1u);
+    vec3 f;
+    float pdf;
+    vec3 wi = bsdf_sample(mat.base_color, n, wo, u_bsdf.xy, f, pdf);
+    float cos_in = dot(n, wi);
+    if (pdf <= 0.0 || cos_in <= 0.0) {
+        paths[ray.path] = state;
+        return;
+    }
+    state.throughput *= f * (cos_in / pdf);
+    state.prev_bsdf_pdf = pdf;
+    state.prev_specular = 0u;
+
+    // Stopping criterion: Russian roulette keeps the estimate unbiased by dividing survivors by
+    // their survival probability (lecture, "Russian roulette for integral equations").
+    if (depth + 1u >= frame.rr_start_depth) {
+        float survive = min(max_component(state.throughput), 1.0);
+        if (!(u_light.w < survive)) {
+            paths[ray.path] = state;
+            return;
+        }
+        state.throughput /= survive;
+    }
+    paths[ray.path] = state;
+
+    QueuedRay next;
+    next.origin = offset_ray_origin(p, n);
+    next.path = ray.path;
+    next.dir = wi;
+    next.pad = 0u;
+    uint next_queue = queue ^ 1u;
+    rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+}

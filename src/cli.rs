@@ -1,0 +1,95 @@
+//! The command line: `wavetrace render`, `wavetrace devices`, `wavetrace bench`.
+//! Scripts depend on these names; keep them.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(name = "wavetrace", version, about = "Headless GPU wavefront path tracer with a CPU reference integrator")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a glTF scene (.gltf or .glb) to EXR or PNG.
+    Render(RenderArgs),
+    /// List the Vulkan devices and their indices for --gpu-index.
+    Devices,
+    /// Measure samples/s and rays/s of the GPU and CPU integrators on the committed scenes.
+    Bench(BenchArgs),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DeviceKind {
+    /// The wavefront path tracer on a Vulkan device.
+    Gpu,
+    /// The reference path tracer on all CPU cores.
+    Cpu,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene file; default: scenes/cornell-box.gltf.
+    pub scene: Option<PathBuf>,
+    /// Which integrator renders.
+    #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
+    pub device: DeviceKind,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
+    pub spp: u32,
+    /// Scattering events per path: 0 shows emitters only, 1 is direct lighting.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub max_depth: u32,
+    /// Image width in pixels (default 512).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: from the width and the camera's aspect ratio).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: Option<u32>,
+    /// Random seed: the same seed gives the same image on the same device.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Output image: .exr (linear, with variance) or .png (tonemapped sRGB); default: SCENE.png.
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Vulkan device index, as `wavetrace devices` lists them.
+    #[arg(long)]
+    pub gpu_index: Option<usize>,
+    /// Paths in flight per GPU batch (default: 2^20 on GPUs, 2^17 on CPU Vulkan devices).
+    #[arg(long)]
+    pub wavefront: Option<u32>,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Print per-kernel GPU time.
+    #[arg(long)]
+    pub stats: bool,
+    /// Run with the Vulkan validation layer (when installed); its errors fail the render.
+    #[arg(long)]
+    pub validate: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Scenes to measure (default: every .gltf in scenes/).
+    pub scenes: Vec<PathBuf>,
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
+    pub spp: u32,
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub max_depth: u32,
+    /// Vulkan device index.
+    #[arg(long)]
+    pub gpu_index: Option<usize>,
+    /// Paths in flight per GPU batch.
+    #[arg(long)]
+    pub wavefront: Option<u32>,
+    /// Skip the CPU integrator.
+    #[arg(long)]
+    pub gpu_only: bool,
+}

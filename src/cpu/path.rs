@@ -1,0 +1,200 @@
+//! One path, vertex by vertex: the twin of `generate.comp`, `shade.comp` and `connect.comp`
+//! (and of the helpers in `shaders/inc/scene.glsl`), with the same names and the same order of
+//! random numbers, so that a disagreement between the two integrators points at one stage.
+
+use crate::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use crate::bvh::Ray;
+use crate::layout::{
+    dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED,
+};
+use crate::mis::mis_power2;
+use crate::render::PreparedScene;
+use crate::sampling::{offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle};
+use glam::{Vec2, Vec3};
+
+/// Extension and shadow rays traced.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayCounts {
+    pub extension: u64,
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    pub fn merged(&self, other: &RayCounts) -> RayCounts {
+        RayCounts { extension: self.extension + other.extension, shadow: self.shadow + other.shadow }
+    }
+}
+
+/// Pixel and sample of the path with global index `first_pixel + i` (see `DispatchParams`).
+pub fn path_pixel_sample(frame: &FrameParams, first_sample: u32, local_index: u32) -> (u32, u32) {
+    let pixel_count = frame.width * frame.height;
+    (local_index % pixel_count, first_sample + local_index / pixel_count)
+}
+
+/// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
+pub fn camera_ray_direction(frame: &FrameParams, pixel: u32, jitter: Vec2) -> Vec3 {
+    let px = (pixel % frame.width) as f32 + jitter.x;
+    let py = (pixel / frame.width) as f32 + jitter.y;
+    let sx = (2.0 * px / frame.width as f32 - 1.0) * frame.tan_half_fov_y * frame.aspect;
+    let sy = (1.0 - 2.0 * py / frame.height as f32) * frame.tan_half_fov_y;
+    (Vec3::from(frame.cam_forward) + sx * Vec3::from(frame.cam_right) + sy * Vec3::from(frame.cam_up))
+        .normalize()
+}
+
+/// Radiance leaving material `m` towards a direction with cosine `cos_out` to the front-face
+/// normal: one-sided unless the material is double-sided.
+pub fn emitted_radiance(m: &GpuMaterial, cos_out: f32) -> Vec3 {
+    let visible = cos_out > 0.0 || (m.flags & MATERIAL_DOUBLE_SIDED != 0 && cos_out < 0.0);
+    if visible {
+        Vec3::from(m.emission)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// A shadow ray and the contribution it carries if unoccluded.
+struct ShadowRay {
+    ray: Ray,
+    t_max: f32,
+    contribution: Vec3,
+}
+
+/// The radiance estimate of one path (pixel, sample): generate, then extend → shade → connect
+/// until the path ends.
+pub fn trace_path(
+    scene: &PreparedScene,
+    frame: &FrameParams,
+    pixel: u32,
+    sample: u32,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    // generate
+    let u = rng_uniform4(frame.seed, pixel, sample, dim::CAMERA_BLOCK);
+    let mut ray = Ray {
+        origin: Vec3::from(frame.cam_position),
+        dir: camera_ray_direction(frame, pixel, Vec2::new(u.x, u.y)),
+    };
+    let mut state = PathState { throughput: [1.0; 3], prev_specular: 1, ..Default::default() };
+    let mut depth = 0;
+    loop {
+        // extend
+        counts.extension += 1;
+        let hit = scene.bvh.intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);
+        let (next, shadow) = shade(scene, frame, pixel, sample, depth, &ray, hit, &mut state);
+        // connect
+        if let Some(s) = shadow {
+            counts.shadow += 1;
+            if !scene.bvh.intersect_any(&scene.triangles, &s.ray, 0.0, s.t_max) {
+                state.radiance = (Vec3::from(state.radiance) + s.contribution).to_array();
+            }
+        }
+        match next {
+            Some(r) => ray = r,
+            None => return Vec3::from(state.radiance),
+        }
+        depth += 1;
+    }
+}
+
+/// One vertex of the path (shade.comp): MIS-weighted emission, one emitter sample, the BSDF
+/// sample of the continuation ray, Russian roulette.
+#[allow(clippy::too_many_arguments)]
+fn shade(
+    scene: &PreparedScene,
+    frame: &FrameParams,
+    pixel: u32,
+    sample: u32,
+    depth: u32,
+    ray: &Ray,
+    hit: Option<crate::bvh::Hit>,
+    state: &mut PathState,
+) -> (Option<Ray>, Option<ShadowRay>) {
+    let wo = -ray.dir;
+    let mut throughput = Vec3::from(state.throughput);
+    let mut radiance = Vec3::from(state.radiance);
+
+    // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
+    let Some(hit) = hit else {
+        state.radiance = (radiance + throughput * Vec3::from(frame.environment)).to_array();
+        return (None, None);
+    };
+    let tri = &scene.triangles[hit.triangle as usize];
+    let mat = &scene.materials[tri.material as usize];
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let p = Vec3::from(tri.p0) + hit.u * e1 + hit.v * e2;
+    let ng = e1.cross(e2).normalize();
+    let cos_out = ng.dot(wo);
+    let n = if cos_out >= 0.0 { ng } else { -ng };
+
+    // Direct emission, weighted against emitter sampling from the previous vertex.
+    let le = emitted_radiance(mat, cos_out);
+    if le.max_element() > 0.0 {
+        let mut w = 1.0;
+        if state.prev_specular == 0 {
+            let light_pdf = tri.light_pmf * hit.t * hit.t / (cos_out.abs() * tri.area);
+            w = mis_power2(state.prev_bsdf_pdf, light_pdf);
+        }
+        radiance += throughput * w * le;
+    }
+    state.radiance = radiance.to_array();
+    if depth >= frame.max_depth {
+        return (None, None);
+    }
+
+    // Emitter sampling: one point on one emitting triangle, chosen by power.
+    let u_light = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth));
+    let mut shadow = None;
+    if frame.light_count > 0 && frame.debug_flags & DEBUG_NO_NEE == 0 {
+        let entry = &scene.lights[sample_light(&scene.lights, u_light.x)];
+        let light = &scene.triangles[entry.triangle as usize];
+        let b = sample_uniform_triangle(Vec2::new(u_light.y, u_light.z));
+        let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
+        let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
+        let light_n = l1.cross(l2).normalize();
+        let to_light = y - p;
+        let dist2 = to_light.dot(to_light);
+        let dist = dist2.sqrt();
+        let wi = to_light / dist;
+        let cos_light = light_n.dot(-wi);
+        let cos_surface = n.dot(wi);
+        let light_le = emitted_radiance(&scene.materials[light.material as usize], cos_light);
+        // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
+        let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
+        if cos_surface > 0.0 && light_le.max_element() > 0.0 && light_pdf > 0.0 && light_pdf.is_finite() {
+            let w = mis_power2(light_pdf, bsdf_pdf(n, wo, wi));
+            let f = bsdf_eval(Vec3::from(mat.base_color), n, wo, wi);
+            let origin = offset_ray_origin(p, n);
+            let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
+            let d = target - origin;
+            let t_max = d.length();
+            shadow = Some(ShadowRay {
+                ray: Ray { origin, dir: d / t_max },
+                t_max,
+                contribution: throughput * f * cos_surface * light_le * (w / light_pdf),
+            });
+        }
+    }
+
+    // BSDF sampling of the continuation ray.
+    let u_bsdf = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth) + 1);
+    let s = bsdf_sample(Vec3::from(mat.base_color), n, wo, Vec2::new(u_bsdf.x, u_bsdf.y));
+    let cos_in = n.dot(s.wi);
+    if s.pdf <= 0.0 || cos_in <= 0.0 {
+        return (None, shadow);
+    }
+    throughput *= s.f * (cos_in / s.pdf);
+    state.prev_bsdf_pdf = s.pdf;
+    state.prev_specular = 0;
+
+    // Stopping criterion: Russian roulette, survivors divided by their survival probability.
+    if depth + 1 >= frame.rr_start_depth {
+        let survive = throughput.max_element().min(1.0);
+        if !(u_light.w < survive) {
+            state.throughput = throughput.to_array();
+            return (None, shadow);
+        }
+        throughput /= survive;
+    }
+    state.throughput = throughput.to_array();
+    (Some(Ray { origin: offset_ray_origin(p, n), dir: s.wi }), shadow)
+}

@@ -1,0 +1,260 @@
+//! The Vulkan instance, the chosen physical device, its logical device and compute queue, and the
+//! validation layer's messages when it is on.
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use ash::vk;
+use std::ffi::{c_void, CStr};
+use std::sync::Mutex;
+
+/// What to tell a user who has no Vulkan.
+pub const INSTALL_HINT: &str = "install a Vulkan driver (on Debian/Ubuntu: `sudo tools/install-vulkan.sh` \
+installs the Vulkan loader and Mesa's software driver, lavapipe) or render on the CPU with `--device cpu`";
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// A Vulkan device as `wavetrace devices` lists it.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    pub kind: String,
+    pub api_version: String,
+    pub driver: String,
+    /// Vulkan 1.2+ with a compute queue.
+    pub usable: bool,
+}
+
+pub struct Context {
+    _entry: ash::Entry,
+    pub instance: ash::Instance,
+    messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    pub labels: Option<ash::ext::debug_utils::Device>,
+    pub physical: vk::PhysicalDevice,
+    pub properties: vk::PhysicalDeviceProperties,
+    pub memory_properties: vk::PhysicalDeviceMemoryProperties,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub timestamp_valid_bits: u32,
+    pub info: DeviceInfo,
+    /// Error messages from the validation layer (boxed: the callback holds its address).
+    validation_errors: Box<Mutex<Vec<String>>>,
+}
+
+unsafe extern "system" fn on_validation_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) && !data.is_null() {
+        let message = unsafe { (*data).message_as_c_str() }
+            .map(|m| m.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let errors = unsafe { &*(user as *const Mutex<Vec<String>>) };
+        if let Ok(mut errors) = errors.lock() {
+            errors.push(message);
+        }
+    }
+    vk::FALSE
+}
+
+fn load_entry() -> Result<ash::Entry> {
+    unsafe { ash::Entry::load() }
+        .map_err(|e| anyhow!("no Vulkan loader could be loaded ({e}): {INSTALL_HINT}"))
+}
+
+fn create_instance(entry: &ash::Entry, validation: bool) -> Result<(ash::Instance, bool, bool)> {
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
+    let has_layer = layers.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
+    let extensions = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+    let has_debug_utils =
+        extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::ext::debug_utils::NAME));
+    let use_layer = validation && has_layer;
+    let layer_ptrs: Vec<*const i8> = if use_layer { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
+    let ext_ptrs: Vec<*const i8> =
+        if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    let app = vk::ApplicationInfo::default()
+        .application_name(c"wavetrace")
+        .engine_name(c"wavetrace")
+        .api_version(vk::API_VERSION_1_2);
+    let info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layer_ptrs)
+        .enabled_extension_names(&ext_ptrs);
+    let instance = unsafe { entry.create_instance(&info, None) }
+        .map_err(|e| anyhow!("vkCreateInstance failed ({e}): {INSTALL_HINT}"))?;
+    Ok((instance, use_layer, has_debug_utils))
+}
+
+fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice) -> DeviceInfo {
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    let p = props2.properties;
+    let queues = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+    let has_compute = queues.iter().any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE));
+    let v = p.api_version;
+    DeviceInfo {
+        index,
+        name: p.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        kind: format!("{:?}", p.device_type).to_lowercase().replace('_', " "),
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        ),
+        driver: format!(
+            "{} {}",
+            driver.driver_name_as_c_str().map(|s| s.to_string_lossy()).unwrap_or_default(),
+            driver.driver_info_as_c_str().map(|s| s.to_string_lossy()).unwrap_or_default()
+        )
+        .trim()
+        .to_owned(),
+        usable: v >= vk::API_VERSION_1_2 && has_compute,
+    }
+}
+
+/// Every Vulkan device the loader reports, usable or not.
+pub fn list_devices() -> Result<Vec<DeviceInfo>> {
+    let entry = load_entry()?;
+    let (instance, _, _) = create_instance(&entry, false)?;
+    let physicals = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
+    let list = physicals.iter().enumerate().map(|(i, &p)| describe(&instance, i, p)).collect();
+    unsafe { instance.destroy_instance(None) };
+    Ok(list)
+}
+
+fn preference(kind: vk::PhysicalDeviceType) -> u32 {
+    match kind {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+impl Context {
+    /// Opens device `index` (as `wavetrace devices` numbers them), or the best usable one.
+    pub fn new(index: Option<usize>, validation: bool) -> Result<Context> {
+        let entry = load_entry()?;
+        let (instance, use_layer, has_debug_utils) = create_instance(&entry, validation)?;
+        let validation_errors = Box::new(Mutex::new(Vec::new()));
+        let messenger = if use_layer && has_debug_utils {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL,
+                )
+                .pfn_user_callback(Some(on_validation_message))
+                .user_data(&*validation_errors as *const Mutex<Vec<String>> as *mut c_void);
+            let m = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .context("creating the validation messenger")?;
+            Some((loader, m))
+        } else {
+            None
+        };
+
+        let physicals = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
+        let infos: Vec<DeviceInfo> =
+            physicals.iter().enumerate().map(|(i, &p)| describe(&instance, i, p)).collect();
+        let chosen = match index {
+            Some(i) => {
+                let Some(info) = infos.get(i) else {
+                    bail!(
+                        "--gpu-index {i}: there are {} Vulkan device(s); `wavetrace devices` lists them",
+                        infos.len()
+                    );
+                };
+                if !info.usable {
+                    bail!("Vulkan device {i} ({}) lacks Vulkan 1.2 or a compute queue", info.name);
+                }
+                i
+            }
+            None => {
+                let best = (0..physicals.len()).filter(|&i| infos[i].usable).min_by_key(|&i| {
+                    preference(unsafe { instance.get_physical_device_properties(physicals[i]) }.device_type)
+                });
+                match best {
+                    Some(i) => i,
+                    None if physicals.is_empty() => bail!("no Vulkan device was found: {INSTALL_HINT}"),
+                    None => bail!("no Vulkan device supports Vulkan 1.2 with a compute queue: {INSTALL_HINT}"),
+                }
+            }
+        };
+        let physical = physicals[chosen];
+        let properties = unsafe { instance.get_physical_device_properties(physical) };
+        let memory_properties = unsafe { instance.get_physical_device_memory_properties(physical) };
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let queue_family = families
+            .iter()
+            .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .expect("usable devices have a compute queue") as u32;
+        let timestamp_valid_bits = families[queue_family as usize].timestamp_valid_bits;
+
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device = unsafe { instance.create_device(physical, &device_info, None) }
+            .with_context(|| format!("creating a Vulkan device on {}", infos[chosen].name))?;
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let labels = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        Ok(Context {
+            _entry: entry,
+            instance,
+            messenger,
+            labels,
+            physical,
+            properties,
+            memory_properties,
+            device,
+            queue,
+            queue_family,
+            timestamp_valid_bits,
+            info: infos[chosen].clone(),
+            validation_errors,
+        })
+    }
+
+    /// True when the device is a CPU implementation such as lavapipe.
+    pub fn is_cpu(&self) -> bool {
+        self.properties.device_type == vk::PhysicalDeviceType::CPU
+    }
+
+    /// Whether the validation layer is running on this context.
+    pub fn validating(&self) -> bool {
+        self.messenger.is_some()
+    }
+
+    /// Fails with every validation error reported so far.
+    pub fn check_validation(&self) -> Result<()> {
+        let errors = self.validation_errors.lock().map(|e| e.clone()).unwrap_or_default();
+        if errors.is_empty() {
+            Ok(())
+        } else {
+            bail!("the Vulkan validation layer reported {} error(s):\n{}", errors.len(), errors.join("\n"))
+        }
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_device(None);
+            if let Some((loader, m)) = self.messenger.take() {
+                loader.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

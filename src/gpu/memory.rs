@@ -1,0 +1,183 @@
+//! Buffers with their own memory: device-local ones for the render, host-visible ones for
+//! uploads and read-backs, and one-shot command submission to copy between them.
+
+use super::context::Context;
+use anyhow::{anyhow, Context as _, Result};
+use ash::vk;
+
+/// Where a buffer's memory lives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Location {
+    /// Fastest for the GPU; filled and read through copies.
+    Device,
+    /// Mapped by the host (staging and read-back).
+    Host,
+}
+
+/// A buffer and its dedicated memory, freed on drop.
+pub struct Buffer {
+    device: ash::Device,
+    pub buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    pub size: u64,
+    mapped: *mut u8,
+}
+
+impl Buffer {
+    pub fn new(ctx: &Context, name: &str, size: u64, usage: vk::BufferUsageFlags, location: Location) -> Result<Buffer> {
+        let size = size.max(16);
+        let device = &ctx.device;
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let buffer = unsafe { device.create_buffer(&info, None) }
+            .with_context(|| format!("creating buffer '{name}' ({} MiB)", size >> 20))?;
+        let req = unsafe { device.get_buffer_memory_requirements(buffer) };
+        let want = match location {
+            Location::Device => vk::MemoryPropertyFlags::DEVICE_LOCAL,
+            Location::Host => vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+        };
+        let mp = &ctx.memory_properties;
+        let allowed = |i: u32| req.memory_type_bits & (1 << i) != 0;
+        let type_index = (0..mp.memory_type_count)
+            .find(|&i| allowed(i) && mp.memory_types[i as usize].property_flags.contains(want))
+            // A device without DEVICE_LOCAL memory for this buffer can still run from any memory.
+            .or_else(|| (0..mp.memory_type_count).find(|&i| allowed(i) && location == Location::Device))
+            .ok_or_else(|| anyhow!("no memory type for buffer '{name}'"));
+        let type_index = match type_index {
+            Ok(t) => t,
+            Err(e) => {
+                unsafe { device.destroy_buffer(buffer, None) };
+                return Err(e);
+            }
+        };
+        let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
+        let memory = match unsafe { device.allocate_memory(&alloc, None) } {
+            Ok(m) => m,
+            Err(e) => {
+                unsafe { device.destroy_buffer(buffer, None) };
+                return Err(anyhow!(
+                    "out of GPU memory allocating buffer '{name}' ({} MiB): {e}; try a smaller --wavefront",
+                    size >> 20
+                ));
+            }
+        };
+        let mut result = Buffer { device: device.clone(), buffer, memory, size, mapped: std::ptr::null_mut() };
+        unsafe { device.bind_buffer_memory(buffer, memory, 0) }.context("binding buffer memory")?;
+        if location == Location::Host {
+            result.mapped = unsafe { device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+                .with_context(|| format!("mapping buffer '{name}'"))? as *mut u8;
+        }
+        if let Some(labels) = &ctx.labels {
+            let cname = std::ffi::CString::new(name).unwrap_or_default();
+            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(buffer).object_name(&cname);
+            let _ = unsafe { labels.set_debug_utils_object_name(&info) };
+        }
+        Ok(result)
+    }
+
+    /// A host buffer holding `data`.
+    pub fn with_data(ctx: &Context, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Buffer> {
+        let b = Buffer::new(ctx, name, data.len() as u64, usage, Location::Host)?;
+        b.write(data);
+        Ok(b)
+    }
+
+    /// Host buffers only: copies `data` to the start of the buffer.
+    pub fn write(&self, data: &[u8]) {
+        assert!(!self.mapped.is_null() && data.len() as u64 <= self.size);
+        unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
+    }
+
+    /// Host buffers only: the first `len` bytes.
+    pub fn read(&self, len: usize) -> Vec<u8> {
+        assert!(!self.mapped.is_null() && len as u64 <= self.size);
+        unsafe { std::slice::from_raw_parts(self.mapped, len) }.to_vec()
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        unsafe {
+            if !self.mapped.is_null() {
+                self.device.unmap_memory(self.memory);
+            }
+            self.device.destroy_buffer(self.buffer, None);
+            self.device.free_memory(self.memory, None);
+        }
+    }
+}
+
+/// A command pool with one reusable primary command buffer and a fence.
+pub struct Commands {
+    device: ash::Device,
+    pool: vk::CommandPool,
+    pub cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl Commands {
+    pub fn new(ctx: &Context) -> Result<Commands> {
+        let device = &ctx.device;
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }.context("creating a command pool")?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.context("allocating a command buffer")?[0];
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.context("creating a fence")?;
+        Ok(Commands { device: device.clone(), pool, cmd, fence })
+    }
+
+    pub fn begin(&self) -> Result<()> {
+        unsafe {
+            self.device.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
+            let info = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            self.device.begin_command_buffer(self.cmd, &info)?;
+        }
+        Ok(())
+    }
+
+    /// Ends, submits and waits (at most `timeout_s`); device loss and time-outs become errors.
+    pub fn submit_and_wait(&self, ctx: &Context, what: &str, timeout_s: u64) -> Result<()> {
+        let explain = |e: vk::Result| match e {
+            vk::Result::ERROR_DEVICE_LOST => anyhow!("the GPU was lost during {what} (VK_ERROR_DEVICE_LOST)"),
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                anyhow!("out of memory during {what} ({e}); try a smaller --wavefront")
+            }
+            vk::Result::TIMEOUT => anyhow!("{what} did not finish within {timeout_s} s; the GPU may be hung"),
+            e => anyhow!("{what} failed: {e}"),
+        };
+        unsafe {
+            self.device.end_command_buffer(self.cmd).map_err(explain)?;
+            let cmds = [self.cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            self.device.queue_submit(ctx.queue, &submit, self.fence).map_err(explain)?;
+            let waited = self.device.wait_for_fences(&[self.fence], true, timeout_s * 1_000_000_000);
+            if let Err(e) = waited {
+                return Err(explain(e));
+            }
+            self.device.reset_fences(&[self.fence]).map_err(explain)?;
+        }
+        Ok(())
+    }
+
+    pub fn copy(&self, src: &Buffer, dst: &Buffer, size: u64) {
+        let region = [vk::BufferCopy::default().size(size)];
+        unsafe { self.device.cmd_copy_buffer(self.cmd, src.buffer, dst.buffer, &region) };
+    }
+}
+
+impl Drop for Commands {
+    fn drop(&mut self) {
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_fence(self.fence, None);
+            self.device.destroy_command_pool(self.pool, None);
+        }
+    }
+}

@@ -1,0 +1,238 @@
+//! The wavefront loop, recorded into one command buffer per batch with no host round trip:
+//! generate → (dispatch_args → extend → shade → dispatch_args → connect) per bounce → accumulate.
+//! One function per kernel, named as the kernel; every dispatch is labelled and timestamped.
+
+use super::memory::Buffer;
+use super::pipelines::Pipelines;
+use crate::layout::{args, counter, DispatchParams, WORKGROUP_SIZE};
+use ash::vk;
+
+/// Which paths a batch holds (see `DispatchParams`).
+#[derive(Clone, Copy, Debug)]
+pub struct Batch {
+    pub first_sample: u32,
+    pub first_pixel: u32,
+    pub size: u32,
+}
+
+/// Splits `spp` passes over `pixel_count` pixels into batches of at most `capacity` paths: whole
+/// passes when a pass fits, else runs of pixels inside one pass.
+pub fn batches(pixel_count: u32, spp: u32, capacity: u32) -> Vec<Batch> {
+    let mut out = Vec::new();
+    if pixel_count <= capacity {
+        let passes = (capacity / pixel_count).max(1);
+        let mut s = 0;
+        while s < spp {
+            let k = passes.min(spp - s);
+            out.push(Batch { first_sample: s, first_pixel: 0, size: k * pixel_count });
+            s += k;
+        }
+    } else {
+        for s in 0..spp {
+            let mut p = 0;
+            while p < pixel_count {
+                let size = capacity.min(pixel_count - p);
+                out.push(Batch { first_sample: s, first_pixel: p, size });
+                p += size;
+            }
+        }
+    }
+    out
+}
+
+/// Records the kernels of one batch into a command buffer.
+pub struct Recorder<'a> {
+    pub device: &'a ash::Device,
+    pub labels: Option<&'a ash::ext::debug_utils::Device>,
+    pub pipelines: &'a Pipelines,
+    pub cmd: vk::CommandBuffer,
+    pub args: &'a Buffer,
+    pub counters: &'a Buffer,
+    /// Pixels in the image (accumulate runs one thread per pixel of the batch).
+    pub pixel_count: u32,
+    /// Timestamp pool and the kernel name of each interval, when timing.
+    pub timestamps: Option<vk::QueryPool>,
+    pub timed: Vec<&'static str>,
+}
+
+impl Recorder<'_> {
+    /// One batch: the whole wavefront loop up to `max_depth` bounces.
+    pub fn record_batch(&mut self, batch: Batch, max_depth: u32) {
+        self.reset_counters(batch);
+        if let Some(pool) = self.timestamps {
+            unsafe {
+                self.device.cmd_reset_query_pool(self.cmd, pool, 0, self.query_capacity(max_depth));
+                self.device.cmd_write_timestamp(self.cmd, vk::PipelineStageFlags::COMPUTE_SHADER, pool, 0);
+            }
+        }
+        self.generate(batch);
+        for depth in 0..=max_depth {
+            self.extend(batch, depth);
+            self.shade(batch, depth);
+            if depth < max_depth {
+                self.connect(batch, depth);
+            }
+        }
+        self.accumulate(batch);
+    }
+
+    /// Timestamps one batch writes (one before the first kernel, one after each).
+    pub fn query_capacity(&self, max_depth: u32) -> u32 {
+        1 + 1 + 5 * (max_depth + 1) + 1
+    }
+
+    fn reset_counters(&self, batch: Batch) {
+        let device = self.device;
+        unsafe {
+            // Queue 0 starts full (generate writes every slot); the other queues start empty.
+            device.cmd_fill_buffer(self.cmd, self.counters.buffer, 0, 4 * counter::TOTAL_EXTENSION_RAYS as u64, 0);
+            device.cmd_fill_buffer(self.cmd, self.counters.buffer, 4 * counter::RAYS_0 as u64, 4, batch.size);
+            device.cmd_fill_buffer(
+                self.cmd,
+                self.counters.buffer,
+                4 * counter::TOTAL_EXTENSION_RAYS as u64,
+                4 * (counter::COUNT - counter::TOTAL_EXTENSION_RAYS) as u64,
+                0,
+            );
+            let barrier = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
+            device.cmd_pipeline_barrier(
+                self.cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+        }
+    }
+
+    /// Camera rays and fresh path states for the whole batch.
+    fn generate(&mut self, batch: Batch) {
+        self.dispatch("generate", params(batch, 0), batch.size.div_ceil(WORKGROUP_SIZE));
+    }
+
+    /// Closest hits of the extension queue of `depth`.
+    fn extend(&mut self, batch: Batch, depth: u32) {
+        let queue = depth & 1;
+        let mut p = params(batch, depth);
+        p.counter = queue;
+        p.args_slot = args::RAYS;
+        p.total_counter = counter::TOTAL_EXTENSION_RAYS;
+        // The next queue and the shadow queue are refilled by this bounce's shade.
+        p.clear_mask = (1 << (queue ^ 1)) | (1 << counter::SHADOW);
+        self.dispatch("dispatch_args", p, 1);
+        self.dispatch_indirect("extend", params(batch, depth), args::RAYS);
+    }
+
+    /// Emission, emitter sampling, BSDF sampling and Russian roulette at every hit.
+    fn shade(&mut self, batch: Batch, depth: u32) {
+        self.dispatch_indirect("shade", params(batch, depth), args::RAYS);
+    }
+
+    /// Any-hit tests of the shadow queue.
+    fn connect(&mut self, batch: Batch, depth: u32) {
+        let mut p = params(batch, depth);
+        p.counter = counter::SHADOW;
+        p.args_slot = args::SHADOW;
+        p.total_counter = counter::TOTAL_SHADOW_RAYS;
+        p.clear_mask = 0;
+        self.dispatch("dispatch_args", p, 1);
+        self.dispatch_indirect("connect", params(batch, depth), args::SHADOW);
+    }
+
+    /// Path radiance into the film, one thread per pixel of the batch.
+    fn accumulate(&mut self, batch: Batch) {
+        let threads = batch.size.min(self.pixel_count);
+        self.dispatch("accumulate", params(batch, 0), threads.div_ceil(WORKGROUP_SIZE));
+    }
+
+    fn dispatch(&mut self, name: &'static str, p: DispatchParams, groups: u32) {
+        self.record(name, p, |d, cmd| unsafe { d.cmd_dispatch(cmd, groups, 1, 1) });
+    }
+
+    /// A dispatch whose size `dispatch_args` wrote into argument slot `slot`.
+    fn dispatch_indirect(&mut self, name: &'static str, p: DispatchParams, slot: u32) {
+        let buffer = self.args.buffer;
+        self.record(name, p, |d, cmd| unsafe { d.cmd_dispatch_indirect(cmd, buffer, 16 * slot as u64) });
+    }
+
+    /// Binds, pushes, dispatches, then makes the results visible to the next kernel and to
+    /// indirect argument reads.
+    fn record(&mut self, name: &'static str, p: DispatchParams, dispatch: impl FnOnce(&ash::Device, vk::CommandBuffer)) {
+        let (device, cmd) = (self.device, self.cmd);
+        let label = std::ffi::CString::new(name).unwrap_or_default();
+        unsafe {
+            if let Some(labels) = self.labels {
+                labels.cmd_begin_debug_utils_label(cmd, &vk::DebugUtilsLabelEXT::default().label_name(&label));
+            }
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipelines.get(name));
+            device.cmd_push_constants(
+                cmd,
+                self.pipelines.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(&p),
+            );
+            dispatch(device, cmd);
+            let barrier = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                .dst_access_mask(
+                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::INDIRECT_COMMAND_READ,
+                )];
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::DRAW_INDIRECT,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+            if let Some(pool) = self.timestamps {
+                self.timed.push(name);
+                device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, pool, self.timed.len() as u32);
+            }
+            if let Some(labels) = self.labels {
+                labels.cmd_end_debug_utils_label(cmd);
+            }
+        }
+    }
+}
+
+fn params(batch: Batch, depth: u32) -> DispatchParams {
+    DispatchParams {
+        first_sample: batch.first_sample,
+        first_pixel: batch.first_pixel,
+        batch_size: batch.size,
+        depth,
+        counter: 0,
+        args_slot: 0,
+        total_counter: u32::MAX,
+        clear_mask: 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batches_cover_every_path_once() {
+        for (pixels, spp, cap) in [(16u32, 5u32, 64u32), (100, 3, 64), (64, 4, 64), (7, 1, 1000), (1000, 2, 999)] {
+            let mut seen = vec![0u32; (pixels * spp) as usize];
+            for b in batches(pixels, spp, cap) {
+                assert!(b.size <= cap && b.size > 0);
+                assert!(b.first_pixel == 0 || b.first_pixel + b.size <= pixels);
+                for i in 0..b.size {
+                    let local = b.first_pixel + i;
+                    let (pixel, sample) = (local % pixels, b.first_sample + local / pixels);
+                    seen[(sample * pixels + pixel) as usize] += 1;
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "{pixels} px × {spp} spp, capacity {cap}");
+        }
+    }
+}

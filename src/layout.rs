@@ -1,0 +1,254 @@
+//! Every struct the GPU reads or writes, as `#[repr(C)]` twins of `shaders/inc/layout.glsl`.
+//!
+//! The GLSL side uses std430 (storage buffers) and std140 (the frame uniform); each struct here is
+//! laid out so that `repr(C)` gives the same offsets: a `vec3` is always followed by a 4-byte
+//! scalar. `tests/shaders.rs` reflects the compiled SPIR-V with naga and checks every offset and
+//! size listed in [`STRUCT_LAYOUTS`].
+
+use bytemuck::{Pod, Zeroable};
+use std::mem::{offset_of, size_of};
+
+/// Threads per workgroup of every 1-D kernel (`WORKGROUP_SIZE` in layout.glsl).
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// Random-number dimensions, a pure function of (seed, pixel, sample, dimension): see
+/// `sampling::rng_uniform4`. Dimensions come in blocks of four; each bounce uses two blocks.
+pub mod dim {
+    /// Block 0: pixel jitter (x, y), two spare.
+    pub const CAMERA_BLOCK: u32 = 0;
+    /// Blocks per bounce: `bounce_block(d)` = light pick, light u, light v, roulette;
+    /// `bounce_block(d) + 1` = BSDF u, BSDF v, two spare.
+    pub const BLOCKS_PER_BOUNCE: u32 = 2;
+    pub const fn bounce_block(depth: u32) -> u32 {
+        1 + depth * BLOCKS_PER_BOUNCE
+    }
+}
+
+/// A node of the flattened BVH, depth-first: an interior node's left child is the next node.
+/// Total: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub bounds_min: [f32; 3], // 12 bytes
+    /// Leaf: index of the first triangle. Interior: index of the right child.
+    pub offset: u32, // 4 bytes
+    pub bounds_max: [f32; 3], // 12 bytes
+    /// Leaf: number of triangles (> 0). Interior: 0.
+    pub count: u32, // 4 bytes
+}
+
+impl BvhNode {
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+    /// Interior nodes only: the right child's index (the left child is `self + 1`).
+    pub fn right_child(&self) -> u32 {
+        self.offset
+    }
+    /// Leaf nodes only: the first triangle of the leaf.
+    pub fn first_triangle(&self) -> u32 {
+        self.offset
+    }
+}
+
+/// A world-space triangle as the intersector wants it (Möller–Trumbore: p0 and two edges), in
+/// BVH order. The geometric normal `cross(e1, e2)` points to the front face.
+/// Total: 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    pub p0: [f32; 3], // 12 bytes
+    pub material: u32, // 4 bytes
+    pub e1: [f32; 3], // 12 bytes: p1 − p0
+    /// Probability of choosing this triangle when sampling emitters (0 if it does not emit).
+    pub light_pmf: f32, // 4 bytes
+    pub e2: [f32; 3], // 12 bytes: p2 − p0
+    pub area: f32, // 4 bytes
+}
+
+/// Material flags (`Material::flags`).
+pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
+
+/// Lambertian reflectance and emitted radiance. Total: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 3], // 12 bytes: linear RGB albedo
+    pub flags: u32, // 4 bytes: MATERIAL_* bits
+    pub emission: [f32; 3], // 12 bytes: radiance, W·sr⁻¹·m⁻²
+    pub pad: u32, // 4 bytes
+}
+
+/// One entry of the emitter table: triangles that emit, with the running CDF of their selection
+/// probability (proportional to power). Total: 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightEntry {
+    /// P(choose an entry ≤ this one); the last entry holds exactly 1.
+    pub cdf: f32, // 4 bytes
+    pub triangle: u32, // 4 bytes: index into the BVH-ordered triangles
+    pub pmf: f32, // 4 bytes
+    pub pad: u32, // 4 bytes
+}
+
+/// Constants of one render (std140 uniform). Total: 96 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FrameParams {
+    pub cam_position: [f32; 3], // 12 bytes
+    pub tan_half_fov_y: f32, // 4 bytes
+    pub cam_right: [f32; 3], // 12 bytes
+    pub aspect: f32, // 4 bytes: width / height
+    pub cam_up: [f32; 3], // 12 bytes
+    pub width: u32, // 4 bytes
+    pub cam_forward: [f32; 3], // 12 bytes
+    pub height: u32, // 4 bytes
+    pub seed: u32, // 4 bytes
+    pub max_depth: u32, // 4 bytes
+    pub light_count: u32, // 4 bytes
+    pub rr_start_depth: u32, // 4 bytes
+    pub environment: [f32; 3], // 12 bytes: radiance of rays that leave the scene
+    /// `DEBUG_*` bits; 0 in every real render.
+    pub debug_flags: u32, // 4 bytes
+}
+
+/// `FrameParams::debug_flags` bit: drop the emitter-sampling (NEE) term while BSDF-sampled hits
+/// on emitters keep their MIS weights. Biased on purpose: only for the test that proves the
+/// CPU/GPU comparison can fail.
+pub const DEBUG_NO_NEE: u32 = 1;
+
+/// Per-dispatch push constants. Total: 32 bytes.
+///
+/// Path `i` of a batch has `local = first_pixel + i`, pixel `local % (width·height)` and sample
+/// `first_sample + local / (width·height)`: a batch is either whole sample passes over the image
+/// (`first_pixel` = 0) or a run of pixels inside one pass, so no index overflows 32 bits.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DispatchParams {
+    pub first_sample: u32, // 4 bytes
+    pub first_pixel: u32, // 4 bytes
+    pub batch_size: u32, // 4 bytes
+    /// Scattering events so far for the rays being processed.
+    pub depth: u32, // 4 bytes
+    /// `dispatch_args` only: the queue counter to read, the argument slot to write, the total
+    /// to add the count to (or `u32::MAX`), and a bit mask of counters to zero.
+    pub counter: u32, // 4 bytes
+    pub args_slot: u32, // 4 bytes
+    pub total_counter: u32, // 4 bytes
+    pub clear_mask: u32, // 4 bytes
+}
+
+/// What carries between bounces for one path. Total: 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PathState {
+    pub throughput: [f32; 3], // 12 bytes
+    /// Solid-angle pdf of the BSDF sample that produced the current ray.
+    pub prev_bsdf_pdf: f32, // 4 bytes
+    pub radiance: [f32; 3], // 12 bytes
+    /// 1 if the previous vertex was the camera or a specular bounce (no MIS on emission).
+    pub prev_specular: u32, // 4 bytes
+    pub pad: [u32; 4], // 16 bytes
+}
+
+/// A ray in the extension queue. Total: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct QueuedRay {
+    pub origin: [f32; 3], // 12 bytes
+    pub path: u32, // 4 bytes: index of the path in the batch
+    pub dir: [f32; 3], // 12 bytes: unit length
+    pub pad: u32, // 4 bytes
+}
+
+/// Closest hit of a queued ray (`triangle` = `NO_HIT` on a miss). Total: 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct HitRecord {
+    pub t: f32, // 4 bytes
+    pub triangle: u32, // 4 bytes
+    pub u: f32, // 4 bytes: barycentric weight of p1
+    pub v: f32, // 4 bytes: barycentric weight of p2
+}
+
+pub const NO_HIT: u32 = u32::MAX;
+
+/// A shadow ray with the contribution its path gains if it is unoccluded. Total: 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ShadowRay {
+    pub origin: [f32; 3], // 12 bytes
+    pub path: u32, // 4 bytes
+    pub dir: [f32; 3], // 12 bytes: unit length
+    pub t_max: f32, // 4 bytes
+    pub contribution: [f32; 3], // 12 bytes
+    pub pad: u32, // 4 bytes
+}
+
+/// Per-pixel accumulator: sum, sum of squares and count of finite samples. Total: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FilmPixel {
+    pub sum: [f32; 3], // 12 bytes
+    pub count: u32, // 4 bytes
+    pub sum_sq: [f32; 3], // 12 bytes
+    pub pad: u32, // 4 bytes
+}
+
+/// Indices into the counter buffer (`uint counters[]`).
+pub mod counter {
+    /// Extension-ray queue lengths, ping-ponged by `depth & 1`.
+    pub const RAYS_0: u32 = 0;
+    pub const RAYS_1: u32 = 1;
+    pub const SHADOW: u32 = 2;
+    /// Totals over the render, read back once at the end.
+    pub const TOTAL_EXTENSION_RAYS: u32 = 3;
+    pub const TOTAL_SHADOW_RAYS: u32 = 4;
+    pub const DROPPED_SAMPLES: u32 = 5;
+    pub const COUNT: u32 = 8;
+}
+
+/// Indirect-dispatch argument slots (`uvec3 args[]`, padded to 16 bytes each).
+pub mod args {
+    pub const RAYS: u32 = 0;
+    pub const SHADOW: u32 = 1;
+    pub const COUNT: u32 = 2;
+}
+
+/// A struct's name, size and member offsets, as the GLSL side must have them.
+pub struct StructLayout {
+    pub name: &'static str,
+    pub size: usize,
+    pub members: &'static [(&'static str, usize)],
+}
+
+macro_rules! struct_layout {
+    ($ty:ident { $($field:ident),* $(,)? }) => {
+        StructLayout {
+            name: stringify!($ty),
+            size: size_of::<$ty>(),
+            members: &[$((stringify!($field), offset_of!($ty, $field))),*],
+        }
+    };
+}
+
+/// Every GPU-visible struct with the offsets of its members (checked against SPIR-V).
+pub const STRUCT_LAYOUTS: &[StructLayout] = &[
+    struct_layout!(BvhNode { bounds_min, offset, bounds_max, count }),
+    struct_layout!(GpuTriangle { p0, material, e1, light_pmf, e2, area }),
+    struct_layout!(GpuMaterial { base_color, flags, emission, pad }),
+    struct_layout!(LightEntry { cdf, triangle, pmf, pad }),
+    struct_layout!(FrameParams {
+        cam_position, tan_half_fov_y, cam_right, aspect, cam_up, width, cam_forward, height,
+        seed, max_depth, light_count, rr_start_depth, environment, debug_flags
+    }),
+    struct_layout!(DispatchParams {
+        first_sample, first_pixel, batch_size, depth, counter, args_slot, total_counter,
+        clear_mask
+    }),
+    struct_layout!(PathState { throughput, prev_bsdf_pdf, radiance, prev_specular, pad }),
+    struct_layout!(QueuedRay { origin, path, dir, pad }),
+    struct_layout!(HitRecord { t, triangle, u, v }),
+    struct_layout!(ShadowRay { origin, path, dir, t_max, contribution, pad }),
+    struct_layout!(FilmPixel { sum, count, sum_sq, pad }),
+];

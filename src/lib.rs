@@ -1,0 +1,20 @@
+//! wavetrace: a headless GPU wavefront path tracer (Vulkan) with a CPU reference integrator that
+//! implements the same mathematics, so every GPU image can be checked against it.
+
+pub mod bsdf;
+pub mod bvh;
+pub mod cpu;
+pub mod film;
+pub mod gpu;
+pub mod image_io;
+pub mod layout;
+pub mod mis;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+pub mod stats;
+
+/// The SPIR-V of every wavefront kernel, compiled from `shaders/` by build.rs.
+pub mod kernels {
+    include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
+}

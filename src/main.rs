@@ -1,0 +1,217 @@
+//! `wavetrace`: render glTF scenes on a Vulkan device or the CPU, list devices, benchmark.
+
+mod cli;
+
+use anyhow::{bail, Context as _, Result};
+use clap::Parser;
+use cli::{BenchArgs, Cli, Command, DeviceKind, RenderArgs};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use wavetrace::gpu::{GpuOptions, GpuRenderer};
+use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
+use wavetrace::scene::Scene;
+
+/// Largest image the film may hold (pixels), far above any real render.
+const MAX_PIXELS: u64 = 1 << 26;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render(&args),
+        Command::Devices => devices(),
+        Command::Bench(args) => bench(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The committed scenes folder, from the working directory or from the source tree.
+fn scenes_dir() -> PathBuf {
+    let local = PathBuf::from("scenes");
+    if local.is_dir() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+    }
+}
+
+fn load(path: &Path) -> Result<(Scene, PreparedScene)> {
+    let scene = Scene::load(path)?;
+    let prepared = PreparedScene::new(&scene);
+    Ok((scene, prepared))
+}
+
+fn print_stats(stats: &RenderStats, per_kernel: bool) {
+    println!(
+        "done in {:.3} s: {:.3} M samples/s, {:.3} M rays/s ({} extension + {} shadow rays); {} NaN/Inf samples dropped",
+        stats.seconds,
+        stats.samples_per_second() * 1e-6,
+        stats.rays_per_second() * 1e-6,
+        stats.extension_rays,
+        stats.shadow_rays,
+        stats.dropped
+    );
+    if per_kernel && !stats.kernel_seconds.is_empty() {
+        let total: f64 = stats.kernel_seconds.iter().map(|(_, s)| s).sum();
+        for (name, s) in &stats.kernel_seconds {
+            println!("  {name:<14} {:>10.3} ms  {:>5.1} %", s * 1e3, 100.0 * s / total.max(1e-12));
+        }
+    }
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let path = args.scene.clone().unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+    let (scene, prepared) = load(&path)?;
+    let width = args.width.unwrap_or(512);
+    let height = args.height.unwrap_or_else(|| match (args.width, scene.camera.aspect_ratio) {
+        (None, _) | (_, None) => width,
+        (Some(w), Some(a)) => ((w as f32 / a).round() as u32).max(1),
+    });
+    if width as u64 * height as u64 > MAX_PIXELS {
+        bail!("{width}×{height} is more than {MAX_PIXELS} pixels; render a smaller image");
+    }
+    let output = args.output.clone().unwrap_or_else(|| {
+        PathBuf::from(format!("{}.png", path.file_stem().and_then(|s| s.to_str()).unwrap_or("render")))
+    });
+    match output.extension().and_then(|e| e.to_str()) {
+        Some("exr") | Some("png") => {}
+        _ => bail!("{}: the output must end in .exr or .png", output.display()),
+    }
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: args.spp,
+        max_depth: args.max_depth,
+        seed: args.seed,
+        ..RenderSettings::default()
+    };
+    let b = &prepared.bvh.stats;
+    println!(
+        "{}: {} triangles, {} emitting, {} materials; BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
+        path.display(),
+        prepared.triangles.len(),
+        prepared.lights.len(),
+        prepared.materials.len(),
+        b.nodes,
+        b.max_depth,
+        b.sah_cost,
+        b.build_time.as_secs_f64() * 1e3
+    );
+    let RenderOutput { film, stats } = match args.device {
+        DeviceKind::Gpu => {
+            let gpu = GpuRenderer::new(&GpuOptions {
+                device_index: args.gpu_index,
+                validation: args.validate,
+                timing: true,
+            })?;
+            println!(
+                "rendering {width}×{height} at {} spp, max depth {}, on {} (Vulkan {}, {})",
+                args.spp,
+                args.max_depth,
+                gpu.device().name,
+                gpu.device().api_version,
+                gpu.device().driver
+            );
+            gpu.render(&prepared, &settings, args.wavefront)?
+        }
+        DeviceKind::Cpu => {
+            println!(
+                "rendering {width}×{height} at {} spp, max depth {}, on the CPU ({} threads)",
+                args.spp,
+                args.max_depth,
+                rayon::current_num_threads()
+            );
+            wavetrace::cpu::render(&prepared, &settings)
+        }
+    };
+    print_stats(&stats, args.stats);
+    wavetrace::image_io::write_image(&film, &output, args.exposure)?;
+    println!("wrote {}", output.display());
+    Ok(())
+}
+
+fn devices() -> Result<()> {
+    let list = wavetrace::gpu::list_devices()?;
+    if list.is_empty() {
+        bail!("no Vulkan device was found: {}", wavetrace::gpu::INSTALL_HINT);
+    }
+    for d in list {
+        println!(
+            "{}: {} ({}, Vulkan {}, {}){}",
+            d.index,
+            d.name,
+            d.kind,
+            d.api_version,
+            d.driver,
+            if d.usable { "" } else { " — not usable: needs Vulkan 1.2 with a compute queue" }
+        );
+    }
+    Ok(())
+}
+
+fn bench(args: &BenchArgs) -> Result<()> {
+    let scenes = if args.scenes.is_empty() {
+        let dir = scenes_dir();
+        let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .with_context(|| format!("reading {}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "glb"))
+            .collect();
+        found.sort();
+        found
+    } else {
+        args.scenes.clone()
+    };
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        max_depth: args.max_depth,
+        ..RenderSettings::default()
+    };
+    let gpu = GpuRenderer::new(&GpuOptions { device_index: args.gpu_index, validation: false, timing: true });
+    let gpu_name = match &gpu {
+        Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
+        Err(e) => format!("unavailable: {e:#}"),
+    };
+    println!(
+        "wavetrace bench: {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
+        args.width,
+        args.height,
+        args.spp,
+        args.max_depth,
+        rayon::current_num_threads()
+    );
+    println!("{:<20} {:<6} {:>9} {:>14} {:>12} {:>9}", "scene", "device", "time s", "M samples/s", "M rays/s", "dropped");
+    for path in &scenes {
+        let (_, prepared) = load(path)?;
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("?").to_owned();
+        let mut rows: Vec<(&str, RenderStats)> = Vec::new();
+        if let Ok(g) = &gpu {
+            rows.push(("gpu", g.render(&prepared, &settings, args.wavefront)?.stats));
+        }
+        if !args.gpu_only {
+            rows.push(("cpu", wavetrace::cpu::render(&prepared, &settings).stats));
+        }
+        for (device, s) in rows {
+            println!(
+                "{name:<20} {device:<6} {:>9.3} {:>14.3} {:>12.3} {:>9}",
+                s.seconds,
+                s.samples_per_second() * 1e-6,
+                s.rays_per_second() * 1e-6,
+                s.dropped
+            );
+            if !s.kernel_seconds.is_empty() {
+                let kernels: Vec<String> =
+                    s.kernel_seconds.iter().map(|(k, t)| format!("{k} {:.1} ms", t * 1e3)).collect();
+                println!("{:<20} {:<6} per kernel: {}", "", "", kernels.join(", "));
+            }
+        }
+    }
+    Ok(())
+}

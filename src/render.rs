@@ -1,0 +1,128 @@
+//! What both integrators share: render settings, the scene prepared for tracing (BVH, triangles
+//! in BVH order, materials, emitter table), the per-render constants and the render's output.
+
+use crate::bvh::{gpu_triangles, Bvh};
+use crate::film::Film;
+use crate::layout::{FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED};
+use crate::scene::{build_light_table, Camera, Scene};
+use glam::Vec3;
+
+/// What to render and how.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Scattering events per path: 0 = emitters seen directly, 1 = direct lighting, ...
+    pub max_depth: u32,
+    pub seed: u32,
+    /// Russian roulette applies to paths with at least this many scattering events.
+    pub rr_start_depth: u32,
+    /// Radiance of rays that leave the scene.
+    pub environment: Vec3,
+    /// `layout::DEBUG_*` bits; 0 except in tests.
+    pub debug_flags: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 512,
+            height: 512,
+            spp: 64,
+            max_depth: 8,
+            seed: 0,
+            rr_start_depth: 3,
+            environment: Vec3::ZERO,
+            debug_flags: 0,
+        }
+    }
+}
+
+impl RenderSettings {
+    pub fn pixel_count(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+    pub fn total_samples(&self) -> u64 {
+        self.pixel_count() * self.spp as u64
+    }
+}
+
+/// The scene in the form both integrators trace: flattened BVH and triangles in BVH order.
+pub struct PreparedScene {
+    pub bvh: Bvh,
+    pub triangles: Vec<GpuTriangle>,
+    pub materials: Vec<GpuMaterial>,
+    pub lights: Vec<LightEntry>,
+    pub camera: Camera,
+}
+
+impl PreparedScene {
+    pub fn new(scene: &Scene) -> PreparedScene {
+        let positions: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
+        let material_ids: Vec<u32> = scene.triangles.iter().map(|t| t.material).collect();
+        let bvh = Bvh::build(&positions);
+        let mut triangles = gpu_triangles(&positions, &material_ids, &bvh.order);
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                base_color: m.base_color.to_array(),
+                flags: if m.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
+                emission: m.emission.to_array(),
+                pad: 0,
+            })
+            .collect();
+        let lights = build_light_table(&mut triangles, &materials);
+        PreparedScene { bvh, triangles, materials, lights, camera: scene.camera.clone() }
+    }
+
+    /// The constants of one render, as the GPU's uniform buffer holds them.
+    pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {
+        let c = &self.camera;
+        FrameParams {
+            cam_position: c.position.to_array(),
+            tan_half_fov_y: (0.5 * c.yfov).tan(),
+            cam_right: c.right.to_array(),
+            aspect: settings.width as f32 / settings.height as f32,
+            cam_up: c.up.to_array(),
+            width: settings.width,
+            cam_forward: c.forward.to_array(),
+            height: settings.height,
+            seed: settings.seed,
+            max_depth: settings.max_depth,
+            light_count: self.lights.len() as u32,
+            rr_start_depth: settings.rr_start_depth,
+            environment: settings.environment.to_array(),
+            debug_flags: settings.debug_flags,
+        }
+    }
+}
+
+/// Counts and timings of one render.
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub seconds: f64,
+    pub samples: u64,
+    pub extension_rays: u64,
+    pub shadow_rays: u64,
+    /// Non-finite samples dropped from the film.
+    pub dropped: u64,
+    /// GPU only: (kernel, seconds) summed over all its dispatches, where timestamps exist.
+    pub kernel_seconds: Vec<(String, f64)>,
+}
+
+impl RenderStats {
+    pub fn samples_per_second(&self) -> f64 {
+        self.samples as f64 / self.seconds.max(1e-9)
+    }
+    pub fn rays_per_second(&self) -> f64 {
+        (self.extension_rays + self.shadow_rays) as f64 / self.seconds.max(1e-9)
+    }
+}
+
+/// A finished render.
+pub struct RenderOutput {
+    pub film: Film,
+    pub stats: RenderStats,
+}

@@ -1,0 +1,278 @@
+//! Random numbers and warps: each sampler beside its pdf (with the measure named) and, where it
+//! exists, its inverse. The GLSL twins in `shaders/inc/rng.glsl` and `shaders/inc/sampling.glsl`
+//! carry the same names and the same arithmetic.
+
+use crate::layout::LightEntry;
+use glam::{UVec4, Vec2, Vec3, Vec4};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// PCG-based 4-D hash (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020, §3).
+pub fn pcg4d(v: UVec4) -> UVec4 {
+    let mut v = v * 1664525 + UVec4::splat(1013904223);
+    v.x = v.x.wrapping_add(v.y.wrapping_mul(v.w));
+    v.y = v.y.wrapping_add(v.z.wrapping_mul(v.x));
+    v.z = v.z.wrapping_add(v.x.wrapping_mul(v.y));
+    v.w = v.w.wrapping_add(v.y.wrapping_mul(v.z));
+    v ^= v >> 16;
+    v.x = v.x.wrapping_add(v.y.wrapping_mul(v.w));
+    v.y = v.y.wrapping_add(v.z.wrapping_mul(v.x));
+    v.z = v.z.wrapping_add(v.x.wrapping_mul(v.y));
+    v.w = v.w.wrapping_add(v.y.wrapping_mul(v.z));
+    v
+}
+
+/// The top 24 bits of `x` as a float in [0, 1).
+pub fn uint_to_unit_float(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Four uniform numbers in [0, 1): a pure function of (seed, pixel, sample, dimension block), so
+/// the same path draws the same numbers on every device and in every split of the samples.
+pub fn rng_uniform4(seed: u32, pixel: u32, sample: u32, block: u32) -> Vec4 {
+    let h = pcg4d(UVec4::new(pixel, sample, block, seed));
+    Vec4::new(
+        uint_to_unit_float(h.x),
+        uint_to_unit_float(h.y),
+        uint_to_unit_float(h.z),
+        uint_to_unit_float(h.w),
+    )
+}
+
+/// Cosine-weighted direction on the hemisphere around +Z (Malley's method: uniform disk by
+/// inverting its CDF, r = √u₀, φ = 2πu₁, then projected up).
+pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let r = u.x.sqrt();
+    let phi = 2.0 * PI * u.y;
+    let z = (1.0 - u.x).max(0.0).sqrt();
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Pdf of [`sample_cosine_hemisphere`] with respect to solid angle: cos θ / π.
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// The `u` that [`sample_cosine_hemisphere`] maps to direction `w` (z > 0).
+pub fn invert_cosine_hemisphere_sample(w: Vec3) -> Vec2 {
+    let mut phi = w.y.atan2(w.x) / (2.0 * PI);
+    if phi < 0.0 {
+        phi += 1.0;
+    }
+    Vec2::new(w.x * w.x + w.y * w.y, phi)
+}
+
+/// Uniform point on a triangle as barycentric weights (b1, b2) of p1 and p2, by inverting the CDF
+/// of the first barycentric (Shirley & Chiu 1997; pbrt-v3 §13.6.5): √u₀ along the height.
+pub fn sample_uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(u.y * su, (1.0 - u.y) * su)
+}
+
+/// Pdf of [`sample_uniform_triangle`] with respect to area: 1 / area.
+pub fn uniform_triangle_pdf(area: f32) -> f32 {
+    1.0 / area
+}
+
+/// The `u` that [`sample_uniform_triangle`] maps to barycentrics (b1, b2).
+pub fn invert_uniform_triangle_sample(b: Vec2) -> Vec2 {
+    let su = b.x + b.y;
+    let v = if su > 0.0 { b.x / su } else { 0.0 };
+    Vec2::new(su * su, v)
+}
+
+/// Picks an emitter by inverting the discrete CDF of the light table (binary search for the first
+/// entry whose `cdf` exceeds `u`). Returns the table index; its probability is `pmf`.
+pub fn sample_light(lights: &[LightEntry], u: f32) -> usize {
+    let (mut lo, mut hi) = (0usize, lights.len() - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if lights[mid].cdf > u {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+/// Orthonormal basis (t, b) around unit `n` (Duff et al., "Building an Orthonormal Basis,
+/// Revisited", JCGT 2017, Listing 3).
+pub fn build_frame(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+    (t, bt)
+}
+
+/// Moves a surface point off its surface along the geometric normal `n` (pointing to the side
+/// the new ray leaves to) by a few ulps, so the ray cannot re-hit the surface (Wächter & Binder,
+/// "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems, ch. 6).
+pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
+    const ORIGIN: f32 = 1.0 / 32.0;
+    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+    const INT_SCALE: f32 = 256.0;
+    let offset = |p: f32, n: f32| -> f32 {
+        let of_i = (INT_SCALE * n) as i32;
+        let p_i = f32::from_bits((p.to_bits() as i32).wrapping_add(if p < 0.0 { -of_i } else { of_i }) as u32);
+        if p.abs() < ORIGIN {
+            p + FLOAT_SCALE * n
+        } else {
+            p_i
+        }
+    };
+    Vec3::new(offset(p.x, n.x), offset(p.y, n.y), offset(p.z, n.z))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::{chi_square_gof, sidak};
+
+    /// 1e6 keyed numbers from one pixel's sample stream.
+    fn uniforms(n: u32) -> impl Iterator<Item = Vec4> {
+        (0..n).map(|i| rng_uniform4(7, i % 4096, i / 4096, 3))
+    }
+
+    #[test]
+    fn rng_is_uniform_and_keyed() {
+        // χ² on 64 bins per component, Šidák over the 4 components, α = 0.01.
+        let bins = 64;
+        let mut counts = vec![vec![0f64; bins]; 4];
+        let n = 1_000_000;
+        for u in uniforms(n) {
+            for c in 0..4 {
+                assert!((0.0..1.0).contains(&u[c]));
+                counts[c][(u[c] * bins as f32) as usize] += 1.0;
+            }
+        }
+        let expected = vec![n as f64 / bins as f64; bins];
+        for c in counts {
+            let (_, _, p) = chi_square_gof(&c, &expected);
+            assert!(p > sidak(0.01, 4), "component not uniform: p = {p}");
+        }
+        assert_eq!(rng_uniform4(1, 2, 3, 4), rng_uniform4(1, 2, 3, 4));
+        assert_ne!(rng_uniform4(1, 2, 3, 4), rng_uniform4(2, 2, 3, 4));
+    }
+
+    #[test]
+    fn cosine_hemisphere_matches_its_pdf() {
+        // χ² over a (cos θ, φ) grid: each cell's expected mass is the integral of cos θ/π over it,
+        // which in cos²θ is uniform: cell mass = Δ(cos²θ) · Δφ / 2π.
+        let (nt, np) = (16usize, 16usize);
+        let mut observed = vec![0f64; nt * np];
+        let n = 1_000_000u32;
+        for u in uniforms(n) {
+            let w = sample_cosine_hemisphere(Vec2::new(u.x, u.y));
+            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0);
+            let c2 = (w.z * w.z).clamp(0.0, 0.999_999);
+            let mut phi = w.y.atan2(w.x) / (2.0 * PI);
+            if phi < 0.0 {
+                phi += 1.0;
+            }
+            let i = (c2 * nt as f32) as usize;
+            let j = ((phi * np as f32) as usize).min(np - 1);
+            observed[i * np + j] += 1.0;
+        }
+        let expected = vec![n as f64 / (nt * np) as f64; nt * np];
+        let (_, _, p) = chi_square_gof(&observed, &expected);
+        assert!(p > 0.01, "cosine hemisphere sampling does not match cos θ/π: p = {p}");
+    }
+
+    #[test]
+    fn cosine_hemisphere_inverse_round_trips() {
+        for u in uniforms(10_000) {
+            let uv = Vec2::new(u.x, u.y);
+            let back = invert_cosine_hemisphere_sample(sample_cosine_hemisphere(uv));
+            assert!((back.x - uv.x).abs() < 1e-4, "{uv} -> {back}");
+            let dphi = (back.y - uv.y).abs();
+            assert!(dphi.min(1.0 - dphi) < 1e-4, "{uv} -> {back}");
+        }
+    }
+
+    #[test]
+    fn uniform_triangle_is_uniform_and_inverts() {
+        // χ² on a k×k grid over (b1, b2): cells inside the simplex have area 1/k², cells on the
+        // diagonal 1/(2k²), of the simplex's 1/2.
+        let k = 8usize;
+        let n = 1_000_000u32;
+        let mut observed = vec![0f64; k * k];
+        for u in uniforms(n) {
+            let b = sample_uniform_triangle(Vec2::new(u.x, u.y));
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+            let i = ((b.x * k as f32) as usize).min(k - 1);
+            let j = ((b.y * k as f32) as usize).min(k - 1);
+            observed[i * k + j] += 1.0;
+        }
+        let (mut obs, mut exp) = (Vec::new(), Vec::new());
+        for i in 0..k {
+            for j in 0..k {
+                let area = match (i + j).cmp(&(k - 1)) {
+                    std::cmp::Ordering::Less => 1.0,
+                    std::cmp::Ordering::Equal => 0.5,
+                    std::cmp::Ordering::Greater => 0.0,
+                } / (k * k) as f64;
+                if area == 0.0 {
+                    assert!(observed[i * k + j] < 20.0, "mass outside the simplex");
+                    continue;
+                }
+                obs.push(observed[i * k + j]);
+                exp.push(n as f64 * area * 2.0);
+            }
+        }
+        let (_, _, p) = chi_square_gof(&obs, &exp);
+        assert!(p > 0.01, "triangle sampling not uniform: p = {p}");
+        for u in uniforms(10_000) {
+            let uv = Vec2::new(u.x, u.y);
+            let back = invert_uniform_triangle_sample(sample_uniform_triangle(uv));
+            assert!((back - uv).abs().max_element() < 1e-3, "{uv} -> {back}");
+        }
+    }
+
+    #[test]
+    fn light_selection_follows_the_cdf() {
+        let pmfs = [0.1f32, 0.0, 0.6, 0.3];
+        let mut cdf = 0.0;
+        let lights: Vec<LightEntry> = pmfs
+            .iter()
+            .enumerate()
+            .map(|(i, &pmf)| {
+                cdf += pmf;
+                LightEntry { cdf: if i == 3 { 1.0 } else { cdf }, triangle: i as u32, pmf, pad: 0 }
+            })
+            .collect();
+        let mut observed = [0f64; 4];
+        let n = 200_000;
+        for u in uniforms(n) {
+            observed[sample_light(&lights, u.x)] += 1.0;
+        }
+        assert_eq!(observed[1], 0.0, "a zero-probability light was chosen");
+        let kept = [0usize, 2, 3];
+        let obs: Vec<f64> = kept.iter().map(|&i| observed[i]).collect();
+        let exp: Vec<f64> = kept.iter().map(|&i| pmfs[i] as f64 * n as f64).collect();
+        let (_, _, p) = chi_square_gof(&obs, &exp);
+        assert!(p > 0.01, "light selection does not follow the pmf: p = {p}");
+    }
+
+    #[test]
+    fn frame_is_orthonormal() {
+        for u in uniforms(1000) {
+            let n = Vec3::new(u.x - 0.5, u.y - 0.5, u.z - 0.5).normalize();
+            let (t, b) = build_frame(n);
+            assert!(t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5 && t.dot(b).abs() < 1e-5);
+            assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn offset_moves_to_the_normal_side() {
+        for u in uniforms(1000) {
+            let p = Vec3::new(u.x - 0.5, u.y * 100.0, -u.z * 1e-3);
+            let n = Vec3::new(u.w - 0.5, 0.3, -0.7).normalize();
+            let q = offset_ray_origin(p, n);
+            assert!((q - p).dot(n) > 0.0, "{p} moved to {q}");
+            assert!((q - p).length() < 1e-3);
+        }
+    }
+}

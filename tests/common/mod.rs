@@ -1,0 +1,50 @@
+//! Shared by the scene-level tests: the committed scenes, one GPU renderer per test binary
+//! (lavapipe in CI) with the validation layer on when installed.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, OnceLock};
+use wavetrace::gpu::{GpuOptions, GpuRenderer};
+use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings};
+use wavetrace::scene::Scene;
+
+pub fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+}
+
+pub fn prepared(name: &str) -> PreparedScene {
+    let scene = Scene::load(&scene_path(name)).unwrap_or_else(|e| panic!("loading {name}: {e:#}"));
+    PreparedScene::new(&scene)
+}
+
+/// The test binary's GPU renderer. A machine without a Vulkan device fails the GPU tests (CI
+/// installs lavapipe), unless WAVETRACE_SKIP_GPU=1 says to skip them; then this returns None.
+pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
+    static GPU: OnceLock<Option<Mutex<GpuRenderer>>> = OnceLock::new();
+    let gpu = GPU.get_or_init(|| {
+        if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
+            eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
+            return None;
+        }
+        let r = GpuRenderer::new(&GpuOptions { device_index: None, validation: true, timing: false })
+            .unwrap_or_else(|e| panic!("no GPU renderer: {e:#}"));
+        eprintln!(
+            "GPU tests on {} ({}), validation layer {}",
+            r.device().name,
+            r.device().driver,
+            if r.validating() { "on" } else { "not installed" }
+        );
+        Some(Mutex::new(r))
+    });
+    gpu.as_ref().map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
+}
+
+pub fn render_gpu(scene: &PreparedScene, settings: &RenderSettings, wavefront: Option<u32>) -> Option<RenderOutput> {
+    let gpu = gpu()?;
+    Some(gpu.render(scene, settings, wavefront).unwrap_or_else(|e| panic!("GPU render failed: {e:#}")))
+}
+
+pub fn render_cpu(scene: &PreparedScene, settings: &RenderSettings) -> RenderOutput {
+    wavetrace::cpu::render(scene, settings)
+}

@@ -1,0 +1,75 @@
+//! Every embedded SPIR-V module parses and validates with naga, every GPU struct's reflected
+//! offsets and size equal its `#[repr(C)]` twin in src/layout.rs, and every descriptor binding
+//! a kernel declares has the kind the host's descriptor set layout gives it (DESIGN.md,
+//! Verification 5).
+
+use naga::{AddressSpace, Module, TypeInner};
+use std::collections::BTreeSet;
+use wavetrace::gpu::pipelines::{kernel_spirv, Binding};
+use wavetrace::kernels::KERNELS;
+use wavetrace::layout::STRUCT_LAYOUTS;
+
+fn parse(name: &str) -> Module {
+    let words = kernel_spirv(name).unwrap();
+    naga::front::spv::parse_u8_slice(bytemuck::cast_slice(&words), &naga::front::spv::Options::default())
+        .unwrap_or_else(|e| panic!("naga cannot parse kernel {name}: {e:?}"))
+}
+
+#[test]
+fn every_kernel_parses_and_validates() {
+    assert!(KERNELS.len() >= 6, "expected the six wavefront kernels, found {}", KERNELS.len());
+    for (name, _) in KERNELS {
+        let module = parse(name);
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("naga rejects kernel {name}: {e:?}"));
+    }
+}
+
+#[test]
+fn gpu_structs_match_their_rust_twins() {
+    let modules: Vec<(&str, Module)> = KERNELS.iter().map(|(n, _)| (*n, parse(n))).collect();
+    for layout in STRUCT_LAYOUTS {
+        let mut found = false;
+        for (kernel, module) in &modules {
+            for (_, ty) in module.types.iter() {
+                if ty.name.as_deref() != Some(layout.name) {
+                    continue;
+                }
+                let TypeInner::Struct { members, span } = &ty.inner else { continue };
+                found = true;
+                assert_eq!(*span as usize, layout.size, "{kernel}: size of {} differs from Rust", layout.name);
+                let glsl: Vec<(String, usize)> =
+                    members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize)).collect();
+                let rust: Vec<(String, usize)> =
+                    layout.members.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+                assert_eq!(glsl, rust, "{kernel}: members (name, offset) of {} differ between GLSL and Rust", layout.name);
+            }
+        }
+        assert!(found, "struct {} of src/layout.rs is used by no kernel", layout.name);
+    }
+}
+
+#[test]
+fn descriptor_bindings_match_the_host_layout() {
+    let mut used = BTreeSet::new();
+    for (name, _) in KERNELS {
+        let module = parse(name);
+        for (_, var) in module.global_variables.iter() {
+            let Some(rb) = &var.binding else { continue };
+            assert_eq!(rb.group, 0, "{name}: {:?} is in set {}", var.name, rb.group);
+            let binding = Binding::ALL
+                .iter()
+                .find(|b| **b as u32 == rb.binding)
+                .unwrap_or_else(|| panic!("{name}: binding {} is not in the host's layout", rb.binding));
+            let expected_uniform = *binding == Binding::Frame;
+            match var.space {
+                AddressSpace::Uniform => assert!(expected_uniform, "{name}: binding {} is a uniform buffer, host says {binding:?}", rb.binding),
+                AddressSpace::Storage { .. } => assert!(!expected_uniform, "{name}: binding {} is a storage buffer, host says {binding:?}", rb.binding),
+                other => panic!("{name}: binding {} has unexpected address space {other:?}", rb.binding),
+            }
+            used.insert(rb.binding);
+        }
+    }
+    assert_eq!(used.len(), Binding::ALL.len(), "some host bindings are used by no kernel: {used:?}");
+}
