@@ -1,0 +1,181 @@
+// Closest-hit and any-hit BVH traversal: the twin of src/bvh.rs (same maths, same names).
+// Needs layout.glsl and, declared by the including kernel (bindings.glsl), the buffers
+//   readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+//   readonly buffer Triangles { GpuTriangle triangles[]; };   (in BVH order)
+// Nodes are depth-first: an interior node's left child is the next node. The BVH of an empty
+// scene is one node with inverted bounds (min > max), which every ray misses.
+#ifndef BVH_GLSL
+#define BVH_GLSL
+
+// Traversal stack entries; the build bounds leaf depth by it (bvh::MAX_DEPTH).
+#define BVH_STACK_SIZE 64
+// Relative slack of the slab test, keeping culling conservative against rounding (bvh::SLAB_SLACK).
+#define BVH_SLAB_SLACK (1.0 / 4096.0)
+#define BVH_FLT_MAX 3.402823466e38
+#define BVH_FLT_MIN 1.175494351e-38
+
+// Möller–Trumbore ray/triangle test (Möller & Trumbore 1997), double-sided: true for a hit with
+// t in (t_min, t_max); u, v are the barycentric weights of p1, p2. NaN fails every test.
+bool intersect_triangle(GpuTriangle tri, vec3 origin, vec3 dir, float t_min, float t_max,
+                        out float t, out float u, out float v) {
+    t = 0.0;
+    u = 0.0;
+    v = 0.0;
+    vec3 pvec = cross(dir, tri.e2);
+    float det = dot(tri.e1, pvec);
+    if (det == 0.0) return false;
+    float inv_det = 1.0 / det;
+    vec3 tvec = origin - tri.p0;
+    u = dot(tvec, pvec) * inv_det;
+    if (!(u >= 0.0 && u <= 1.0)) return false;
+    vec3 qvec = cross(tvec, tri.e1);
+    v = dot(dir, qvec) * inv_det;
+    if (!(v >= 0.0 && u + v <= 1.0)) return false;
+    t = dot(tri.e2, qvec) * inv_det;
+    return t > t_min && t < t_max;
+}
+
+// A ray prepared for slab tests: axes it does not move along (zero or subnormal direction
+// components, `still`) are handled exactly, so no infinity or 0·∞ = NaN ever arises.
+struct BvhSlabRay {
+    vec3 origin;
+    vec3 inv_dir;  // 0 on still axes
+    bvec3 still;
+};
+
+BvhSlabRay bvh_slab_ray(vec3 origin, vec3 dir) {
+    BvhSlabRay ray;
+    ray.origin = origin;
+    ray.still = lessThan(abs(dir), vec3(BVH_FLT_MIN));
+    ray.inv_dir = mix(1.0 / mix(dir, vec3(1.0), ray.still), vec3(0.0), ray.still);
+    return ray;
+}
+
+// Slab test (Kay & Kajiya 1986): true if the node's box overlaps (t_min, t_max), with
+// t_enter = the distance at which the ray enters it.
+bool bvh_slab(BvhNode node, BvhSlabRay ray, float t_min, float t_max, out float t_enter) {
+    vec3 t0 = (node.bounds_min - ray.origin) * ray.inv_dir;
+    vec3 t1 = (node.bounds_max - ray.origin) * ray.inv_dir;
+    // A still axis admits every t if the origin lies within the slab, none otherwise.
+    vec3 outside = max(node.bounds_min - ray.origin, ray.origin - node.bounds_max);
+    vec3 still_near = mix(vec3(-BVH_FLT_MAX), vec3(BVH_FLT_MAX), greaterThan(outside, vec3(0.0)));
+    vec3 near = mix(min(t0, t1), still_near, ray.still);
+    vec3 far = mix(max(t0, t1), -still_near, ray.still);
+    t_enter = max(max(near.x, max(near.y, near.z)), t_min);
+    float t_exit = min(min(far.x, min(far.y, far.z)), t_max);
+    return t_enter - abs(t_enter) * BVH_SLAB_SLACK <= t_exit;
+}
+
+bool bvh_is_empty() {
+    return bvh_nodes[0].bounds_min.x > bvh_nodes[0].bounds_max.x;
+}
+
+// Closest hit with t in (t_min, t_max). On a miss returns false with hit.triangle = NO_HIT.
+bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, out HitRecord hit) {
+    hit = HitRecord(t_max, NO_HIT, 0.0, 0.0);
+    if (bvh_is_empty()) return false;
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    uint stack[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint index = 0u;
+    BvhNode node = bvh_nodes[0];
+    float t_far = t_max;
+    float t_enter;
+    if (!bvh_slab(node, ray, t_min, t_far, t_enter)) return false;
+    for (;;) {
+        if (bvh_node_is_leaf(node)) {
+            uint first = bvh_node_first_triangle(node);
+            for (uint i = first; i < first + node.count; ++i) {
+                float t, u, v;
+                if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v)) {
+                    t_far = t;
+                    hit = HitRecord(t, i, u, v);
+                }
+            }
+        } else {
+            // Both children: descend into the nearer, keep the farther for later.
+            uint li = index + 1u;
+            uint ri = bvh_node_right_child(node);
+            BvhNode left = bvh_nodes[li];
+            BvhNode right = bvh_nodes[ri];
+            float dl, dr;
+            bool hit_left = bvh_slab(left, ray, t_min, t_far, dl);
+            bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
+            if (hit_left && hit_right) {
+                if (dl <= dr) {
+                    stack[sp++] = ri;
+                    index = li;
+                    node = left;
+                } else {
+                    stack[sp++] = li;
+                    index = ri;
+                    node = right;
+                }
+                continue;
+            }
+            if (hit_left) {
+                index = li;
+                node = left;
+                continue;
+            }
+            if (hit_right) {
+                index = ri;
+                node = right;
+                continue;
+            }
+        }
+        // Pop the next node that can still hold a closer hit.
+        bool found = false;
+        while (sp > 0u) {
+            index = stack[--sp];
+            node = bvh_nodes[index];
+            if (bvh_slab(node, ray, t_min, t_far, t_enter)) {
+                found = true;
+                break;
+            }
+        }
+        if (!found) break;
+    }
+    return hit.triangle != NO_HIT;
+}
+
+// True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
+bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max) {
+    if (bvh_is_empty()) return false;
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    uint stack[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint index = 0u;
+    BvhNode node = bvh_nodes[0];
+    float t_enter;
+    if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
+    for (;;) {
+        if (bvh_node_is_leaf(node)) {
+            uint first = bvh_node_first_triangle(node);
+            for (uint i = first; i < first + node.count; ++i) {
+                float t, u, v;
+                if (intersect_triangle(triangles[i], origin, dir, t_min, t_max, t, u, v)) return true;
+            }
+        } else {
+            uint li = index + 1u;
+            uint ri = bvh_node_right_child(node);
+            BvhNode left = bvh_nodes[li];
+            BvhNode right = bvh_nodes[ri];
+            float dl, dr;
+            bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
+            bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
+            if (hit_left && hit_right) stack[sp++] = ri;
+            if (hit_left || hit_right) {
+                index = hit_left ? li : ri;
+                node = hit_left ? left : right;
+                continue;
+            }
+        }
+        if (sp == 0u) return false;
+        index = stack[--sp];
+        node = bvh_nodes[index];
+    }
+    return false;
+}
+
+#endif

@@ -1,0 +1,938 @@
+//! Bounding volume hierarchy: binned SAH build, depth-first flattening into [`BvhNode`]s, and the
+//! CPU twin of `shaders/inc/bvh.glsl` (closest-hit and any-hit traversal, same maths and names).
+//!
+//! Build: binned surface area heuristic on the longest centroid axis (Wald 2007, "On fast
+//! Construction of SAH-based Bounding Volume Hierarchies"), an explicit work stack (no recursion),
+//! and depth-first flattening as it goes: an interior node's left child is the next node, its
+//! `offset` is the right child. Node bounds are exact f32 unions of the triangles' vertices.
+//!
+//! Depth is bounded by [`MAX_DEPTH`] (= the traversal stack): a subtree that could otherwise grow
+//! deeper is split at the object median, which halves it per level. Traversal therefore never
+//! overflows its 64-entry stack, whatever the input.
+//!
+//! An empty scene yields one node with inverted bounds (min = `f32::MAX`, max = `-f32::MAX`,
+//! count 0), so the GPU buffer is never empty; both traversals check for it and report a miss.
+
+use crate::layout::{BvhNode, GpuTriangle};
+use glam::{BVec3, Vec3};
+use std::time::{Duration, Instant};
+
+/// SAH bins on the longest centroid axis.
+pub const SAH_BINS: usize = 16;
+/// Largest leaf the SAH may choose to keep; larger sets are always split.
+pub const MAX_LEAF_SIZE: usize = 8;
+/// Deepest leaf (root = depth 0); also the size of the traversal stack (`BVH_STACK_SIZE`).
+pub const MAX_DEPTH: usize = 64;
+/// SAH cost of visiting a node, relative to intersecting one triangle.
+pub const TRAVERSAL_COST: f32 = 1.0;
+pub const INTERSECTION_COST: f32 = 1.0;
+/// Relative slack of the slab test (`BVH_SLAB_SLACK`): a box counts as hit if its entry distance
+/// is within this fraction of its exit distance. Keeps culling conservative against rounding in
+/// the slab test and in Möller–Trumbore's t (cf. Ize 2013, "Robust BVH Ray Traversal").
+pub const SLAB_SLACK: f32 = 1.0 / 4096.0;
+
+/// A ray `origin + t·dir`; `dir` need not be normalised (t is in units of `dir`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+/// A ray/triangle hit: `triangle` indexes the BVH-ordered triangles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub triangle: u32,
+    /// Barycentric weight of p1.
+    pub u: f32,
+    /// Barycentric weight of p2.
+    pub v: f32,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct BvhStats {
+    pub nodes: usize,
+    pub leaves: usize,
+    /// Depth of the deepest leaf (root = 0).
+    pub max_depth: usize,
+    pub max_leaf_size: usize,
+    /// See [`sah_cost`].
+    pub sah_cost: f32,
+    pub build_time: Duration,
+}
+
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    pub nodes: Vec<BvhNode>,
+    /// Triangle order: leaf ranges index into the input triangles reordered by this
+    /// (BVH triangle `i` is input triangle `order[i]`).
+    pub order: Vec<u32>,
+    pub stats: BvhStats,
+}
+
+/// An axis-aligned box; empty when min > max.
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    min: Vec3,
+    max: Vec3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
+
+    fn grow(&mut self, min: Vec3, max: Vec3) {
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+    }
+
+    /// Half the surface area (0 for an empty box): the SAH only uses ratios.
+    fn half_area(&self) -> f32 {
+        let d = self.max - self.min;
+        if d.x < 0.0 || d.y < 0.0 || d.z < 0.0 {
+            return 0.0;
+        }
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+}
+
+/// A triangle during the build: its bounds and input index.
+#[derive(Clone, Copy, Debug)]
+struct PrimRef {
+    min: Vec3,
+    max: Vec3,
+    id: u32,
+}
+
+impl PrimRef {
+    fn centroid(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+}
+
+/// A range of `refs` still to become a subtree; `patch` is the node whose `offset` must point to
+/// it (it is a right child), or `u32::MAX`.
+struct Task {
+    start: usize,
+    end: usize,
+    depth: usize,
+    patch: u32,
+}
+
+fn ceil_log2(n: usize) -> usize {
+    (usize::BITS - n.saturating_sub(1).leading_zeros()) as usize
+}
+
+/// Bin of a centroid coordinate; the same float expression when binning and partitioning.
+fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
+    (((c - lo) * scale) as usize).min(SAH_BINS - 1)
+}
+
+/// Reorders `refs` so that those with `pred` come first; returns how many there are.
+fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
+    let mut mid = 0;
+    for i in 0..refs.len() {
+        if pred(&refs[i]) {
+            refs.swap(i, mid);
+            mid += 1;
+        }
+    }
+    mid
+}
+
+/// Where to split `refs` (0 < mid < len, after reordering them), or `None` for a leaf.
+fn choose_split(
+    refs: &mut [PrimRef],
+    bounds: &Aabb,
+    centroids: &Aabb,
+    depth: usize,
+) -> Option<usize> {
+    let n = refs.len();
+    if n <= 1 {
+        return None;
+    }
+    let extent = centroids.max - centroids.min;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    // Identical centroids: the SAH cannot separate them; halve large sets in any order.
+    if extent[axis].is_nan() || extent[axis] <= 0.0 {
+        return (n > MAX_LEAF_SIZE).then_some(n / 2);
+    }
+    // Near the depth limit: object median, which halves the set and so bounds the depth.
+    if depth + ceil_log2(n) >= MAX_DEPTH {
+        if n <= MAX_LEAF_SIZE {
+            return None;
+        }
+        refs.select_nth_unstable_by(n / 2, |a, b| {
+            a.centroid()[axis].total_cmp(&b.centroid()[axis])
+        });
+        return Some(n / 2);
+    }
+
+    // Binned SAH: bounds and counts per bin, then sweep the 15 planes between bins.
+    let lo = centroids.min[axis];
+    let scale = SAH_BINS as f32 / extent[axis];
+    let mut bins = [(Aabb::EMPTY, 0usize); SAH_BINS];
+    for r in refs.iter() {
+        let b = &mut bins[bin_of(r.centroid()[axis], lo, scale)];
+        b.0.grow(r.min, r.max);
+        b.1 += 1;
+    }
+    let mut right_cost = [0.0f32; SAH_BINS];
+    let (mut acc, mut count) = (Aabb::EMPTY, 0);
+    for plane in (1..SAH_BINS).rev() {
+        acc.grow(bins[plane].0.min, bins[plane].0.max);
+        count += bins[plane].1;
+        right_cost[plane] = acc.half_area() * count as f32;
+    }
+    let (mut acc, mut count) = (Aabb::EMPTY, 0);
+    let mut best: Option<(usize, f32)> = None;
+    for plane in 1..SAH_BINS {
+        acc.grow(bins[plane - 1].0.min, bins[plane - 1].0.max);
+        count += bins[plane - 1].1;
+        if count == 0 || count == n {
+            continue;
+        }
+        let cost = acc.half_area() * count as f32 + right_cost[plane];
+        if best.is_none_or(|(_, c)| cost < c) {
+            best = Some((plane, cost));
+        }
+    }
+    let (plane, cost) = best?;
+    // Split when C_T·A + C_I·(A_L·N_L + A_R·N_R) < C_I·N·A (areas unnormalised).
+    let area = bounds.half_area();
+    let pays =
+        TRAVERSAL_COST * area + INTERSECTION_COST * cost < INTERSECTION_COST * n as f32 * area;
+    if !pays && n <= MAX_LEAF_SIZE {
+        return None;
+    }
+    let mid = partition(refs, |r| bin_of(r.centroid()[axis], lo, scale) < plane);
+    debug_assert!(mid > 0 && mid < n);
+    Some(mid)
+}
+
+impl Bvh {
+    /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
+    /// for millions (work stack, bounded depth).
+    pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+        let start_time = Instant::now();
+        let mut refs: Vec<PrimRef> = triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| PrimRef {
+                min: t[0].min(t[1]).min(t[2]),
+                max: t[0].max(t[1]).max(t[2]),
+                id: i as u32,
+            })
+            .collect();
+        let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
+        let mut stats = BvhStats::default();
+
+        let mut stack = Vec::new();
+        if refs.is_empty() {
+            nodes.push(BvhNode {
+                bounds_min: [f32::MAX; 3],
+                offset: 0,
+                bounds_max: [-f32::MAX; 3],
+                count: 0,
+            });
+        } else {
+            stack.push(Task {
+                start: 0,
+                end: refs.len(),
+                depth: 0,
+                patch: u32::MAX,
+            });
+        }
+        while let Some(task) = stack.pop() {
+            let index = nodes.len() as u32;
+            if task.patch != u32::MAX {
+                nodes[task.patch as usize].offset = index;
+            }
+            let range = &mut refs[task.start..task.end];
+            let (mut bounds, mut centroids) = (Aabb::EMPTY, Aabb::EMPTY);
+            for r in range.iter() {
+                bounds.grow(r.min, r.max);
+                centroids.grow(r.centroid(), r.centroid());
+            }
+            let mut node = BvhNode {
+                bounds_min: bounds.min.into(),
+                offset: 0,
+                bounds_max: bounds.max.into(),
+                count: 0,
+            };
+            match choose_split(range, &bounds, &centroids, task.depth) {
+                Some(mid) => {
+                    let mid = task.start + mid;
+                    // Right pushed first: the left subtree is built (and numbered) first.
+                    stack.push(Task {
+                        start: mid,
+                        end: task.end,
+                        depth: task.depth + 1,
+                        patch: index,
+                    });
+                    stack.push(Task {
+                        start: task.start,
+                        end: mid,
+                        depth: task.depth + 1,
+                        patch: u32::MAX,
+                    });
+                }
+                None => {
+                    node.offset = task.start as u32;
+                    node.count = range.len() as u32;
+                    stats.leaves += 1;
+                    stats.max_depth = stats.max_depth.max(task.depth);
+                    stats.max_leaf_size = stats.max_leaf_size.max(range.len());
+                }
+            }
+            nodes.push(node);
+        }
+
+        stats.nodes = nodes.len();
+        stats.sah_cost = sah_cost(&nodes);
+        stats.build_time = start_time.elapsed();
+        Bvh {
+            nodes,
+            order: refs.iter().map(|r| r.id).collect(),
+            stats,
+        }
+    }
+
+    /// True for the BVH of no triangles (a single node with inverted bounds).
+    pub fn is_empty(&self) -> bool {
+        self.nodes
+            .first()
+            .is_none_or(|root| root.bounds_min[0] > root.bounds_max[0])
+    }
+
+    /// Closest hit with t in (t_min, t_max); `triangles` are in BVH order (`order` applied).
+    pub fn intersect_closest(
+        &self,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        if self.is_empty() {
+            return None;
+        }
+        let slab_ray = SlabRay::new(ray);
+        let mut closest: Option<Hit> = None;
+        let mut t_far = t_max;
+        let mut stack = [0u32; MAX_DEPTH];
+        let mut sp = 0;
+        let (mut index, mut node) = (0u32, self.nodes[0]);
+        bvh_slab(&node, &slab_ray, t_min, t_far)?;
+        loop {
+            if node.is_leaf() {
+                let first = node.first_triangle();
+                for i in first..first + node.count {
+                    if let Some((t, u, v)) =
+                        intersect_triangle(&triangles[i as usize], ray, t_min, t_far)
+                    {
+                        t_far = t;
+                        closest = Some(Hit {
+                            t,
+                            triangle: i,
+                            u,
+                            v,
+                        });
+                    }
+                }
+            } else {
+                // Both children: descend into the nearer, keep the farther for later.
+                let (li, ri) = (index + 1, node.right_child());
+                let (left, right) = (self.nodes[li as usize], self.nodes[ri as usize]);
+                let dl = bvh_slab(&left, &slab_ray, t_min, t_far);
+                let dr = bvh_slab(&right, &slab_ray, t_min, t_far);
+                match (dl, dr) {
+                    (Some(a), Some(b)) => {
+                        let (near, far) = if a <= b {
+                            ((li, left), ri)
+                        } else {
+                            ((ri, right), li)
+                        };
+                        stack[sp] = far;
+                        sp += 1;
+                        (index, node) = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        (index, node) = (li, left);
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        (index, node) = (ri, right);
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            // Pop the next node that can still hold a closer hit.
+            loop {
+                if sp == 0 {
+                    return closest;
+                }
+                sp -= 1;
+                index = stack[sp];
+                node = self.nodes[index as usize];
+                if bvh_slab(&node, &slab_ray, t_min, t_far).is_some() {
+                    break;
+                }
+            }
+        }
+    }
+
+    /// True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
+    pub fn intersect_any(
+        &self,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> bool {
+        if self.is_empty() {
+            return false;
+        }
+        let slab_ray = SlabRay::new(ray);
+        let mut stack = [0u32; MAX_DEPTH];
+        let mut sp = 0;
+        let (mut index, mut node) = (0u32, self.nodes[0]);
+        if bvh_slab(&node, &slab_ray, t_min, t_max).is_none() {
+            return false;
+        }
+        loop {
+            if node.is_leaf() {
+                let first = node.first_triangle();
+                for i in first..first + node.count {
+                    if intersect_triangle(&triangles[i as usize], ray, t_min, t_max).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                let (li, ri) = (index + 1, node.right_child());
+                let (left, right) = (self.nodes[li as usize], self.nodes[ri as usize]);
+                let hit_left = bvh_slab(&left, &slab_ray, t_min, t_max).is_some();
+                let hit_right = bvh_slab(&right, &slab_ray, t_min, t_max).is_some();
+                if hit_left && hit_right {
+                    stack[sp] = ri;
+                    sp += 1;
+                }
+                if hit_left || hit_right {
+                    (index, node) = if hit_left { (li, left) } else { (ri, right) };
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            index = stack[sp];
+            node = self.nodes[index as usize];
+        }
+    }
+}
+
+/// A ray prepared for slab tests: inverse direction, with axes it does not move along
+/// (zero or subnormal components, `still`) handled exactly instead of through ∞ and 0·∞ = NaN.
+struct SlabRay {
+    origin: Vec3,
+    inv_dir: Vec3,
+    still: BVec3,
+}
+
+impl SlabRay {
+    fn new(ray: &Ray) -> SlabRay {
+        let still = ray.dir.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE));
+        let inv_dir = Vec3::select(still, Vec3::ZERO, ray.dir.recip());
+        SlabRay {
+            origin: ray.origin,
+            inv_dir,
+            still,
+        }
+    }
+}
+
+/// Slab test (Kay & Kajiya 1986): the distance at which the ray enters `node`'s box, if the box
+/// overlaps (t_min, t_max), with [`SLAB_SLACK`] of tolerance. No NaN arises: `inv_dir` is finite.
+fn bvh_slab(node: &BvhNode, ray: &SlabRay, t_min: f32, t_max: f32) -> Option<f32> {
+    let (bmin, bmax) = (Vec3::from(node.bounds_min), Vec3::from(node.bounds_max));
+    let t0 = (bmin - ray.origin) * ray.inv_dir;
+    let t1 = (bmax - ray.origin) * ray.inv_dir;
+    // A still axis admits every t if the origin lies within the slab, none otherwise.
+    let outside = (bmin - ray.origin).max(ray.origin - bmax);
+    let still_near = Vec3::select(
+        outside.cmpgt(Vec3::ZERO),
+        Vec3::splat(f32::MAX),
+        Vec3::splat(-f32::MAX),
+    );
+    let near = Vec3::select(ray.still, still_near, t0.min(t1));
+    let far = Vec3::select(ray.still, -still_near, t0.max(t1));
+    let t_enter = near.max_element().max(t_min);
+    let t_exit = far.min_element().min(t_max);
+    (t_enter - t_enter.abs() * SLAB_SLACK <= t_exit).then_some(t_enter)
+}
+
+/// Möller–Trumbore ray/triangle test (Möller & Trumbore 1997), double-sided: (t, u, v) for a hit
+/// with t in (t_min, t_max), u and v the barycentric weights of p1 and p2. Every acceptance test
+/// is written so that NaN rejects.
+pub fn intersect_triangle(
+    tri: &GpuTriangle,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let pvec = ray.dir.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let tvec = ray.origin - Vec3::from(tri.p0);
+    let u = tvec.dot(pvec) * inv_det;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let qvec = tvec.cross(e1);
+    let v = ray.dir.dot(qvec) * inv_det;
+    if !(v >= 0.0 && u + v <= 1.0) {
+        return None;
+    }
+    let t = e2.dot(qvec) * inv_det;
+    (t > t_min && t < t_max).then_some((t, u, v))
+}
+
+/// SAH cost of a flattened BVH: Σ interior area·C_T + Σ leaf area·count·C_I, over the root's area
+/// (C_T = C_I = 1). 0 for an empty or zero-area BVH.
+pub fn sah_cost(nodes: &[BvhNode]) -> f32 {
+    let area = |n: &BvhNode| {
+        Aabb {
+            min: n.bounds_min.into(),
+            max: n.bounds_max.into(),
+        }
+        .half_area()
+    };
+    let Some(root_area) = nodes.first().map(area).filter(|&a| a > 0.0) else {
+        return 0.0;
+    };
+    let total: f64 = nodes
+        .iter()
+        .map(|n| {
+            let cost = if n.is_leaf() {
+                INTERSECTION_COST * n.count as f32
+            } else {
+                TRAVERSAL_COST
+            };
+            (area(n) * cost) as f64
+        })
+        .sum();
+    (total / root_area as f64) as f32
+}
+
+/// The triangles as the intersector wants them, in BVH order: BVH triangle `i` is input triangle
+/// `order[i]` with material `materials[order[i]]` (0 when `materials` is empty); `light_pmf` = 0.
+pub fn gpu_triangles(
+    triangles: &[[Vec3; 3]],
+    materials: &[u32],
+    order: &[u32],
+) -> Vec<GpuTriangle> {
+    assert!(
+        materials.is_empty() || materials.len() == triangles.len(),
+        "one material per triangle"
+    );
+    order
+        .iter()
+        .map(|&i| {
+            let [p0, p1, p2] = triangles[i as usize];
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            GpuTriangle {
+                p0: p0.into(),
+                material: materials.get(i as usize).copied().unwrap_or(0),
+                e1: e1.into(),
+                light_pmf: 0.0,
+                e2: e2.into(),
+                area: 0.5 * e1.cross(e2).length(),
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// PCG32 (O'Neill 2014): deterministic test data without a crate.
+    struct Pcg(u64);
+
+    impl Pcg {
+        const MUL: u64 = 6364136223846793005;
+        const INC: u64 = 1442695040888963407;
+        fn new(seed: u64) -> Pcg {
+            Pcg(seed.wrapping_mul(Self::MUL).wrapping_add(Self::INC))
+        }
+        fn next_u32(&mut self) -> u32 {
+            let old = self.0;
+            self.0 = old.wrapping_mul(Self::MUL).wrapping_add(Self::INC);
+            ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
+        }
+        fn below(&mut self, n: u32) -> u32 {
+            self.next_u32() % n
+        }
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * ((self.next_u32() >> 8) as f32 / 16777216.0)
+        }
+        fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
+            Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+        }
+    }
+
+    #[derive(Clone, Copy)]
+    enum Kind {
+        Uniform,
+        Clustered,
+        Thin,
+        SameCentroid,
+        Duplicated,
+        Flat,
+    }
+    const ALL_KINDS: &[Kind] = &[
+        Kind::Uniform,
+        Kind::Clustered,
+        Kind::Thin,
+        Kind::SameCentroid,
+        Kind::Duplicated,
+        Kind::Flat,
+    ];
+    /// The plane z = FLAT_Z holds every `Kind::Flat` triangle.
+    const FLAT_Z: f32 = 0.25;
+
+    fn soup(rng: &mut Pcg, n: usize, kinds: &[Kind]) -> Vec<[Vec3; 3]> {
+        let clusters: Vec<Vec3> = (0..4).map(|_| rng.vec3(-1.0, 1.0)).collect();
+        let mut tris: Vec<[Vec3; 3]> = Vec::with_capacity(n);
+        for i in 0..n {
+            let tri = match kinds[i % kinds.len()] {
+                Kind::Uniform => {
+                    let c = rng.vec3(-1.0, 1.0);
+                    [
+                        c + rng.vec3(-0.1, 0.1),
+                        c + rng.vec3(-0.1, 0.1),
+                        c + rng.vec3(-0.1, 0.1),
+                    ]
+                }
+                Kind::Clustered => {
+                    let c = clusters[rng.below(4) as usize] + rng.vec3(-0.02, 0.02);
+                    [
+                        c + rng.vec3(-0.01, 0.01),
+                        c + rng.vec3(-0.01, 0.01),
+                        c + rng.vec3(-0.01, 0.01),
+                    ]
+                }
+                Kind::Thin => {
+                    let (a, b) = (rng.vec3(-1.0, 1.0), rng.vec3(-1.0, 1.0));
+                    [a, b, a + rng.vec3(-0.005, 0.005)]
+                }
+                // Bounds symmetric about 0: every centroid is exactly the origin.
+                Kind::SameCentroid => {
+                    let s = rng.vec3(0.01, 0.5);
+                    [
+                        -s,
+                        s,
+                        Vec3::new(
+                            rng.range(-s.x, s.x),
+                            rng.range(-s.y, s.y),
+                            rng.range(-s.z, s.z),
+                        ),
+                    ]
+                }
+                Kind::Duplicated if !tris.is_empty() => {
+                    let [a, b, c] = tris[rng.below(tris.len() as u32) as usize];
+                    if rng.below(2) == 0 {
+                        [a, b, c]
+                    } else {
+                        [b, c, a]
+                    }
+                }
+                Kind::Duplicated => [Vec3::ZERO, Vec3::X, Vec3::Y],
+                Kind::Flat => {
+                    let c = rng.vec3(-1.0, 1.0).with_z(FLAT_Z);
+                    let mut corner = || c + rng.vec3(-0.2, 0.2).with_z(0.0);
+                    [corner(), corner(), corner()]
+                }
+            };
+            tris.push(tri);
+        }
+        tris
+    }
+
+    /// Origins inside and outside the bounds; some direction components exactly 0, some rays in
+    /// the flat plane or on a box face (a vertex coordinate) along it.
+    fn random_ray(rng: &mut Pcg, tris: &[[Vec3; 3]], lo: Vec3, hi: Vec3) -> Ray {
+        let size = hi - lo;
+        let mut origin = if rng.below(2) == 0 {
+            lo + size * rng.vec3(0.0, 1.0)
+        } else {
+            lo - size + 3.0 * size * rng.vec3(0.0, 1.0)
+        };
+        // Aim at a point of a random triangle half the time, anywhere in the bounds otherwise.
+        let target = if rng.below(2) == 0 {
+            let [a, b, c] = tris[rng.below(tris.len() as u32) as usize];
+            let (u, v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            let (u, v) = if u + v > 1.0 {
+                (1.0 - u, 1.0 - v)
+            } else {
+                (u, v)
+            };
+            a + u * (b - a) + v * (c - a)
+        } else {
+            lo + size * rng.vec3(0.0, 1.0)
+        };
+        let mut dir = (target - origin) * rng.range(0.1, 10.0);
+        match rng.below(10) {
+            0 | 1 => dir[rng.below(3) as usize] = 0.0,
+            2 => {
+                let keep = rng.below(3) as usize;
+                dir = Vec3::select(
+                    BVec3::new(keep == 0, keep == 1, keep == 2),
+                    dir,
+                    -Vec3::ZERO,
+                );
+            }
+            3 => {
+                origin.z = FLAT_Z;
+                dir.z = 0.0;
+            }
+            4 => {
+                let axis = rng.below(3) as usize;
+                origin[axis] =
+                    tris[rng.below(tris.len() as u32) as usize][rng.below(3) as usize][axis];
+                dir[axis] = 0.0;
+            }
+            _ => {}
+        }
+        if dir == Vec3::ZERO {
+            dir = Vec3::Y;
+        }
+        Ray { origin, dir }
+    }
+
+    fn brute_closest(tris: &[GpuTriangle], ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let mut closest = None;
+        let mut t_far = t_max;
+        for (i, tri) in tris.iter().enumerate() {
+            if let Some((t, u, v)) = intersect_triangle(tri, ray, t_min, t_far) {
+                t_far = t;
+                closest = Some(Hit {
+                    t,
+                    triangle: i as u32,
+                    u,
+                    v,
+                });
+            }
+        }
+        closest
+    }
+
+    fn brute_any(tris: &[GpuTriangle], ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        tris.iter()
+            .any(|tri| intersect_triangle(tri, ray, t_min, t_max).is_some())
+    }
+
+    /// Structure: depth-first numbering, every triangle in exactly one leaf, exact and nested
+    /// bounds, stats that agree with the nodes.
+    fn validate(bvh: &Bvh, tris: &[[Vec3; 3]]) {
+        if tris.is_empty() {
+            assert_eq!(bvh.nodes.len(), 1);
+            assert!(bvh.is_empty() && bvh.order.is_empty());
+            return;
+        }
+        assert!(!bvh.is_empty());
+        let mut sorted = bvh.order.clone();
+        sorted.sort_unstable();
+        assert!(
+            sorted.iter().enumerate().all(|(i, &o)| i as u32 == o),
+            "order is a permutation"
+        );
+
+        let mut covered = vec![0u32; tris.len()];
+        let (mut visited, mut leaves, mut max_depth, mut max_leaf) = (0, 0, 0, 0);
+        let mut stack = vec![(0u32, 0usize, None::<BvhNode>)];
+        while let Some((index, depth, parent)) = stack.pop() {
+            // Pre-order with the left child first must visit 0, 1, 2, …
+            assert_eq!(index as usize, visited, "depth-first flattening");
+            visited += 1;
+            let node = bvh.nodes[index as usize];
+            let (bmin, bmax) = (Vec3::from(node.bounds_min), Vec3::from(node.bounds_max));
+            if let Some(p) = parent {
+                assert!(
+                    bmin.cmpge(p.bounds_min.into()).all() && bmax.cmple(p.bounds_max.into()).all()
+                );
+            }
+            if node.is_leaf() {
+                leaves += 1;
+                max_depth = max_depth.max(depth);
+                max_leaf = max_leaf.max(node.count as usize);
+                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+                for i in node.first_triangle()..node.first_triangle() + node.count {
+                    covered[i as usize] += 1;
+                    for p in tris[bvh.order[i as usize] as usize] {
+                        (lo, hi) = (lo.min(p), hi.max(p));
+                    }
+                }
+                assert_eq!(
+                    (lo, hi),
+                    (bmin, bmax),
+                    "leaf bounds are the exact union of its triangles"
+                );
+            } else {
+                assert!(node.right_child() > index + 1);
+                stack.push((node.right_child(), depth + 1, Some(node)));
+                stack.push((index + 1, depth + 1, Some(node)));
+            }
+        }
+        assert_eq!(visited, bvh.nodes.len(), "every node reachable once");
+        assert!(
+            covered.iter().all(|&c| c == 1),
+            "every triangle in exactly one leaf"
+        );
+        let s = &bvh.stats;
+        assert_eq!(
+            (s.nodes, s.leaves, s.max_depth, s.max_leaf_size),
+            (visited, leaves, max_depth, max_leaf)
+        );
+        assert_eq!(s.nodes, 2 * s.leaves - 1);
+        assert!(s.max_depth <= MAX_DEPTH);
+        assert!(s.max_leaf_size <= MAX_LEAF_SIZE);
+        assert_eq!(s.sah_cost, sah_cost(&bvh.nodes));
+    }
+
+    /// Builds, validates, and compares both traversals with brute force on `rays` random rays.
+    /// Returns the BVH and how many closest-hit queries hit.
+    fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
+        let bvh = Bvh::build(tris);
+        validate(&bvh, tris);
+        let gpu = gpu_triangles(tris, &[], &bvh.order);
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for p in tris.iter().flatten() {
+            (lo, hi) = (lo.min(*p), hi.max(*p));
+        }
+        // Padded, so that a flat soup still gets rays from off its plane.
+        let pad = Vec3::splat(0.1 * (hi - lo).max_element());
+        let (lo, hi) = (lo - pad, hi + pad);
+        let mut rng = Pcg::new(seed);
+        let mut hits = 0;
+        for _ in 0..rays {
+            let ray = random_ray(&mut rng, tris, lo, hi);
+            let t_min = [0.0, 1e-4, -1.0][rng.below(3) as usize];
+            let t_max = [f32::INFINITY, f32::MAX, rng.range(0.0, 2.0)][rng.below(3) as usize];
+            let got = bvh.intersect_closest(&gpu, &ray, t_min, t_max);
+            let want = brute_closest(&gpu, &ray, t_min, t_max);
+            match (got, want) {
+                (None, None) => {}
+                (Some(g), Some(w)) => {
+                    hits += 1;
+                    assert_eq!(g.t.to_bits(), w.t.to_bits(), "{ray:?}: {g:?} vs {w:?}");
+                    if g.triangle == w.triangle {
+                        assert_eq!(g, w);
+                    }
+                }
+                _ => panic!("{ray:?} ({t_min}, {t_max}): bvh {got:?}, brute force {want:?}"),
+            }
+            // Shadow-ray range ending just before or after the closest hit, or anywhere.
+            let t_max = match want {
+                Some(w) if rng.below(2) == 0 => w.t * rng.range(0.9, 1.1),
+                _ => rng.range(0.0, 3.0),
+            };
+            assert_eq!(
+                bvh.intersect_any(&gpu, &ray, t_min, t_max),
+                brute_any(&gpu, &ray, t_min, t_max),
+                "{ray:?} ({t_min}, {t_max})"
+            );
+        }
+        (bvh, hits)
+    }
+
+    #[test]
+    fn matches_brute_force_on_random_soups() {
+        let mut rng = Pcg::new(1);
+        for (n, kinds) in [
+            (1, ALL_KINDS),
+            (2, ALL_KINDS),
+            (7, ALL_KINDS),
+            (100, ALL_KINDS),
+            (5000, ALL_KINDS),
+            (5000, &[Kind::Uniform][..]),
+            (300, &[Kind::Clustered][..]),
+            (300, &[Kind::Thin][..]),
+            (300, &[Kind::SameCentroid][..]),
+            (300, &[Kind::Duplicated][..]),
+            (300, &[Kind::Flat][..]),
+        ] {
+            let tris = soup(&mut rng, n, kinds);
+            let (bvh, hits) = check(&tris, 4000, n as u64);
+            assert!(
+                hits > 500,
+                "{n} triangles: only {hits} hits, the test is too weak"
+            );
+            if n == 5000 {
+                println!("{n} triangles, {} kinds: {:?}", kinds.len(), bvh.stats);
+            }
+        }
+    }
+
+    #[test]
+    fn empty_input_misses() {
+        let bvh = Bvh::build(&[]);
+        validate(&bvh, &[]);
+        let ray = Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+        };
+        assert_eq!(bvh.intersect_closest(&[], &ray, 0.0, f32::MAX), None);
+        assert!(!bvh.intersect_any(&[], &ray, 0.0, f32::MAX));
+    }
+
+    #[test]
+    fn identical_triangles_make_bounded_leaves() {
+        let tris = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 10_000];
+        let (bvh, hits) = check(&tris, 200, 3);
+        assert!(hits > 0);
+        assert!(bvh.stats.max_depth <= 12, "{:?}", bvh.stats);
+    }
+
+    #[test]
+    fn depth_stays_bounded_on_geometric_spacing() {
+        // Sizes and gaps growing geometrically: the SAH peels a few triangles per level.
+        let tris: Vec<[Vec3; 3]> = (0..2000)
+            .map(|k| {
+                let x = 1.02f32.powi(k);
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x * 1.01, 0.0, 0.0),
+                    Vec3::new(x, x * 0.01, 0.01),
+                ]
+            })
+            .collect();
+        let (bvh, _) = check(&tris, 2000, 4);
+        assert!(bvh.stats.max_depth <= MAX_DEPTH, "{:?}", bvh.stats);
+    }
+
+    #[test]
+    fn builds_a_million_triangles() {
+        let tris = soup(
+            &mut Pcg::new(5),
+            1_000_000,
+            &[Kind::Uniform, Kind::Thin, Kind::Clustered],
+        );
+        let (bvh, _) = check(&tris, 20, 6);
+        println!("1M triangles: {:?}", bvh.stats);
+    }
+}

@@ -1,0 +1,273 @@
+//! Writing a film to disk and reading EXR images back.
+//!
+//! - `.exr`: one unnamed layer, f32 channels `R`, `G`, `B` (linear mean radiance),
+//!   `variance.R`, `variance.G`, `variance.B` (variance of the pixel mean) and u32 `count`
+//!   (finite samples), ZIP compressed (lossless).
+//! - `.png`: 8-bit sRGB, linear mean × 2^exposure clamped to [0, 1], then the sRGB transfer
+//!   function of IEC 61966-2-1, rounded to nearest.
+//!
+//! Rows run top to bottom; pixel (0, 0) is the top-left corner, as in the film.
+
+use crate::film::Film;
+use anyhow::{bail, Context};
+use exr::prelude::*;
+use std::path::Path;
+
+/// Extensions `write_image` understands (lower case).
+pub const SUPPORTED_EXTENSIONS: &[&str] = &["exr", "png"];
+
+/// Writes by extension (case-insensitive): `.exr` → linear RGB mean in channels R, G, B plus
+/// "variance.R", "variance.G", "variance.B" (variance of the pixel mean, f32) and "count" (u32);
+/// `.png` → 8-bit sRGB of the mean × 2^exposure (`exposure` is ignored for EXR).
+/// Other extensions are an error naming the path and the supported ones.
+pub fn write_image(film: &Film, path: &Path, exposure: f32) -> anyhow::Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("exr") => write_exr(film, path)
+            .with_context(|| format!("writing OpenEXR image {}", path.display())),
+        Some("png") => write_png(film, path, exposure)
+            .with_context(|| format!("writing PNG image {}", path.display())),
+        _ => bail!(
+            "cannot write image {}: unknown extension; supported: {}",
+            path.display(),
+            SUPPORTED_EXTENSIONS
+                .iter()
+                .map(|e| format!(".{e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// An image read back from an EXR file, row-major with the top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageData {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB (channels R, G, B).
+    pub mean: Vec<[f32; 3]>,
+    /// Variance of the pixel mean (channels variance.R/G/B), if the file has all three.
+    pub variance: Option<Vec<[f32; 3]>>,
+    /// Samples per pixel (channel "count"), if the file has it.
+    pub count: Option<Vec<u32>>,
+}
+
+/// Reads the first layer of an EXR file: channels R, G, B are required; variance.R/G/B and
+/// count are returned when present. Errors name the path.
+pub fn read_exr(path: &Path) -> anyhow::Result<ImageData> {
+    read_exr_inner(path).with_context(|| format!("reading OpenEXR image {}", path.display()))
+}
+
+fn write_exr(film: &Film, path: &Path) -> anyhow::Result<()> {
+    let n = film.len();
+    let mut mean = [
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    ];
+    let mut var = [
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    ];
+    for p in 0..n {
+        let (m, v) = (film.mean(p), film.variance_of_mean(p));
+        for c in 0..3 {
+            mean[c].push(m[c]);
+            var[c].push(v[c]);
+        }
+    }
+    let count: Vec<u32> = film.pixels.iter().map(|p| p.count).collect();
+    let [r, g, b] = mean;
+    let [vr, vg, vb] = var;
+    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+        AnyChannel::new("R", FlatSamples::F32(r)),
+        AnyChannel::new("G", FlatSamples::F32(g)),
+        AnyChannel::new("B", FlatSamples::F32(b)),
+        AnyChannel::new("variance.R", FlatSamples::F32(vr)),
+        AnyChannel::new("variance.G", FlatSamples::F32(vg)),
+        AnyChannel::new("variance.B", FlatSamples::F32(vb)),
+        AnyChannel::new("count", FlatSamples::U32(count)),
+    ]));
+    let size = (film.width as usize, film.height as usize);
+    let layer = Layer::new(
+        size,
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    Image::from_layer(layer).write().to_file(path)?;
+    Ok(())
+}
+
+fn read_exr_inner(path: &Path) -> anyhow::Result<ImageData> {
+    let image = read_first_flat_layer_from_file(path)?;
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let channel = |name: &str| {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name == *name)
+            .map(|c| &c.sample_data)
+    };
+    let rgb = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
+        let planes: Vec<Vec<f32>> = names
+            .iter()
+            .map(|n| channel(n).map(|s| s.values_as_f32().collect()))
+            .collect::<Option<_>>()?;
+        Some(
+            (0..width * height)
+                .map(|i| [planes[0][i], planes[1][i], planes[2][i]])
+                .collect(),
+        )
+    };
+    let Some(mean) = rgb(["R", "G", "B"]) else {
+        let names: Vec<String> = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        bail!(
+            "the first layer has no R, G, B channels (it has: {})",
+            names.join(", ")
+        );
+    };
+    let variance = rgb(["variance.R", "variance.G", "variance.B"]);
+    let count = channel("count").map(|s| match s {
+        FlatSamples::U32(v) => v.clone(),
+        other => other.values_as_f32().map(|c| c as u32).collect(),
+    });
+    Ok(ImageData {
+        width: width as u32,
+        height: height as u32,
+        mean,
+        variance,
+        count,
+    })
+}
+
+fn write_png(film: &Film, path: &Path, exposure: f32) -> anyhow::Result<()> {
+    let scale = exposure.exp2();
+    let mut bytes = Vec::with_capacity(film.len() * 3);
+    for p in 0..film.len() {
+        let m = film.mean(p);
+        bytes.extend(m.to_array().map(|c| srgb_encode_u8(c * scale)));
+    }
+    let image = image::RgbImage::from_raw(film.width, film.height, bytes)
+        .context("pixel buffer does not match the film size")?;
+    image.save_with_format(path, image::ImageFormat::Png)?;
+    Ok(())
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1], as an 8-bit
+/// code rounded to nearest. NaN maps to 0.
+pub fn srgb_encode_u8(linear: f32) -> u8 {
+    let x = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0) as f64
+    };
+    let encoded = if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
+    (encoded * 255.0).round() as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn temp_path(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("wavetrace-image-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    #[test]
+    fn exr_round_trip_is_bitwise() {
+        let (w, h) = (5, 3);
+        let mut film = Film::new(w, h);
+        for i in 0..(w * h * 7) as usize {
+            let x = i as f32 * 0.37;
+            film.add_sample(
+                i % (w * h) as usize,
+                Vec3::new(x.sin().abs(), x * 0.01, 1.0 / (1.0 + x)),
+            );
+        }
+        let path = temp_path("round_trip.exr");
+        write_image(&film, &path, 0.0).unwrap();
+        let image = read_exr(&path).unwrap();
+        assert_eq!((image.width, image.height), (w, h));
+        let variance = image.variance.expect("variance channels");
+        let count = image.count.expect("count channel");
+        for p in 0..film.len() {
+            let (m, v) = (film.mean(p).to_array(), film.variance_of_mean(p).to_array());
+            assert_eq!(
+                image.mean[p].map(f32::to_bits),
+                m.map(f32::to_bits),
+                "pixel {p}"
+            );
+            assert_eq!(
+                variance[p].map(f32::to_bits),
+                v.map(f32::to_bits),
+                "pixel {p}"
+            );
+            assert_eq!(count[p], film.pixels[p].count);
+        }
+    }
+
+    #[test]
+    fn png_has_srgb_codes_of_known_values() {
+        let below = 0.0031308_f32 * 0.999;
+        let values = [0.0, 1.0, 0.5, 0.0031308, below, 2.0, -1.0];
+        let expected = [0u8, 255, 188, 10, 10, 255, 0];
+        // Row 0 holds the values in R; row 1 is a dimmer copy (exposure −1 applied below).
+        let mut film = Film::new(values.len() as u32, 2);
+        for (x, &v) in values.iter().enumerate() {
+            film.add_sample(x, Vec3::new(v, 0.0, 1.0));
+            film.add_sample(x + values.len(), Vec3::splat(0.25));
+        }
+        let path = temp_path("known.png");
+        write_image(&film, &path, 0.0).unwrap();
+        let decoded = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(decoded.dimensions(), (values.len() as u32, 2));
+        for (x, &e) in expected.iter().enumerate() {
+            assert_eq!(
+                decoded.get_pixel(x as u32, 0).0,
+                [e, 0, 255],
+                "linear {}",
+                values[x]
+            );
+        }
+        // 0.25 linear is sRGB 137.
+        assert_eq!(decoded.get_pixel(0, 1).0, [137; 3]);
+        write_image(&film, &path, 1.0).unwrap();
+        let brighter = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(brighter.get_pixel(0, 1).0, [188; 3]);
+    }
+
+    #[test]
+    fn unknown_extension_names_path_and_formats() {
+        let err = write_image(&Film::new(1, 1), Path::new("out/picture.tiff"), 0.0).unwrap_err();
+        let msg = format!("{err:#}");
+        assert!(
+            msg.contains("out/picture.tiff") && msg.contains(".exr") && msg.contains(".png"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn read_errors_name_the_path() {
+        let err = read_exr(Path::new("/nonexistent/missing.exr")).unwrap_err();
+        assert!(format!("{err:#}").contains("/nonexistent/missing.exr"));
+    }
+}

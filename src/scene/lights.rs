@@ -1,0 +1,138 @@
+//! The emitter table: every emitting triangle with its probability of being chosen by next
+//! event estimation, proportional to its emitted power (luminance-weighted).
+
+use crate::layout::{GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED};
+use glam::Vec3;
+
+/// Photometric luminance of linear Rec. 709 RGB (ITU-R BT.709 weights).
+pub fn luminance(rgb: Vec3) -> f32 {
+    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
+}
+
+/// Power emitted by a Lambertian emitter of constant radiance: Φ = L·A·π per emitting side
+/// (the cosine-weighted hemisphere integrates to π).
+pub fn emitted_power(emission: Vec3, area: f32, double_sided: bool) -> f32 {
+    let sides = if double_sided { 2.0 } else { 1.0 };
+    luminance(emission) * area * std::f32::consts::PI * sides
+}
+
+/// Fills `light_pmf` of every triangle (0 for those that do not emit) and returns the emitter
+/// table: one entry per triangle of positive power, in triangle order, with `pmf` = power /
+/// total and `cdf` the running sum of pmfs, the last entry exactly 1. No emitters → empty.
+///
+/// `triangles[i].area` must already hold 0.5·|e1 × e2|; `material` indexes `materials`
+/// (an index out of range counts as non-emitting).
+pub fn build_light_table(triangles: &mut [GpuTriangle], materials: &[GpuMaterial]) -> Vec<LightEntry> {
+    let power: Vec<f64> = triangles
+        .iter()
+        .map(|tri| {
+            let Some(m) = materials.get(tri.material as usize) else {
+                return 0.0;
+            };
+            let p = emitted_power(
+                Vec3::from(m.emission),
+                tri.area,
+                m.flags & MATERIAL_DOUBLE_SIDED != 0,
+            );
+            if p.is_finite() && p > 0.0 {
+                p as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let total: f64 = power.iter().sum();
+
+    let mut table = Vec::new();
+    let mut running = 0.0f64;
+    for (i, (tri, &p)) in triangles.iter_mut().zip(&power).enumerate() {
+        if p <= 0.0 {
+            tri.light_pmf = 0.0;
+            continue;
+        }
+        running += p;
+        let pmf = (p / total) as f32;
+        tri.light_pmf = pmf;
+        table.push(LightEntry {
+            cdf: (running / total) as f32,
+            triangle: i as u32,
+            pmf,
+            pad: 0,
+        });
+    }
+    if let Some(last) = table.last_mut() {
+        last.cdf = 1.0;
+    }
+    table
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn triangle(material: u32, area: f32) -> GpuTriangle {
+        GpuTriangle {
+            material,
+            area,
+            light_pmf: -1.0,
+            ..Default::default()
+        }
+    }
+
+    fn material(emission: [f32; 3], flags: u32) -> GpuMaterial {
+        GpuMaterial {
+            base_color: [0.5; 3],
+            flags,
+            emission,
+            pad: 0,
+        }
+    }
+
+    #[test]
+    fn table_is_proportional_to_power() {
+        let materials = [
+            material([0.0; 3], 0),
+            material([1.0; 3], 0),
+            material([1.0; 3], MATERIAL_DOUBLE_SIDED),
+            material([0.0, 2.0, 0.0], 0),
+        ];
+        // Powers (in units of π): 0, 1, 3, 2 (double-sided, area 1), 0, 0.7152·2·0.5.
+        let mut tris = [
+            triangle(0, 1.0),
+            triangle(1, 1.0),
+            triangle(1, 3.0),
+            triangle(2, 1.0),
+            triangle(1, 0.0),
+            triangle(3, 0.5),
+        ];
+        let table = build_light_table(&mut tris, &materials);
+        let powers = [1.0, 3.0, 2.0, 0.7152];
+        let total: f32 = powers.iter().sum();
+        assert_eq!(table.iter().map(|e| e.triangle).collect::<Vec<_>>(), [1, 2, 3, 5]);
+        let mut cdf = 0.0;
+        for (entry, p) in table.iter().zip(powers) {
+            assert!((entry.pmf - p / total).abs() < 1e-6, "{entry:?}");
+            assert_eq!(tris[entry.triangle as usize].light_pmf, entry.pmf);
+            cdf += p / total;
+            assert!((entry.cdf - cdf).abs() < 1e-6);
+        }
+        assert_eq!(table.last().unwrap().cdf, 1.0);
+        assert_eq!(tris[0].light_pmf, 0.0);
+        assert_eq!(tris[4].light_pmf, 0.0);
+    }
+
+    #[test]
+    fn no_emitters_gives_an_empty_table() {
+        let mut tris = [triangle(0, 1.0), triangle(7, 1.0)];
+        let table = build_light_table(&mut tris, &[material([0.0; 3], 0)]);
+        assert!(table.is_empty());
+        assert!(tris.iter().all(|t| t.light_pmf == 0.0));
+    }
+
+    #[test]
+    fn power_of_a_unit_emitter() {
+        let p = emitted_power(Vec3::ONE, 2.0, true);
+        assert!((p - 4.0 * std::f32::consts::PI).abs() < 1e-5);
+        assert!((luminance(Vec3::ONE) - 1.0).abs() < 1e-6);
+    }
+}

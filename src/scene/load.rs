@@ -1,0 +1,627 @@
+//! glTF 2.0 (`.gltf` / `.glb`) → [`Scene`].
+//!
+//! The `gltf` crate parses and validates the JSON (unresolved references, out-of-range enums);
+//! everything after that is done here, without `gltf::import`: buffers are resolved relative to
+//! the file (base64 `data:` URIs, relative paths, the GLB binary chunk), images are never
+//! decoded (textures are ignored), and accessors are read with every offset, stride and index
+//! checked, so that bad input becomes an error that names the file, the object and the
+//! problem instead of a panic.
+//!
+//! Supported: every node of the default scene (scene 0 if none is default), TRS or matrix
+//! transforms, triangle lists, strips and fans, u8/u16/u32 or no indices, sparse accessors.
+//! Point and line primitives are skipped (counted in `Scene::skipped_primitives`); skins,
+//! morph targets, textures and KHR_mesh_quantization are not supported (the first two are
+//! ignored, quantized positions are an error).
+
+use super::{bounds_of, Camera, Material, Scene, Triangle};
+use anyhow::{anyhow, bail, Context, Result};
+use glam::{Mat3, Mat4, Vec3};
+use gltf::accessor::{sparse::IndexType, Accessor, DataType, Dimensions};
+use gltf::buffer::{self, View};
+use gltf::mesh::{Mode, Primitive};
+use gltf::Document;
+use std::path::Path;
+
+/// Extensions a file may list in `extensionsRequired`.
+const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+
+/// The most elements an accessor without a buffer view (all zeros) may claim.
+const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 26;
+
+pub(super) fn load(path: &Path) -> Result<Scene> {
+    load_file(path).with_context(|| format!("cannot load scene {}", path.display()))
+}
+
+fn load_file(path: &Path) -> Result<Scene> {
+    let bytes = std::fs::read(path).context("cannot read the file")?;
+    if bytes.is_empty() {
+        bail!("the file is empty (expected glTF JSON or binary glTF)");
+    }
+    check_glb_header(&bytes)?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| anyhow!("not a glTF 2.0 document: {e}"))?;
+    // Checked before validation, which would reject them with a less helpful message.
+    for ext in document.extensions_required() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            bail!(
+                "the file requires the glTF extension {ext}, which wavetrace does not support \
+                 (supported: {})",
+                SUPPORTED_EXTENSIONS.join(", ")
+            );
+        }
+    }
+    check_position_indices(document.as_json())?;
+    let document = Document::from_json(document.into_json()).map_err(|e| anyhow!("{e}"))?;
+
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = load_buffers(&document, blob.as_deref(), base)?;
+    let materials = document
+        .materials()
+        .enumerate()
+        .map(|(i, m)| convert_material(i, &m))
+        .collect::<Result<_>>()?;
+    let scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .ok_or_else(|| anyhow!("the file contains no scene, so there is nothing to render"))?;
+
+    let mut builder = Builder {
+        buffers: &buffers,
+        triangles: Vec::new(),
+        materials,
+        default_material: None,
+        camera: None,
+        dropped_degenerate: 0,
+        skipped_primitives: 0,
+    };
+    builder.walk(&document, &scene)?;
+    if builder.triangles.is_empty() {
+        bail!(
+            "{} has no triangles to render ({} zero-area triangles dropped, {} point/line \
+             primitives skipped)",
+            label("scene", scene.index(), scene.name()),
+            builder.dropped_degenerate,
+            builder.skipped_primitives
+        );
+    }
+    let camera = builder
+        .camera
+        .unwrap_or_else(|| Camera::framing(bounds_of(&builder.triangles)));
+    Ok(Scene {
+        source: path.to_path_buf(),
+        triangles: builder.triangles,
+        materials: builder.materials,
+        camera,
+        dropped_degenerate: builder.dropped_degenerate,
+        skipped_primitives: builder.skipped_primitives,
+    })
+}
+
+/// `kind index "name"`, e.g. `mesh 3 "Chair"`, or `kind index` for unnamed objects.
+fn label(kind: &str, index: usize, name: Option<&str>) -> String {
+    match name {
+        Some(name) if !name.is_empty() => format!("{kind} {index} \"{name}\""),
+        _ => format!("{kind} {index}"),
+    }
+}
+
+/// gltf-json 1.4's validation indexes each primitive's POSITION accessor without a bounds check
+/// (a panic on a dangling index), so check that first.
+fn check_position_indices(root: &gltf::json::Root) -> Result<()> {
+    use gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive
+                .attributes
+                .get(&Checked::Valid(gltf::Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                bail!(
+                    "{}, primitive {p}: POSITION refers to accessor {}, but the file has {} accessors",
+                    label("mesh", m, mesh.name.as_deref()),
+                    index.value(),
+                    root.accessors.len()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The GLB header's total length must lie within the file (the `gltf` crate assumes ≥ 12).
+fn check_glb_header(bytes: &[u8]) -> Result<()> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let Some(length) = bytes.get(8..12) else {
+        bail!(
+            "binary glTF: the file ends inside the 12-byte header ({} bytes)",
+            bytes.len()
+        );
+    };
+    let length = u32::from_le_bytes(length.try_into().unwrap()) as usize;
+    if length < 12 || length > bytes.len() {
+        bail!(
+            "binary glTF: the header declares {length} bytes but the file has {}",
+            bytes.len()
+        );
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Buffers
+
+fn load_buffers(document: &Document, blob: Option<&[u8]>, base: &Path) -> Result<Vec<Vec<u8>>> {
+    document
+        .buffers()
+        .map(|buffer| {
+            let what = label("buffer", buffer.index(), buffer.name());
+            let mut data = match buffer.source() {
+                buffer::Source::Bin => blob
+                    .ok_or_else(|| {
+                        anyhow!("{what} has no uri, and the file is not a GLB with a binary chunk")
+                    })?
+                    .to_vec(),
+                buffer::Source::Uri(uri) => read_uri(uri, base)
+                    .with_context(|| format!("{what}: cannot load {}", describe_uri(uri)))?,
+            };
+            if data.len() < buffer.length() {
+                bail!(
+                    "{what} declares byteLength {} but its data has only {} bytes",
+                    buffer.length(),
+                    data.len()
+                );
+            }
+            data.truncate(buffer.length());
+            Ok(data)
+        })
+        .collect()
+}
+
+/// The URI for a message: data URIs can be megabytes long.
+fn describe_uri(uri: &str) -> String {
+    if uri.starts_with("data:") {
+        format!("its data: URI ({} characters)", uri.len())
+    } else {
+        format!("\"{uri}\"")
+    }
+}
+
+fn read_uri(uri: &str, base: &Path) -> Result<Vec<u8>> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let Some((header, payload)) = rest.split_once(',') else {
+            bail!("malformed data URI (no ',' before the data)");
+        };
+        if !header.ends_with(";base64") {
+            bail!("the data URI is not base64-encoded (its header is \"data:{header}\")");
+        }
+        return decode_base64(payload);
+    }
+    // A scheme is letters/digits/+/-/. before the first ':' (RFC 3986 §3.1).
+    if let Some((scheme, _)) = uri.split_once(':') {
+        if !scheme.contains('/') {
+            bail!("unsupported URI scheme \"{scheme}:\" (only data: URIs and relative paths are supported)");
+        }
+    }
+    let relative = percent_decode(uri)?;
+    let file = base.join(relative);
+    std::fs::read(&file).with_context(|| format!("cannot read {}", file.display()))
+}
+
+/// Decodes `%XX` escapes of a relative URI reference into a path.
+fn percent_decode(uri: &str) -> Result<String> {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = bytes.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok());
+            let Some(byte) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) else {
+                bail!("malformed percent-escape at byte {i} of the URI");
+            };
+            out.push(byte);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).map_err(|_| anyhow!("the URI does not decode to UTF-8"))
+}
+
+/// Standard or URL-safe base64 (RFC 4648), padding optional.
+fn decode_base64(text: &str) -> Result<Vec<u8>> {
+    let text = text.trim_end_matches('=');
+    if text.len() % 4 == 1 {
+        bail!(
+            "invalid base64 data: {} characters is not a whole number of bytes",
+            text.len()
+        );
+    }
+    let mut out = Vec::with_capacity(text.len() / 4 * 3 + 2);
+    let (mut acc, mut bits) = (0u32, 0u32);
+    for (i, c) in text.bytes().enumerate() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            _ => bail!(
+                "invalid base64 data: unexpected character {:?} at offset {i}",
+                c as char
+            ),
+        };
+        acc = (acc << 6) | v as u32;
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Accessors
+
+/// Decoded elements of an accessor: dense data (zeros without a buffer view), then sparse
+/// substitutions. `size` is the element size in bytes, `decode` reads one element.
+fn read_accessor<T: Copy + Default>(
+    accessor: &Accessor,
+    buffers: &[Vec<u8>],
+    size: usize,
+    decode: impl Fn(&[u8]) -> T,
+) -> Result<Vec<T>> {
+    let count = accessor.count();
+    let mut out = match accessor.view() {
+        Some(view) => read_view(&view, accessor.offset(), count, size, buffers, &decode)?,
+        None if count <= MAX_ZERO_ACCESSOR_COUNT => vec![T::default(); count],
+        None => bail!("count {count} without a bufferView is implausibly large"),
+    };
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        let indices = sparse.indices();
+        let slots = read_view(
+            &indices.view(),
+            indices.offset(),
+            n,
+            indices.index_type().size(),
+            buffers,
+            &|b| match indices.index_type() {
+                IndexType::U8 => b[0] as usize,
+                IndexType::U16 => u16::from_le_bytes([b[0], b[1]]) as usize,
+                IndexType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+            },
+        )
+        .context("sparse indices")?;
+        let values = sparse.values();
+        let values =
+            read_view(&values.view(), values.offset(), n, size, buffers, &decode).context("sparse values")?;
+        for (k, (slot, value)) in slots.into_iter().zip(values).enumerate() {
+            let Some(element) = out.get_mut(slot) else {
+                bail!("sparse index {slot} (entry {k}) is out of range: the accessor has {count} elements");
+            };
+            *element = value;
+        }
+    }
+    Ok(out)
+}
+
+/// `count` elements of `size` bytes at `offset` within a buffer view, honouring its stride.
+fn read_view<T>(
+    view: &View,
+    offset: usize,
+    count: usize,
+    size: usize,
+    buffers: &[Vec<u8>],
+    decode: &dyn Fn(&[u8]) -> T,
+) -> Result<Vec<T>> {
+    let what = label("bufferView", view.index(), view.name());
+    let buffer = &buffers[view.buffer().index()];
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        bail!("{what}: byteStride {stride} is smaller than the {size}-byte elements it holds");
+    }
+    let (start, length) = (view.offset(), view.length());
+    let Some(data) = start.checked_add(length).and_then(|end| buffer.get(start..end)) else {
+        bail!(
+            "{what} (bytes {start}..{}) lies outside {} of {} bytes",
+            start.saturating_add(length),
+            label("buffer", view.buffer().index(), view.buffer().name()),
+            buffer.len()
+        );
+    };
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let end = (count - 1)
+        .checked_mul(stride)
+        .and_then(|x| x.checked_add(offset))
+        .and_then(|x| x.checked_add(size));
+    if !matches!(end, Some(end) if end <= data.len()) {
+        bail!(
+            "{count} elements of {size} bytes (stride {stride}) from byte offset {offset} do not fit \
+             in {what} of {length} bytes"
+        );
+    }
+    Ok((0..count)
+        .map(|i| decode(&data[offset + i * stride..][..size]))
+        .collect())
+}
+
+fn read_positions(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vec3>> {
+    if accessor.dimensions() != Dimensions::Vec3
+        || accessor.data_type() != DataType::F32
+        || accessor.normalized()
+    {
+        bail!(
+            "positions must be VEC3 of FLOAT, found {:?} of {:?} (quantized positions, \
+             KHR_mesh_quantization, are not supported)",
+            accessor.dimensions(),
+            accessor.data_type()
+        );
+    }
+    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    read_accessor(accessor, buffers, 12, |b| {
+        Vec3::new(f(&b[0..4]), f(&b[4..8]), f(&b[8..12]))
+    })
+}
+
+fn read_indices(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>> {
+    if accessor.dimensions() != Dimensions::Scalar {
+        bail!("indices must be SCALAR, found {:?}", accessor.dimensions());
+    }
+    match accessor.data_type() {
+        DataType::U8 => read_accessor(accessor, buffers, 1, |b| b[0] as u32),
+        DataType::U16 => read_accessor(accessor, buffers, 2, |b| u16::from_le_bytes([b[0], b[1]]) as u32),
+        DataType::U32 => read_accessor(accessor, buffers, 4, |b| {
+            u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+        }),
+        other => bail!("indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, found {other:?}"),
+    }
+}
+
+/// Vertex triples of a triangle list, strip or fan (glTF 2.0 §3.7.2.1 topology rules).
+fn triangle_corners(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>> {
+    let n = v.len();
+    Ok(match mode {
+        Mode::Triangles => {
+            if !n.is_multiple_of(3) {
+                bail!("a triangle list needs a multiple of 3 vertices/indices, found {n}");
+            }
+            v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        }
+        Mode::TriangleStrip => (0..n.saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [v[i], v[i + 1], v[i + 2]]
+                } else {
+                    [v[i], v[i + 2], v[i + 1]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (0..n.saturating_sub(2))
+            .map(|i| [v[i + 1], v[i + 2], v[0]])
+            .collect(),
+        _ => Vec::new(),
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials
+
+fn convert_material(index: usize, material: &gltf::Material) -> Result<Material> {
+    let what = label("material", index, material.name());
+    let [r, g, b, _] = material.pbr_metallic_roughness().base_color_factor();
+    let base_color = Vec3::new(r, g, b);
+    // The spec bounds factors to [0, 1]; forgive rounding just above 1.
+    if !(base_color.is_finite() && base_color.min_element() >= 0.0 && base_color.max_element() <= 1.0 + 1e-4)
+    {
+        bail!("{what}: baseColorFactor {base_color} is outside [0, 1] (an albedo above 1 creates energy)");
+    }
+    let factor = Vec3::from(material.emissive_factor());
+    let strength = material.emissive_strength().unwrap_or(1.0);
+    let emission = factor * strength;
+    if !(factor.is_finite() && factor.min_element() >= 0.0 && strength >= 0.0 && emission.is_finite()) {
+        bail!("{what}: emission (emissiveFactor {factor} × emissiveStrength {strength}) must be finite and non-negative");
+    }
+    Ok(Material {
+        name: material
+            .name()
+            .map_or_else(|| format!("material {index}"), str::to_owned),
+        base_color: base_color.min(Vec3::ONE),
+        emission,
+        double_sided: material.double_sided(),
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Node traversal
+
+struct Builder<'a> {
+    buffers: &'a [Vec<u8>],
+    triangles: Vec<Triangle>,
+    materials: Vec<Material>,
+    default_material: Option<u32>,
+    camera: Option<Camera>,
+    dropped_degenerate: usize,
+    skipped_primitives: usize,
+}
+
+impl Builder<'_> {
+    /// Depth-first, pre-order (children in file order), accumulating world transforms. A node
+    /// reached twice is an error: either a loop or a node with two parents (glTF requires a
+    /// forest), which also bounds the work by the number of nodes.
+    fn walk(&mut self, document: &Document, scene: &gltf::Scene) -> Result<()> {
+        let node_count = document.nodes().len();
+        let node_label = |i: usize| label("node", i, document.nodes().nth(i).and_then(|n| n.name()));
+        let mut parent: Vec<Option<usize>> = vec![None; node_count];
+        let mut visited = vec![false; node_count];
+        let mut stack: Vec<(gltf::Node, Mat4, Option<usize>)> =
+            scene.nodes().map(|n| (n, Mat4::IDENTITY, None)).collect();
+        stack.reverse();
+
+        while let Some((node, parent_world, from)) = stack.pop() {
+            let i = node.index();
+            let what = label("node", i, node.name());
+            if visited[i] {
+                let mut ancestor = from;
+                while let Some(a) = ancestor {
+                    if a == i {
+                        bail!(
+                            "node loop: {what} is its own ancestor (reached again from {})",
+                            node_label(from.unwrap())
+                        );
+                    }
+                    ancestor = parent[a];
+                }
+                match from {
+                    Some(p) => bail!("{what} is reached twice (again as a child of {}); a glTF node may have only one parent", node_label(p)),
+                    None => bail!("{what} is a root of {} but is also reached elsewhere", label("scene", scene.index(), scene.name())),
+                }
+            }
+            visited[i] = true;
+            parent[i] = from;
+
+            let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+            if !local.is_finite() {
+                bail!("{what} has a non-finite transform: {local}");
+            }
+            let world = parent_world * local;
+            if !world.is_finite() {
+                bail!("{what}: its world transform overflows to non-finite values: {world}");
+            }
+            if let (None, Some(camera)) = (&self.camera, node.camera()) {
+                if let gltf::camera::Projection::Perspective(p) = camera.projection() {
+                    let camera = Camera::from_node(&world, p.yfov(), p.aspect_ratio()).map_err(|e| {
+                        anyhow!(
+                            "{} on {what}: {e}",
+                            label("camera", camera.index(), camera.name())
+                        )
+                    })?;
+                    self.camera = Some(camera);
+                }
+            }
+            if let Some(mesh) = node.mesh() {
+                for primitive in mesh.primitives() {
+                    self.add_primitive(&primitive, &world).with_context(|| {
+                        format!(
+                            "{}, primitive {} (instanced by {what})",
+                            label("mesh", mesh.index(), mesh.name()),
+                            primitive.index()
+                        )
+                    })?;
+                }
+            }
+            let children: Vec<_> = node.children().collect();
+            stack.extend(children.into_iter().rev().map(|c| (c, world, Some(i))));
+        }
+        Ok(())
+    }
+
+    fn add_primitive(&mut self, primitive: &Primitive, world: &Mat4) -> Result<()> {
+        if !matches!(
+            primitive.mode(),
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            self.skipped_primitives += 1;
+            return Ok(());
+        }
+        let Some(accessor) = primitive.get(&gltf::Semantic::Positions) else {
+            bail!("it has no POSITION attribute");
+        };
+        let positions = read_positions(&accessor, self.buffers).with_context(|| {
+            format!(
+                "POSITION {}",
+                label("accessor", accessor.index(), accessor.name())
+            )
+        })?;
+        let vertices: Vec<u32> = match primitive.indices() {
+            Some(accessor) => {
+                let what = format!("indices {}", label("accessor", accessor.index(), accessor.name()));
+                let indices = read_indices(&accessor, self.buffers).context(what.clone())?;
+                if let Some((k, v)) = indices
+                    .iter()
+                    .enumerate()
+                    .find(|(_, &v)| v as usize >= positions.len())
+                {
+                    bail!(
+                        "{what}: index {v} (element {k}) is out of range, POSITION has {} vertices",
+                        positions.len()
+                    );
+                }
+                indices
+            }
+            None => (0..positions.len() as u32).collect(),
+        };
+        let corners = triangle_corners(primitive.mode(), &vertices)?;
+        let material = self.material_index(primitive.material().index());
+        // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
+        let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;
+
+        for (t, c) in corners.iter().enumerate() {
+            let mut p = c.map(|v| world.transform_point3(positions[v as usize]));
+            if let Some(k) = p.iter().position(|q| !q.is_finite()) {
+                bail!(
+                    "vertex {} (corner {k} of triangle {t}) has a non-finite world-space position {}",
+                    c[k],
+                    p[k]
+                );
+            }
+            if mirrored {
+                p.swap(1, 2);
+            }
+            let triangle = Triangle { p, material };
+            if triangle.geometric_normal().try_normalize().is_none() {
+                self.dropped_degenerate += 1;
+                continue;
+            }
+            self.triangles.push(triangle);
+        }
+        Ok(())
+    }
+
+    /// The file's material index, or the default material, appended on first use.
+    fn material_index(&mut self, index: Option<usize>) -> u32 {
+        if let Some(i) = index {
+            return i as u32;
+        }
+        *self.default_material.get_or_insert_with(|| {
+            self.materials.push(Material::default_white());
+            (self.materials.len() - 1) as u32
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_round_trips() {
+        assert_eq!(decode_base64("AAECAw==").unwrap(), [0, 1, 2, 3]);
+        assert_eq!(decode_base64("AAECAw").unwrap(), [0, 1, 2, 3]);
+        assert_eq!(decode_base64("/+8=").unwrap(), [0xff, 0xef]);
+        assert_eq!(decode_base64("").unwrap(), Vec::<u8>::new());
+        assert!(decode_base64("AA*A").is_err());
+        assert!(decode_base64("AAAAA").is_err());
+    }
+
+    #[test]
+    fn percent_escapes_decode() {
+        assert_eq!(percent_decode("a%20b.bin").unwrap(), "a b.bin");
+        assert!(percent_decode("a%2").is_err());
+        assert!(percent_decode("%FF").is_err());
+    }
+
+    #[test]
+    fn strips_and_fans_keep_the_winding() {
+        let strip = triangle_corners(Mode::TriangleStrip, &[0, 1, 2, 3]).unwrap();
+        assert_eq!(strip, [[0, 1, 2], [1, 3, 2]]);
+        let fan = triangle_corners(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap();
+        assert_eq!(fan, [[1, 2, 0], [2, 3, 0]]);
+        assert!(triangle_corners(Mode::Triangles, &[0, 1]).is_err());
+    }
+}

@@ -1,0 +1,116 @@
+//! The scene as the renderer sees it: world-space triangles, Lambertian materials with emission,
+//! and a pinhole camera, loaded from glTF 2.0 (`.gltf` or `.glb`).
+//!
+//! Conventions are glTF's (DESIGN.md): metres, right-handed, +Y up, cameras look down −Z. A
+//! triangle's front face is the one from which its vertices appear counter-clockwise, i.e. the
+//! side its geometric normal `cross(p1 − p0, p2 − p0)` points to. Emission leaves the front face
+//! only, unless the material is double-sided.
+//!
+//! - [`load`](Scene::load): glTF → [`Scene`] (`load.rs`), with errors that name the file, the
+//!   object and the problem.
+//! - [`Camera`] (`camera.rs`): the file's first perspective camera, or a framing default.
+//! - [`build_light_table`] (`lights.rs`): the emitter table sampled by next event estimation.
+
+mod camera;
+mod lights;
+mod load;
+
+pub use camera::Camera;
+pub use lights::{build_light_table, emitted_power, luminance};
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+/// Everything the integrators need from a scene file.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file it came from, for messages.
+    pub source: PathBuf,
+    /// World-space triangles of every mesh primitive of the default scene, in node traversal
+    /// order (depth-first, children in file order).
+    pub triangles: Vec<Triangle>,
+    /// Indexed by `Triangle::material`: the file's materials in file order, then
+    /// [`Material::default_white`] if some primitive has no material.
+    pub materials: Vec<Material>,
+    pub camera: Camera,
+    /// Zero-area triangles dropped while loading.
+    pub dropped_degenerate: usize,
+    /// Point and line primitives skipped while loading (they have no surface to hit).
+    pub skipped_primitives: usize,
+}
+
+/// A world-space triangle. Counter-clockwise (seen from the front) = front face.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub p: [Vec3; 3],
+    /// Index into `Scene::materials`.
+    pub material: u32,
+}
+
+impl Triangle {
+    /// `cross(p1 − p0, p2 − p0)`: points to the front face, length = twice the area.
+    pub fn geometric_normal(&self) -> Vec3 {
+        (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
+    }
+
+    pub fn area(&self) -> f32 {
+        0.5 * self.geometric_normal().length()
+    }
+}
+
+/// A Lambertian material with emission (glTF `pbrMetallicRoughness.baseColorFactor` and
+/// `emissiveFactor × KHR_materials_emissive_strength`; textures are ignored).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB albedo, each component in [0, 1].
+    pub base_color: Vec3,
+    /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
+    pub emission: Vec3,
+    /// Emits from both faces (the BSDF shades both sides either way).
+    pub double_sided: bool,
+}
+
+impl Material {
+    /// The material of primitives that name none: white 0.8, no emission, single-sided.
+    pub fn default_white() -> Material {
+        Material {
+            name: "default".to_owned(),
+            base_color: Vec3::splat(0.8),
+            emission: Vec3::ZERO,
+            double_sided: false,
+        }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+impl Scene {
+    /// Loads the default scene (scene 0 if none is marked default) of a `.gltf` or `.glb` file.
+    ///
+    /// Errors name the file, the glTF object (node, mesh, primitive, accessor, buffer…) and the
+    /// problem; print them with `{:#}` (or `{:?}`) to see the whole chain.
+    pub fn load(path: &Path) -> anyhow::Result<Scene> {
+        load::load(path)
+    }
+
+    /// Axis-aligned bounds (min, max) of all triangles; (0, 0) for a scene without triangles.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        bounds_of(&self.triangles)
+    }
+}
+
+pub(crate) fn bounds_of(triangles: &[Triangle]) -> (Vec3, Vec3) {
+    if triangles.is_empty() {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for p in triangles.iter().flat_map(|t| t.p) {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    (lo, hi)
+}
