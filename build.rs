@@ -23,7 +23,10 @@ impl IncludeHandler for IncludeDir {
     ) -> Option<IncludeResult> {
         let path = self.0.join(header_name);
         let data = std::fs::read_to_string(&path).ok()?;
-        Some(IncludeResult { name: path.display().to_string(), data })
+        Some(IncludeResult {
+            name: path.display().to_string(),
+            data,
+        })
     }
 }
 
@@ -55,7 +58,9 @@ fn compile(compiler: &Compiler, path: &Path, include_dir: &Path) -> Result<Vec<u
     if log.to_ascii_uppercase().contains("WARNING") {
         return Err(format!("{}: warnings are errors:\n{log}", path.display()));
     }
-    shader.compile().map_err(|e| format!("{}: {e}", path.display()))
+    shader
+        .compile()
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn main() {
@@ -87,7 +92,12 @@ fn main() {
             Ok(words) => {
                 let spv = out.join(format!("{name}.spv"));
                 std::fs::write(&spv, bytemuck_words(&words)).unwrap();
-                writeln!(table, "    ({name:?}, include_bytes!({:?})),", spv.display()).unwrap();
+                writeln!(
+                    table,
+                    "    ({name:?}, include_bytes!({:?})),",
+                    spv.display()
+                )
+                .unwrap();
             }
             Err(e) => failures.push(e),
         }

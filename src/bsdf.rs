@@ -37,7 +37,11 @@ pub fn bsdf_sample(albedo: Vec3, n: Vec3, wo: Vec3, u: Vec2) -> BsdfSample {
     let local = sample_cosine_hemisphere(u);
     let (t, b) = build_frame(n);
     let wi = (t * local.x + b * local.y + n * local.z).normalize();
-    BsdfSample { wi, f: bsdf_eval(albedo, n, wo, wi), pdf: bsdf_pdf(n, wo, wi) }
+    BsdfSample {
+        wi,
+        f: bsdf_eval(albedo, n, wo, wi),
+        pdf: bsdf_pdf(n, wo, wi),
+    }
 }
 
 #[cfg(test)]
@@ -60,7 +64,10 @@ mod tests {
             }
             assert!((s.pdf - bsdf_pdf(n, wo, s.wi)).abs() <= 1e-6 * s.pdf.max(1.0));
             let weight = s.f * n.dot(s.wi) / s.pdf;
-            assert!((weight - albedo).abs().max_element() < 1e-3, "weight {weight}");
+            assert!(
+                (weight - albedo).abs().max_element() < 1e-3,
+                "weight {weight}"
+            );
         }
     }
 

@@ -5,7 +5,11 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
-#[command(name = "wavetrace", version, about = "Headless GPU wavefront path tracer with a CPU reference integrator")]
+#[command(
+    name = "wavetrace",
+    version,
+    about = "Headless GPU wavefront path tracer with a CPU reference integrator"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

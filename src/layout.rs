@@ -57,13 +57,13 @@ impl BvhNode {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {
-    pub p0: [f32; 3], // 12 bytes
+    pub p0: [f32; 3],  // 12 bytes
     pub material: u32, // 4 bytes
-    pub e1: [f32; 3], // 12 bytes: p1 − p0
+    pub e1: [f32; 3],  // 12 bytes: p1 − p0
     /// Probability of choosing this triangle when sampling emitters (0 if it does not emit).
     pub light_pmf: f32, // 4 bytes
-    pub e2: [f32; 3], // 12 bytes: p2 − p0
-    pub area: f32, // 4 bytes
+    pub e2: [f32; 3],  // 12 bytes: p2 − p0
+    pub area: f32,     // 4 bytes
 }
 
 /// Material flags (`Material::flags`).
@@ -74,9 +74,9 @@ pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
     pub base_color: [f32; 3], // 12 bytes: linear RGB albedo
-    pub flags: u32, // 4 bytes: MATERIAL_* bits
-    pub emission: [f32; 3], // 12 bytes: radiance, W·sr⁻¹·m⁻²
-    pub pad: u32, // 4 bytes
+    pub flags: u32,           // 4 bytes: MATERIAL_* bits
+    pub emission: [f32; 3],   // 12 bytes: radiance, W·sr⁻¹·m⁻²
+    pub pad: u32,             // 4 bytes
 }
 
 /// One entry of the emitter table: triangles that emit, with the running CDF of their selection
@@ -87,8 +87,8 @@ pub struct LightEntry {
     /// P(choose an entry ≤ this one); the last entry holds exactly 1.
     pub cdf: f32, // 4 bytes
     pub triangle: u32, // 4 bytes: index into the BVH-ordered triangles
-    pub pmf: f32, // 4 bytes
-    pub pad: u32, // 4 bytes
+    pub pmf: f32,      // 4 bytes
+    pub pad: u32,      // 4 bytes
 }
 
 /// Constants of one render (std140 uniform). Total: 96 bytes.
@@ -96,18 +96,18 @@ pub struct LightEntry {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
     pub cam_position: [f32; 3], // 12 bytes
-    pub tan_half_fov_y: f32, // 4 bytes
-    pub cam_right: [f32; 3], // 12 bytes
-    pub aspect: f32, // 4 bytes: width / height
-    pub cam_up: [f32; 3], // 12 bytes
-    pub width: u32, // 4 bytes
-    pub cam_forward: [f32; 3], // 12 bytes
-    pub height: u32, // 4 bytes
-    pub seed: u32, // 4 bytes
-    pub max_depth: u32, // 4 bytes
-    pub light_count: u32, // 4 bytes
-    pub rr_start_depth: u32, // 4 bytes
-    pub environment: [f32; 3], // 12 bytes: radiance of rays that leave the scene
+    pub tan_half_fov_y: f32,    // 4 bytes
+    pub cam_right: [f32; 3],    // 12 bytes
+    pub aspect: f32,            // 4 bytes: width / height
+    pub cam_up: [f32; 3],       // 12 bytes
+    pub width: u32,             // 4 bytes
+    pub cam_forward: [f32; 3],  // 12 bytes
+    pub height: u32,            // 4 bytes
+    pub seed: u32,              // 4 bytes
+    pub max_depth: u32,         // 4 bytes
+    pub light_count: u32,       // 4 bytes
+    pub rr_start_depth: u32,    // 4 bytes
+    pub environment: [f32; 3],  // 12 bytes: radiance of rays that leave the scene
     /// `DEBUG_*` bits; 0 in every real render.
     pub debug_flags: u32, // 4 bytes
 }
@@ -126,16 +126,16 @@ pub const DEBUG_NO_NEE: u32 = 1;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DispatchParams {
     pub first_sample: u32, // 4 bytes
-    pub first_pixel: u32, // 4 bytes
-    pub batch_size: u32, // 4 bytes
+    pub first_pixel: u32,  // 4 bytes
+    pub batch_size: u32,   // 4 bytes
     /// Scattering events so far for the rays being processed.
     pub depth: u32, // 4 bytes
     /// `dispatch_args` only: the queue counter to read, the argument slot to write, the total
     /// to add the count to (or `u32::MAX`), and a bit mask of counters to zero.
     pub counter: u32, // 4 bytes
-    pub args_slot: u32, // 4 bytes
+    pub args_slot: u32,    // 4 bytes
     pub total_counter: u32, // 4 bytes
-    pub clear_mask: u32, // 4 bytes
+    pub clear_mask: u32,   // 4 bytes
 }
 
 /// What carries between bounces for one path. Total: 48 bytes.
@@ -145,10 +145,10 @@ pub struct PathState {
     pub throughput: [f32; 3], // 12 bytes
     /// Solid-angle pdf of the BSDF sample that produced the current ray.
     pub prev_bsdf_pdf: f32, // 4 bytes
-    pub radiance: [f32; 3], // 12 bytes
+    pub radiance: [f32; 3],   // 12 bytes
     /// 1 if the previous vertex was the camera or a specular bounce (no MIS on emission).
     pub prev_specular: u32, // 4 bytes
-    pub pad: [u32; 4], // 16 bytes
+    pub pad: [u32; 4],        // 16 bytes
 }
 
 /// A ray in the extension queue. Total: 32 bytes.
@@ -156,19 +156,19 @@ pub struct PathState {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct QueuedRay {
     pub origin: [f32; 3], // 12 bytes
-    pub path: u32, // 4 bytes: index of the path in the batch
-    pub dir: [f32; 3], // 12 bytes: unit length
-    pub pad: u32, // 4 bytes
+    pub path: u32,        // 4 bytes: index of the path in the batch
+    pub dir: [f32; 3],    // 12 bytes: unit length
+    pub pad: u32,         // 4 bytes
 }
 
 /// Closest hit of a queued ray (`triangle` = `NO_HIT` on a miss). Total: 16 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct HitRecord {
-    pub t: f32, // 4 bytes
+    pub t: f32,        // 4 bytes
     pub triangle: u32, // 4 bytes
-    pub u: f32, // 4 bytes: barycentric weight of p1
-    pub v: f32, // 4 bytes: barycentric weight of p2
+    pub u: f32,        // 4 bytes: barycentric weight of p1
+    pub v: f32,        // 4 bytes: barycentric weight of p2
 }
 
 pub const NO_HIT: u32 = u32::MAX;
@@ -177,22 +177,22 @@ pub const NO_HIT: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct ShadowRay {
-    pub origin: [f32; 3], // 12 bytes
-    pub path: u32, // 4 bytes
-    pub dir: [f32; 3], // 12 bytes: unit length
-    pub t_max: f32, // 4 bytes
+    pub origin: [f32; 3],       // 12 bytes
+    pub path: u32,              // 4 bytes
+    pub dir: [f32; 3],          // 12 bytes: unit length
+    pub t_max: f32,             // 4 bytes
     pub contribution: [f32; 3], // 12 bytes
-    pub pad: u32, // 4 bytes
+    pub pad: u32,               // 4 bytes
 }
 
 /// Per-pixel accumulator: sum, sum of squares and count of finite samples. Total: 32 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FilmPixel {
-    pub sum: [f32; 3], // 12 bytes
-    pub count: u32, // 4 bytes
+    pub sum: [f32; 3],    // 12 bytes
+    pub count: u32,       // 4 bytes
     pub sum_sq: [f32; 3], // 12 bytes
-    pub pad: u32, // 4 bytes
+    pub pad: u32,         // 4 bytes
 }
 
 /// Indices into the counter buffer (`uint counters[]`).
@@ -234,21 +234,84 @@ macro_rules! struct_layout {
 
 /// Every GPU-visible struct with the offsets of its members (checked against SPIR-V).
 pub const STRUCT_LAYOUTS: &[StructLayout] = &[
-    struct_layout!(BvhNode { bounds_min, offset, bounds_max, count }),
-    struct_layout!(GpuTriangle { p0, material, e1, light_pmf, e2, area }),
-    struct_layout!(GpuMaterial { base_color, flags, emission, pad }),
-    struct_layout!(LightEntry { cdf, triangle, pmf, pad }),
+    struct_layout!(BvhNode {
+        bounds_min,
+        offset,
+        bounds_max,
+        count
+    }),
+    struct_layout!(GpuTriangle {
+        p0,
+        material,
+        e1,
+        light_pmf,
+        e2,
+        area
+    }),
+    struct_layout!(GpuMaterial {
+        base_color,
+        flags,
+        emission,
+        pad
+    }),
+    struct_layout!(LightEntry {
+        cdf,
+        triangle,
+        pmf,
+        pad
+    }),
     struct_layout!(FrameParams {
-        cam_position, tan_half_fov_y, cam_right, aspect, cam_up, width, cam_forward, height,
-        seed, max_depth, light_count, rr_start_depth, environment, debug_flags
+        cam_position,
+        tan_half_fov_y,
+        cam_right,
+        aspect,
+        cam_up,
+        width,
+        cam_forward,
+        height,
+        seed,
+        max_depth,
+        light_count,
+        rr_start_depth,
+        environment,
+        debug_flags
     }),
     struct_layout!(DispatchParams {
-        first_sample, first_pixel, batch_size, depth, counter, args_slot, total_counter,
+        first_sample,
+        first_pixel,
+        batch_size,
+        depth,
+        counter,
+        args_slot,
+        total_counter,
         clear_mask
     }),
-    struct_layout!(PathState { throughput, prev_bsdf_pdf, radiance, prev_specular, pad }),
-    struct_layout!(QueuedRay { origin, path, dir, pad }),
+    struct_layout!(PathState {
+        throughput,
+        prev_bsdf_pdf,
+        radiance,
+        prev_specular,
+        pad
+    }),
+    struct_layout!(QueuedRay {
+        origin,
+        path,
+        dir,
+        pad
+    }),
     struct_layout!(HitRecord { t, triangle, u, v }),
-    struct_layout!(ShadowRay { origin, path, dir, t_max, contribution, pad }),
-    struct_layout!(FilmPixel { sum, count, sum_sq, pad }),
+    struct_layout!(ShadowRay {
+        origin,
+        path,
+        dir,
+        t_max,
+        contribution,
+        pad
+    }),
+    struct_layout!(FilmPixel {
+        sum,
+        count,
+        sum_sq,
+        pad
+    }),
 ];

@@ -59,24 +59,38 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
     if per_kernel && !stats.kernel_seconds.is_empty() {
         let total: f64 = stats.kernel_seconds.iter().map(|(_, s)| s).sum();
         for (name, s) in &stats.kernel_seconds {
-            println!("  {name:<14} {:>10.3} ms  {:>5.1} %", s * 1e3, 100.0 * s / total.max(1e-12));
+            println!(
+                "  {name:<14} {:>10.3} ms  {:>5.1} %",
+                s * 1e3,
+                100.0 * s / total.max(1e-12)
+            );
         }
     }
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
-    let path = args.scene.clone().unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+    let path = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
     let (scene, prepared) = load(&path)?;
     let width = args.width.unwrap_or(512);
-    let height = args.height.unwrap_or_else(|| match (args.width, scene.camera.aspect_ratio) {
-        (None, _) | (_, None) => width,
-        (Some(w), Some(a)) => ((w as f32 / a).round() as u32).max(1),
-    });
+    let height = args
+        .height
+        .unwrap_or_else(|| match (args.width, scene.camera.aspect_ratio) {
+            (None, _) | (_, None) => width,
+            (Some(w), Some(a)) => ((w as f32 / a).round() as u32).max(1),
+        });
     if width as u64 * height as u64 > MAX_PIXELS {
         bail!("{width}×{height} is more than {MAX_PIXELS} pixels; render a smaller image");
     }
     let output = args.output.clone().unwrap_or_else(|| {
-        PathBuf::from(format!("{}.png", path.file_stem().and_then(|s| s.to_str()).unwrap_or("render")))
+        PathBuf::from(format!(
+            "{}.png",
+            path.file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("render")
+        ))
     });
     match output.extension().and_then(|e| e.to_str()) {
         Some("exr") | Some("png") => {}
@@ -138,7 +152,10 @@ fn render(args: &RenderArgs) -> Result<()> {
 fn devices() -> Result<()> {
     let list = wavetrace::gpu::list_devices()?;
     if list.is_empty() {
-        bail!("no Vulkan device was found: {}", wavetrace::gpu::INSTALL_HINT);
+        bail!(
+            "no Vulkan device was found: {}",
+            wavetrace::gpu::INSTALL_HINT
+        );
     }
     for d in list {
         println!(
@@ -148,7 +165,11 @@ fn devices() -> Result<()> {
             d.kind,
             d.api_version,
             d.driver,
-            if d.usable { "" } else { " — not usable: needs Vulkan 1.2 with a compute queue" }
+            if d.usable {
+                ""
+            } else {
+                " — not usable: needs Vulkan 1.2 with a compute queue"
+            }
         );
     }
     Ok(())
@@ -174,7 +195,11 @@ fn bench(args: &BenchArgs) -> Result<()> {
         max_depth: args.max_depth,
         ..RenderSettings::default()
     };
-    let gpu = GpuRenderer::new(&GpuOptions { device_index: args.gpu_index, validation: false, timing: true });
+    let gpu = GpuRenderer::new(&GpuOptions {
+        device_index: args.gpu_index,
+        validation: false,
+        timing: true,
+    });
     let gpu_name = match &gpu {
         Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
         Err(e) => format!("unavailable: {e:#}"),
@@ -187,10 +212,17 @@ fn bench(args: &BenchArgs) -> Result<()> {
         args.max_depth,
         rayon::current_num_threads()
     );
-    println!("{:<20} {:<6} {:>9} {:>14} {:>12} {:>9}", "scene", "device", "time s", "M samples/s", "M rays/s", "dropped");
+    println!(
+        "{:<20} {:<6} {:>9} {:>14} {:>12} {:>9}",
+        "scene", "device", "time s", "M samples/s", "M rays/s", "dropped"
+    );
     for path in &scenes {
         let (_, prepared) = load(path)?;
-        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("?").to_owned();
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("?")
+            .to_owned();
         let mut rows: Vec<(&str, RenderStats)> = Vec::new();
         if let Ok(g) = &gpu {
             rows.push(("gpu", g.render(&prepared, &settings, args.wavefront)?.stats));
@@ -207,8 +239,11 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 s.dropped
             );
             if !s.kernel_seconds.is_empty() {
-                let kernels: Vec<String> =
-                    s.kernel_seconds.iter().map(|(k, t)| format!("{k} {:.1} ms", t * 1e3)).collect();
+                let kernels: Vec<String> = s
+                    .kernel_seconds
+                    .iter()
+                    .map(|(k, t)| format!("{k} {:.1} ms", t * 1e3))
+                    .collect();
                 println!("{:<20} {:<6} per kernel: {}", "", "", kernels.join(", "));
             }
         }

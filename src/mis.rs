@@ -34,7 +34,9 @@ pub fn mis_weight(heuristic: Heuristic, i: usize, pdfs: &[f32]) -> f32 {
             }
         }
         Heuristic::Balance => pdfs[i] / pdfs.iter().sum::<f32>(),
-        Heuristic::Power(beta) => pdfs[i].powf(beta) / pdfs.iter().map(|p| p.powf(beta)).sum::<f32>(),
+        Heuristic::Power(beta) => {
+            pdfs[i].powf(beta) / pdfs.iter().map(|p| p.powf(beta)).sum::<f32>()
+        }
     };
     if w.is_finite() {
         w
@@ -61,7 +63,13 @@ mod tests {
     #[test]
     fn weights_sum_to_one() {
         let cases: [&[f32]; 4] = [&[0.3, 2.0], &[1.0, 1.0, 5.0], &[0.0, 4.0], &[7.0]];
-        for h in [Heuristic::Average, Heuristic::Maximum, Heuristic::Balance, Heuristic::Power(2.0), Heuristic::Power(3.5)] {
+        for h in [
+            Heuristic::Average,
+            Heuristic::Maximum,
+            Heuristic::Balance,
+            Heuristic::Power(2.0),
+            Heuristic::Power(3.5),
+        ] {
             for pdfs in cases {
                 let sum: f32 = (0..pdfs.len()).map(|i| mis_weight(h, i, pdfs)).sum();
                 assert!((sum - 1.0).abs() < 1e-6, "{h:?} {pdfs:?}: {sum}");
@@ -89,7 +97,12 @@ mod tests {
         // x = √u), each weighting: the exact expectation by midpoint quadrature over u.
         let f = |x: f32| 3.0 * x * x;
         let m = 20_000;
-        for h in [Heuristic::Average, Heuristic::Maximum, Heuristic::Balance, Heuristic::Power(2.0)] {
+        for h in [
+            Heuristic::Average,
+            Heuristic::Maximum,
+            Heuristic::Balance,
+            Heuristic::Power(2.0),
+        ] {
             let mut total = 0.0f64;
             for k in 0..m {
                 let u = (k as f32 + 0.5) / m as f32;

@@ -68,13 +68,23 @@ impl PreparedScene {
             .iter()
             .map(|m| GpuMaterial {
                 base_color: m.base_color.to_array(),
-                flags: if m.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
+                flags: if m.double_sided {
+                    MATERIAL_DOUBLE_SIDED
+                } else {
+                    0
+                },
                 emission: m.emission.to_array(),
                 pad: 0,
             })
             .collect();
         let lights = build_light_table(&mut triangles, &materials);
-        PreparedScene { bvh, triangles, materials, lights, camera: scene.camera.clone() }
+        PreparedScene {
+            bvh,
+            triangles,
+            materials,
+            lights,
+            camera: scene.camera,
+        }
     }
 
     /// The constants of one render, as the GPU's uniform buffer holds them.

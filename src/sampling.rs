@@ -115,7 +115,10 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     const INT_SCALE: f32 = 256.0;
     let offset = |p: f32, n: f32| -> f32 {
         let of_i = (INT_SCALE * n) as i32;
-        let p_i = f32::from_bits((p.to_bits() as i32).wrapping_add(if p < 0.0 { -of_i } else { of_i }) as u32);
+        let p_i =
+            f32::from_bits(
+                (p.to_bits() as i32).wrapping_add(if p < 0.0 { -of_i } else { of_i }) as u32,
+            );
         if p.abs() < ORIGIN {
             p + FLOAT_SCALE * n
         } else {
@@ -177,7 +180,10 @@ mod tests {
         }
         let expected = vec![n as f64 / (nt * np) as f64; nt * np];
         let (_, _, p) = chi_square_gof(&observed, &expected);
-        assert!(p > 0.01, "cosine hemisphere sampling does not match cos θ/π: p = {p}");
+        assert!(
+            p > 0.01,
+            "cosine hemisphere sampling does not match cos θ/π: p = {p}"
+        );
     }
 
     #[test]
@@ -239,7 +245,12 @@ mod tests {
             .enumerate()
             .map(|(i, &pmf)| {
                 cdf += pmf;
-                LightEntry { cdf: if i == 3 { 1.0 } else { cdf }, triangle: i as u32, pmf, pad: 0 }
+                LightEntry {
+                    cdf: if i == 3 { 1.0 } else { cdf },
+                    triangle: i as u32,
+                    pmf,
+                    pad: 0,
+                }
             })
             .collect();
         let mut observed = [0f64; 4];

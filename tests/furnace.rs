@@ -17,7 +17,14 @@ fn expected(max_depth: u32) -> f64 {
 }
 
 fn settings(max_depth: u32, spp: u32) -> RenderSettings {
-    RenderSettings { width: 16, height: 16, spp, max_depth, seed: 3, ..RenderSettings::default() }
+    RenderSettings {
+        width: 16,
+        height: 16,
+        spp,
+        max_depth,
+        seed: 3,
+        ..RenderSettings::default()
+    }
 }
 
 fn check(film: &Film, max_depth: u32, who: &str) {
@@ -26,7 +33,10 @@ fn check(film: &Film, max_depth: u32, who: &str) {
     let l = expected(max_depth);
     for c in 0..3 {
         let z = (mean[c] - l) / err[c].max(1e-12);
-        println!("{who} depth {max_depth} channel {c}: mean {:.6} ± {:.6}, expected {l:.6}, z = {z:.2}", mean[c], err[c]);
+        println!(
+            "{who} depth {max_depth} channel {c}: mean {:.6} ± {:.6}, expected {l:.6}, z = {z:.2}",
+            mean[c], err[c]
+        );
         assert!(
             z.abs() < 4.0,
             "{who}, --max-depth {max_depth}, channel {c}: mean {} is {z:.2} standard errors ({}) from the analytic {l}",
@@ -40,7 +50,11 @@ fn check(film: &Film, max_depth: u32, who: &str) {
 fn cpu_furnace_matches_analytic_radiance() {
     let scene = prepared("furnace.gltf");
     for depth in [2, 40] {
-        check(&render_cpu(&scene, &settings(depth, 256)).film, depth, "cpu");
+        check(
+            &render_cpu(&scene, &settings(depth, 256)).film,
+            depth,
+            "cpu",
+        );
     }
 }
 
@@ -48,7 +62,9 @@ fn cpu_furnace_matches_analytic_radiance() {
 fn gpu_furnace_matches_analytic_radiance() {
     let scene = prepared("furnace.gltf");
     for depth in [2, 40] {
-        let Some(out) = render_gpu(&scene, &settings(depth, 256), None) else { return };
+        let Some(out) = render_gpu(&scene, &settings(depth, 256), None) else {
+            return;
+        };
         check(&out.film, depth, "gpu");
     }
 }

@@ -13,15 +13,25 @@ use wavetrace::stats::compare_films;
 const TILE: u32 = 8;
 const ALPHA: f64 = 0.01;
 
+/// The acceptance render: `--width 64 --height 64 --spp 512 --max-depth 7`.
 fn settings(seed: u32) -> RenderSettings {
-    RenderSettings { width: 32, height: 32, spp: 256, max_depth: 7, seed, ..RenderSettings::default() }
+    RenderSettings {
+        width: 64,
+        height: 64,
+        spp: 512,
+        max_depth: 7,
+        seed,
+        ..RenderSettings::default()
+    }
 }
 
 #[test]
 fn gpu_matches_cpu_reference_on_cornell_box() {
     let scene = prepared("cornell-box.gltf");
     // Different seeds: the two films must be independent samples for the test to hold.
-    let Some(gpu) = render_gpu(&scene, &settings(1), None) else { return };
+    let Some(gpu) = render_gpu(&scene, &settings(1), None) else {
+        return;
+    };
     let cpu = render_cpu(&scene, &settings(2));
     assert_eq!(gpu.film.dropped, 0, "GPU dropped NaN/Inf samples");
     assert_eq!(cpu.film.dropped, 0, "CPU dropped NaN/Inf samples");
@@ -33,24 +43,60 @@ fn gpu_matches_cpu_reference_on_cornell_box() {
 #[test]
 fn comparison_detects_a_dropped_nee_term() {
     let scene = prepared("cornell-box.gltf");
-    let biased = RenderSettings { debug_flags: DEBUG_NO_NEE, ..settings(1) };
-    let Some(gpu) = render_gpu(&scene, &biased, None) else { return };
-    let cpu = render_cpu(&scene, &settings(2));
+    let small = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 64,
+        ..settings(1)
+    };
+    let biased = RenderSettings {
+        debug_flags: DEBUG_NO_NEE,
+        ..small.clone()
+    };
+    let Some(gpu) = render_gpu(&scene, &biased, None) else {
+        return;
+    };
+    let cpu = render_cpu(&scene, &RenderSettings { seed: 2, ..small });
     let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
     println!("{cmp}");
-    assert!(!cmp.passed(), "a GPU render without next event estimation passed the comparison");
+    assert!(
+        !cmp.passed(),
+        "a GPU render without next event estimation passed the comparison"
+    );
 }
 
 #[test]
 fn same_seed_gives_identical_bits_whatever_the_batch_size() {
     let scene = prepared("cornell-box.gltf");
-    let s = RenderSettings { spp: 16, ..settings(9) };
-    let Some(a) = render_gpu(&scene, &s, None) else { return };
+    let s = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 16,
+        ..settings(9)
+    };
+    let Some(a) = render_gpu(&scene, &s, None) else {
+        return;
+    };
     let b = render_gpu(&scene, &s, None).unwrap();
     let c = render_gpu(&scene, &s, Some(1000)).unwrap();
-    for (i, ((pa, pb), pc)) in a.film.pixels.iter().zip(&b.film.pixels).zip(&c.film.pixels).enumerate() {
-        assert_eq!(bytemuck::bytes_of(pa), bytemuck::bytes_of(pb), "pixel {i} differs between two runs");
-        assert_eq!(bytemuck::bytes_of(pa), bytemuck::bytes_of(pc), "pixel {i} differs with --wavefront 1000");
+    for (i, ((pa, pb), pc)) in a
+        .film
+        .pixels
+        .iter()
+        .zip(&b.film.pixels)
+        .zip(&c.film.pixels)
+        .enumerate()
+    {
+        assert_eq!(
+            bytemuck::bytes_of(pa),
+            bytemuck::bytes_of(pb),
+            "pixel {i} differs between two runs"
+        );
+        assert_eq!(
+            bytemuck::bytes_of(pa),
+            bytemuck::bytes_of(pc),
+            "pixel {i} differs with --wavefront 1000"
+        );
     }
     assert_eq!(a.stats.extension_rays, c.stats.extension_rays);
 }
@@ -58,8 +104,16 @@ fn same_seed_gives_identical_bits_whatever_the_batch_size() {
 #[test]
 fn cpu_is_deterministic() {
     let scene = prepared("cornell-box.gltf");
-    let s = RenderSettings { spp: 8, ..settings(4) };
+    let s = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 8,
+        ..settings(4)
+    };
     let a = render_cpu(&scene, &s);
     let b = render_cpu(&scene, &s);
-    assert!(a.film.pixels == b.film.pixels, "two CPU renders with the same seed differ");
+    assert!(
+        a.film.pixels == b.film.pixels,
+        "two CPU renders with the same seed differ"
+    );
 }

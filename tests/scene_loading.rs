@@ -145,7 +145,11 @@ fn cornell_box_light_table_has_the_two_light_triangles() {
         .iter()
         .map(|m| GpuMaterial {
             base_color: m.base_color.into(),
-            flags: if m.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
+            flags: if m.double_sided {
+                MATERIAL_DOUBLE_SIDED
+            } else {
+                0
+            },
             emission: m.emission.into(),
             pad: 0,
         })
@@ -186,7 +190,10 @@ fn furnace_sphere_faces_inwards() {
 
 /// Writes `json` to a fresh temporary file; `tag` keeps parallel tests apart.
 fn temp_file(tag: &str, extension: &str, bytes: &[u8]) -> PathBuf {
-    let path = std::env::temp_dir().join(format!("wavetrace-test-{}-{tag}.{extension}", std::process::id()));
+    let path = std::env::temp_dir().join(format!(
+        "wavetrace-test-{}-{tag}.{extension}",
+        std::process::id()
+    ));
     std::fs::write(&path, bytes).unwrap();
     path
 }
@@ -212,7 +219,9 @@ fn base64(bytes: &[u8]) -> String {
 
 /// The unit square [−1,1]² at z = 0, counter-clockwise seen from +Z, as positions + u16 indices.
 fn quad_buffer() -> Vec<u8> {
-    let positions: [f32; 12] = [-1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0];
+    let positions: [f32; 12] = [
+        -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
+    ];
     let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
     let mut bytes: Vec<u8> = positions.iter().flat_map(|x| x.to_le_bytes()).collect();
     bytes.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
@@ -222,7 +231,12 @@ fn quad_buffer() -> Vec<u8> {
 /// Base64 of the quad's index bytes as they appear in its data URI (they start at byte 48, a
 /// multiple of 3, so their encoding is a substring of the buffer's).
 fn index_base64(indices: &[u16; 6]) -> String {
-    base64(&indices.iter().flat_map(|i| i.to_le_bytes()).collect::<Vec<u8>>())
+    base64(
+        &indices
+            .iter()
+            .flat_map(|i| i.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
 }
 
 /// A one-quad glTF; `node` is the JSON of node 0 (without "mesh"), `extra` more root members.
@@ -388,7 +402,11 @@ fn malformed_inputs_name_the_object_and_problem() {
     );
     expect_error(
         "overflow",
-        &quad_gltf(r#", "scale": [1e38, 1, 1], "translation": [3e38, 0, 0]"#, "", ""),
+        &quad_gltf(
+            r#", "scale": [1e38, 1, 1], "translation": [3e38, 0, 0]"#,
+            "",
+            "",
+        ),
         &["non-finite", "mesh 0 \"quad\""],
     );
     let mut nan = quad_buffer();
@@ -410,7 +428,10 @@ fn malformed_inputs_name_the_object_and_problem() {
     expect_error(
         "dangling-position",
         &quad.replace(r#""POSITION": 0"#, r#""POSITION": 7"#),
-        &["mesh 0 \"quad\", primitive 0", "POSITION refers to accessor 7"],
+        &[
+            "mesh 0 \"quad\", primitive 0",
+            "POSITION refers to accessor 7",
+        ],
     );
     expect_error(
         "no-position",
@@ -428,7 +449,10 @@ fn malformed_inputs_name_the_object_and_problem() {
     );
     expect_error(
         "empty-scene",
-        &quad.replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": []}]"#),
+        &quad.replace(
+            r#""scenes": [{"nodes": [0]}]"#,
+            r#""scenes": [{"nodes": []}]"#,
+        ),
         &["no triangles"],
     );
     expect_error(
@@ -493,7 +517,10 @@ fn other_topologies_and_index_widths() {
 fn missing_and_empty_files_name_the_path() {
     let missing = std::env::temp_dir().join("wavetrace-test-does-not-exist.gltf");
     let message = format!("{:#}", Scene::load(&missing).unwrap_err());
-    assert!(message.contains(&missing.display().to_string()), "{message}");
+    assert!(
+        message.contains(&missing.display().to_string()),
+        "{message}"
+    );
 
     let empty = temp_file("empty", "gltf", b"");
     let message = format!("{:#}", Scene::load(&empty).unwrap_err());

@@ -11,18 +11,28 @@ use wavetrace::layout::STRUCT_LAYOUTS;
 
 fn parse(name: &str) -> Module {
     let words = kernel_spirv(name).unwrap();
-    naga::front::spv::parse_u8_slice(bytemuck::cast_slice(&words), &naga::front::spv::Options::default())
-        .unwrap_or_else(|e| panic!("naga cannot parse kernel {name}: {e:?}"))
+    naga::front::spv::parse_u8_slice(
+        bytemuck::cast_slice(&words),
+        &naga::front::spv::Options::default(),
+    )
+    .unwrap_or_else(|e| panic!("naga cannot parse kernel {name}: {e:?}"))
 }
 
 #[test]
 fn every_kernel_parses_and_validates() {
-    assert!(KERNELS.len() >= 6, "expected the six wavefront kernels, found {}", KERNELS.len());
+    assert!(
+        KERNELS.len() >= 6,
+        "expected the six wavefront kernels, found {}",
+        KERNELS.len()
+    );
     for (name, _) in KERNELS {
         let module = parse(name);
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("naga rejects kernel {name}: {e:?}"));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("naga rejects kernel {name}: {e:?}"));
     }
 }
 
@@ -36,17 +46,36 @@ fn gpu_structs_match_their_rust_twins() {
                 if ty.name.as_deref() != Some(layout.name) {
                     continue;
                 }
-                let TypeInner::Struct { members, span } = &ty.inner else { continue };
+                let TypeInner::Struct { members, span } = &ty.inner else {
+                    continue;
+                };
                 found = true;
-                assert_eq!(*span as usize, layout.size, "{kernel}: size of {} differs from Rust", layout.name);
-                let glsl: Vec<(String, usize)> =
-                    members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize)).collect();
-                let rust: Vec<(String, usize)> =
-                    layout.members.iter().map(|(n, o)| (n.to_string(), *o)).collect();
-                assert_eq!(glsl, rust, "{kernel}: members (name, offset) of {} differ between GLSL and Rust", layout.name);
+                assert_eq!(
+                    *span as usize, layout.size,
+                    "{kernel}: size of {} differs from Rust",
+                    layout.name
+                );
+                let glsl: Vec<(String, usize)> = members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+                    .collect();
+                let rust: Vec<(String, usize)> = layout
+                    .members
+                    .iter()
+                    .map(|(n, o)| (n.to_string(), *o))
+                    .collect();
+                assert_eq!(
+                    glsl, rust,
+                    "{kernel}: members (name, offset) of {} differ between GLSL and Rust",
+                    layout.name
+                );
             }
         }
-        assert!(found, "struct {} of src/layout.rs is used by no kernel", layout.name);
+        assert!(
+            found,
+            "struct {} of src/layout.rs is used by no kernel",
+            layout.name
+        );
     }
 }
 
@@ -61,15 +90,32 @@ fn descriptor_bindings_match_the_host_layout() {
             let binding = Binding::ALL
                 .iter()
                 .find(|b| **b as u32 == rb.binding)
-                .unwrap_or_else(|| panic!("{name}: binding {} is not in the host's layout", rb.binding));
+                .unwrap_or_else(|| {
+                    panic!("{name}: binding {} is not in the host's layout", rb.binding)
+                });
             let expected_uniform = *binding == Binding::Frame;
             match var.space {
-                AddressSpace::Uniform => assert!(expected_uniform, "{name}: binding {} is a uniform buffer, host says {binding:?}", rb.binding),
-                AddressSpace::Storage { .. } => assert!(!expected_uniform, "{name}: binding {} is a storage buffer, host says {binding:?}", rb.binding),
-                other => panic!("{name}: binding {} has unexpected address space {other:?}", rb.binding),
+                AddressSpace::Uniform => assert!(
+                    expected_uniform,
+                    "{name}: binding {} is a uniform buffer, host says {binding:?}",
+                    rb.binding
+                ),
+                AddressSpace::Storage { .. } => assert!(
+                    !expected_uniform,
+                    "{name}: binding {} is a storage buffer, host says {binding:?}",
+                    rb.binding
+                ),
+                other => panic!(
+                    "{name}: binding {} has unexpected address space {other:?}",
+                    rb.binding
+                ),
             }
             used.insert(rb.binding);
         }
     }
-    assert_eq!(used.len(), Binding::ALL.len(), "some host bindings are used by no kernel: {used:?}");
+    assert_eq!(
+        used.len(),
+        Binding::ALL.len(),
+        "some host bindings are used by no kernel: {used:?}"
+    );
 }

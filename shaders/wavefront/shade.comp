@@ -105,7 +105,7 @@ void main() {
     // their survival probability (lecture, "Russian roulette for integral equations").
     if (depth + 1u >= frame.rr_start_depth) {
         float survive = min(max_component(state.throughput), 1.0);
-        if (!(u_light.w < survive)) {
+        if (u_light.w >= survive) {
             paths[ray.path] = state;
             return;
         }

@@ -21,14 +21,20 @@ pub struct RayCounts {
 
 impl RayCounts {
     pub fn merged(&self, other: &RayCounts) -> RayCounts {
-        RayCounts { extension: self.extension + other.extension, shadow: self.shadow + other.shadow }
+        RayCounts {
+            extension: self.extension + other.extension,
+            shadow: self.shadow + other.shadow,
+        }
     }
 }
 
 /// Pixel and sample of the path with global index `first_pixel + i` (see `DispatchParams`).
 pub fn path_pixel_sample(frame: &FrameParams, first_sample: u32, local_index: u32) -> (u32, u32) {
     let pixel_count = frame.width * frame.height;
-    (local_index % pixel_count, first_sample + local_index / pixel_count)
+    (
+        local_index % pixel_count,
+        first_sample + local_index / pixel_count,
+    )
 }
 
 /// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
@@ -37,8 +43,10 @@ pub fn camera_ray_direction(frame: &FrameParams, pixel: u32, jitter: Vec2) -> Ve
     let py = (pixel / frame.width) as f32 + jitter.y;
     let sx = (2.0 * px / frame.width as f32 - 1.0) * frame.tan_half_fov_y * frame.aspect;
     let sy = (1.0 - 2.0 * py / frame.height as f32) * frame.tan_half_fov_y;
-    (Vec3::from(frame.cam_forward) + sx * Vec3::from(frame.cam_right) + sy * Vec3::from(frame.cam_up))
-        .normalize()
+    (Vec3::from(frame.cam_forward)
+        + sx * Vec3::from(frame.cam_right)
+        + sy * Vec3::from(frame.cam_up))
+    .normalize()
 }
 
 /// Radiance leaving material `m` towards a direction with cosine `cos_out` to the front-face
@@ -74,17 +82,26 @@ pub fn trace_path(
         origin: Vec3::from(frame.cam_position),
         dir: camera_ray_direction(frame, pixel, Vec2::new(u.x, u.y)),
     };
-    let mut state = PathState { throughput: [1.0; 3], prev_specular: 1, ..Default::default() };
+    let mut state = PathState {
+        throughput: [1.0; 3],
+        prev_specular: 1,
+        ..Default::default()
+    };
     let mut depth = 0;
     loop {
         // extend
         counts.extension += 1;
-        let hit = scene.bvh.intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);
+        let hit = scene
+            .bvh
+            .intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);
         let (next, shadow) = shade(scene, frame, pixel, sample, depth, &ray, hit, &mut state);
         // connect
         if let Some(s) = shadow {
             counts.shadow += 1;
-            if !scene.bvh.intersect_any(&scene.triangles, &s.ray, 0.0, s.t_max) {
+            if !scene
+                .bvh
+                .intersect_any(&scene.triangles, &s.ray, 0.0, s.t_max)
+            {
                 state.radiance = (Vec3::from(state.radiance) + s.contribution).to_array();
             }
         }
@@ -160,7 +177,11 @@ fn shade(
         let light_le = emitted_radiance(&scene.materials[light.material as usize], cos_light);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
-        if cos_surface > 0.0 && light_le.max_element() > 0.0 && light_pdf > 0.0 && light_pdf.is_finite() {
+        if cos_surface > 0.0
+            && light_le.max_element() > 0.0
+            && light_pdf > 0.0
+            && light_pdf.is_finite()
+        {
             let w = mis_power2(light_pdf, bsdf_pdf(n, wo, wi));
             let f = bsdf_eval(Vec3::from(mat.base_color), n, wo, wi);
             let origin = offset_ray_origin(p, n);
@@ -168,7 +189,10 @@ fn shade(
             let d = target - origin;
             let t_max = d.length();
             shadow = Some(ShadowRay {
-                ray: Ray { origin, dir: d / t_max },
+                ray: Ray {
+                    origin,
+                    dir: d / t_max,
+                },
                 t_max,
                 contribution: throughput * f * cos_surface * light_le * (w / light_pdf),
             });
@@ -177,7 +201,12 @@ fn shade(
 
     // BSDF sampling of the continuation ray.
     let u_bsdf = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth) + 1);
-    let s = bsdf_sample(Vec3::from(mat.base_color), n, wo, Vec2::new(u_bsdf.x, u_bsdf.y));
+    let s = bsdf_sample(
+        Vec3::from(mat.base_color),
+        n,
+        wo,
+        Vec2::new(u_bsdf.x, u_bsdf.y),
+    );
     let cos_in = n.dot(s.wi);
     if s.pdf <= 0.0 || cos_in <= 0.0 {
         return (None, shadow);
@@ -189,12 +218,18 @@ fn shade(
     // Stopping criterion: Russian roulette, survivors divided by their survival probability.
     if depth + 1 >= frame.rr_start_depth {
         let survive = throughput.max_element().min(1.0);
-        if !(u_light.w < survive) {
+        if u_light.w >= survive {
             state.throughput = throughput.to_array();
             return (None, shadow);
         }
         throughput /= survive;
     }
     state.throughput = throughput.to_array();
-    (Some(Ray { origin: offset_ray_origin(p, n), dir: s.wi }), shadow)
+    (
+        Some(Ray {
+            origin: offset_ray_origin(p, n),
+            dir: s.wi,
+        }),
+        shadow,
+    )
 }

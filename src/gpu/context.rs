@@ -66,14 +66,25 @@ fn load_entry() -> Result<ash::Entry> {
 
 fn create_instance(entry: &ash::Entry, validation: bool) -> Result<(ash::Instance, bool, bool)> {
     let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
-    let has_layer = layers.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
-    let extensions = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
-    let has_debug_utils =
-        extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::ext::debug_utils::NAME));
+    let has_layer = layers
+        .iter()
+        .any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
+    let extensions =
+        unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+    let has_debug_utils = extensions
+        .iter()
+        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::debug_utils::NAME));
     let use_layer = validation && has_layer;
-    let layer_ptrs: Vec<*const i8> = if use_layer { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
-    let ext_ptrs: Vec<*const i8> =
-        if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    let layer_ptrs: Vec<*const i8> = if use_layer {
+        vec![VALIDATION_LAYER.as_ptr()]
+    } else {
+        vec![]
+    };
+    let ext_ptrs: Vec<*const i8> = if has_debug_utils {
+        vec![ash::ext::debug_utils::NAME.as_ptr()]
+    } else {
+        vec![]
+    };
     let app = vk::ApplicationInfo::default()
         .application_name(c"wavetrace")
         .engine_name(c"wavetrace")
@@ -93,12 +104,19 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
     unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
     let p = props2.properties;
     let queues = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-    let has_compute = queues.iter().any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE));
+    let has_compute = queues
+        .iter()
+        .any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE));
     let v = p.api_version;
     DeviceInfo {
         index,
-        name: p.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
-        kind: format!("{:?}", p.device_type).to_lowercase().replace('_', " "),
+        name: p
+            .device_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        kind: format!("{:?}", p.device_type)
+            .to_lowercase()
+            .replace('_', " "),
         api_version: format!(
             "{}.{}.{}",
             vk::api_version_major(v),
@@ -107,8 +125,14 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         ),
         driver: format!(
             "{} {}",
-            driver.driver_name_as_c_str().map(|s| s.to_string_lossy()).unwrap_or_default(),
-            driver.driver_info_as_c_str().map(|s| s.to_string_lossy()).unwrap_or_default()
+            driver
+                .driver_name_as_c_str()
+                .map(|s| s.to_string_lossy())
+                .unwrap_or_default(),
+            driver
+                .driver_info_as_c_str()
+                .map(|s| s.to_string_lossy())
+                .unwrap_or_default()
         )
         .trim()
         .to_owned(),
@@ -121,7 +145,11 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
     let entry = load_entry()?;
     let (instance, _, _) = create_instance(&entry, false)?;
     let physicals = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
-    let list = physicals.iter().enumerate().map(|(i, &p)| describe(&instance, i, p)).collect();
+    let list = physicals
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| describe(&instance, i, p))
+        .collect();
     unsafe { instance.destroy_instance(None) };
     Ok(list)
 }
@@ -163,8 +191,11 @@ impl Context {
         };
 
         let physicals = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
-        let infos: Vec<DeviceInfo> =
-            physicals.iter().enumerate().map(|(i, &p)| describe(&instance, i, p)).collect();
+        let infos: Vec<DeviceInfo> = physicals
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| describe(&instance, i, p))
+            .collect();
         let chosen = match index {
             Some(i) => {
                 let Some(info) = infos.get(i) else {
@@ -174,18 +205,30 @@ impl Context {
                     );
                 };
                 if !info.usable {
-                    bail!("Vulkan device {i} ({}) lacks Vulkan 1.2 or a compute queue", info.name);
+                    bail!(
+                        "Vulkan device {i} ({}) lacks Vulkan 1.2 or a compute queue",
+                        info.name
+                    );
                 }
                 i
             }
             None => {
-                let best = (0..physicals.len()).filter(|&i| infos[i].usable).min_by_key(|&i| {
-                    preference(unsafe { instance.get_physical_device_properties(physicals[i]) }.device_type)
-                });
+                let best = (0..physicals.len())
+                    .filter(|&i| infos[i].usable)
+                    .min_by_key(|&i| {
+                        preference(
+                            unsafe { instance.get_physical_device_properties(physicals[i]) }
+                                .device_type,
+                        )
+                    });
                 match best {
                     Some(i) => i,
-                    None if physicals.is_empty() => bail!("no Vulkan device was found: {INSTALL_HINT}"),
-                    None => bail!("no Vulkan device supports Vulkan 1.2 with a compute queue: {INSTALL_HINT}"),
+                    None if physicals.is_empty() => {
+                        bail!("no Vulkan device was found: {INSTALL_HINT}")
+                    }
+                    None => bail!(
+                        "no Vulkan device supports Vulkan 1.2 with a compute queue: {INSTALL_HINT}"
+                    ),
                 }
             }
         };
@@ -207,7 +250,8 @@ impl Context {
         let device = unsafe { instance.create_device(physical, &device_info, None) }
             .with_context(|| format!("creating a Vulkan device on {}", infos[chosen].name))?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        let labels = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let labels =
+            has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         Ok(Context {
             _entry: entry,
             instance,
@@ -237,11 +281,19 @@ impl Context {
 
     /// Fails with every validation error reported so far.
     pub fn check_validation(&self) -> Result<()> {
-        let errors = self.validation_errors.lock().map(|e| e.clone()).unwrap_or_default();
+        let errors = self
+            .validation_errors
+            .lock()
+            .map(|e| e.clone())
+            .unwrap_or_default();
         if errors.is_empty() {
             Ok(())
         } else {
-            bail!("the Vulkan validation layer reported {} error(s):\n{}", errors.len(), errors.join("\n"))
+            bail!(
+                "the Vulkan validation layer reported {} error(s):\n{}",
+                errors.len(),
+                errors.join("\n")
+            )
         }
     }
 }

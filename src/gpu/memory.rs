@@ -24,7 +24,13 @@ pub struct Buffer {
 }
 
 impl Buffer {
-    pub fn new(ctx: &Context, name: &str, size: u64, usage: vk::BufferUsageFlags, location: Location) -> Result<Buffer> {
+    pub fn new(
+        ctx: &Context,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: Location,
+    ) -> Result<Buffer> {
         let size = size.max(16);
         let device = &ctx.device;
         let info = vk::BufferCreateInfo::default()
@@ -36,14 +42,18 @@ impl Buffer {
         let req = unsafe { device.get_buffer_memory_requirements(buffer) };
         let want = match location {
             Location::Device => vk::MemoryPropertyFlags::DEVICE_LOCAL,
-            Location::Host => vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            Location::Host => {
+                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT
+            }
         };
         let mp = &ctx.memory_properties;
         let allowed = |i: u32| req.memory_type_bits & (1 << i) != 0;
         let type_index = (0..mp.memory_type_count)
             .find(|&i| allowed(i) && mp.memory_types[i as usize].property_flags.contains(want))
             // A device without DEVICE_LOCAL memory for this buffer can still run from any memory.
-            .or_else(|| (0..mp.memory_type_count).find(|&i| allowed(i) && location == Location::Device))
+            .or_else(|| {
+                (0..mp.memory_type_count).find(|&i| allowed(i) && location == Location::Device)
+            })
             .ok_or_else(|| anyhow!("no memory type for buffer '{name}'"));
         let type_index = match type_index {
             Ok(t) => t,
@@ -52,7 +62,9 @@ impl Buffer {
                 return Err(e);
             }
         };
-        let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
+        let alloc = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(type_index);
         let memory = match unsafe { device.allocate_memory(&alloc, None) } {
             Ok(m) => m,
             Err(e) => {
@@ -63,22 +75,38 @@ impl Buffer {
                 ));
             }
         };
-        let mut result = Buffer { device: device.clone(), buffer, memory, size, mapped: std::ptr::null_mut() };
+        let mut result = Buffer {
+            device: device.clone(),
+            buffer,
+            memory,
+            size,
+            mapped: std::ptr::null_mut(),
+        };
         unsafe { device.bind_buffer_memory(buffer, memory, 0) }.context("binding buffer memory")?;
         if location == Location::Host {
-            result.mapped = unsafe { device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
-                .with_context(|| format!("mapping buffer '{name}'"))? as *mut u8;
+            result.mapped = unsafe {
+                device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+            }
+            .with_context(|| format!("mapping buffer '{name}'"))?
+                as *mut u8;
         }
         if let Some(labels) = &ctx.labels {
             let cname = std::ffi::CString::new(name).unwrap_or_default();
-            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(buffer).object_name(&cname);
+            let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                .object_handle(buffer)
+                .object_name(&cname);
             let _ = unsafe { labels.set_debug_utils_object_name(&info) };
         }
         Ok(result)
     }
 
     /// A host buffer holding `data`.
-    pub fn with_data(ctx: &Context, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Buffer> {
+    pub fn with_data(
+        ctx: &Context,
+        name: &str,
+        data: &[u8],
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
         let b = Buffer::new(ctx, name, data.len() as u64, usage, Location::Host)?;
         b.write(data);
         Ok(b)
@@ -123,20 +151,30 @@ impl Commands {
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let pool = unsafe { device.create_command_pool(&pool_info, None) }.context("creating a command pool")?;
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .context("creating a command pool")?;
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.context("allocating a command buffer")?[0];
-        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.context("creating a fence")?;
-        Ok(Commands { device: device.clone(), pool, cmd, fence })
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }
+            .context("allocating a command buffer")?[0];
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+            .context("creating a fence")?;
+        Ok(Commands {
+            device: device.clone(),
+            pool,
+            cmd,
+            fence,
+        })
     }
 
     pub fn begin(&self) -> Result<()> {
         unsafe {
-            self.device.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
-            let info = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            self.device
+                .reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
+            let info = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             self.device.begin_command_buffer(self.cmd, &info)?;
         }
         Ok(())
@@ -145,19 +183,27 @@ impl Commands {
     /// Ends, submits and waits (at most `timeout_s`); device loss and time-outs become errors.
     pub fn submit_and_wait(&self, ctx: &Context, what: &str, timeout_s: u64) -> Result<()> {
         let explain = |e: vk::Result| match e {
-            vk::Result::ERROR_DEVICE_LOST => anyhow!("the GPU was lost during {what} (VK_ERROR_DEVICE_LOST)"),
+            vk::Result::ERROR_DEVICE_LOST => {
+                anyhow!("the GPU was lost during {what} (VK_ERROR_DEVICE_LOST)")
+            }
             vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
                 anyhow!("out of memory during {what} ({e}); try a smaller --wavefront")
             }
-            vk::Result::TIMEOUT => anyhow!("{what} did not finish within {timeout_s} s; the GPU may be hung"),
+            vk::Result::TIMEOUT => {
+                anyhow!("{what} did not finish within {timeout_s} s; the GPU may be hung")
+            }
             e => anyhow!("{what} failed: {e}"),
         };
         unsafe {
             self.device.end_command_buffer(self.cmd).map_err(explain)?;
             let cmds = [self.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            self.device.queue_submit(ctx.queue, &submit, self.fence).map_err(explain)?;
-            let waited = self.device.wait_for_fences(&[self.fence], true, timeout_s * 1_000_000_000);
+            self.device
+                .queue_submit(ctx.queue, &submit, self.fence)
+                .map_err(explain)?;
+            let waited =
+                self.device
+                    .wait_for_fences(&[self.fence], true, timeout_s * 1_000_000_000);
             if let Err(e) = waited {
                 return Err(explain(e));
             }
@@ -168,7 +214,10 @@ impl Commands {
 
     pub fn copy(&self, src: &Buffer, dst: &Buffer, size: u64) {
         let region = [vk::BufferCopy::default().size(size)];
-        unsafe { self.device.cmd_copy_buffer(self.cmd, src.buffer, dst.buffer, &region) };
+        unsafe {
+            self.device
+                .cmd_copy_buffer(self.cmd, src.buffer, dst.buffer, &region)
+        };
     }
 }
 

@@ -50,7 +50,12 @@ impl GpuRenderer {
         let timing = options.timing
             && ctx.timestamp_valid_bits > 0
             && ctx.properties.limits.timestamp_compute_and_graphics == vk::TRUE;
-        Ok(GpuRenderer { commands, pipelines, ctx, timing })
+        Ok(GpuRenderer {
+            commands,
+            pipelines,
+            ctx,
+            timing,
+        })
     }
 
     pub fn device(&self) -> &DeviceInfo {
@@ -70,13 +75,20 @@ impl GpuRenderer {
 
     pub fn max_wavefront(&self) -> u32 {
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let per_path = (2 * size_of::<QueuedRay>()).max(size_of::<ShadowRay>()).max(size_of::<PathState>()) as u64;
+        let per_path = (2 * size_of::<QueuedRay>())
+            .max(size_of::<ShadowRay>())
+            .max(size_of::<PathState>()) as u64;
         let groups = self.ctx.properties.limits.max_compute_work_group_count[0].min(65535) as u64;
         (range / per_path).min(groups * crate::layout::WORKGROUP_SIZE as u64) as u32
     }
 
     /// Renders `settings.spp` samples of every pixel with at most `wavefront` paths in flight.
-    pub fn render(&self, scene: &PreparedScene, settings: &RenderSettings, wavefront: Option<u32>) -> Result<RenderOutput> {
+    pub fn render(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        wavefront: Option<u32>,
+    ) -> Result<RenderOutput> {
         let ctx = &self.ctx;
         let pixel_count = settings.pixel_count();
         let film_bytes = pixel_count * size_of::<FilmPixel>() as u64;
@@ -93,27 +105,56 @@ impl GpuRenderer {
         }
         let capacity = wavefront.unwrap_or_else(|| self.default_wavefront());
         if capacity == 0 || capacity > self.max_wavefront() {
-            bail!("--wavefront {capacity}: this device takes 1 to {} paths in flight", self.max_wavefront());
+            bail!(
+                "--wavefront {capacity}: this device takes 1 to {} paths in flight",
+                self.max_wavefront()
+            );
         }
         let cap = capacity as u64;
         let frame = scene.frame_params(settings);
 
         use vk::BufferUsageFlags as U;
         let storage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
-        let device_buffer = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, storage, Location::Device);
-        let frame_buf = Buffer::with_data(ctx, "frame", bytemuck::bytes_of(&frame), U::UNIFORM_BUFFER)?;
-        let nodes = device_buffer("bvh_nodes", std::mem::size_of_val(scene.bvh.nodes.as_slice()) as u64)?;
-        let triangles = device_buffer("triangles", std::mem::size_of_val(scene.triangles.as_slice()) as u64)?;
-        let materials = device_buffer("materials", std::mem::size_of_val(scene.materials.as_slice()) as u64)?;
-        let lights = device_buffer("lights", std::mem::size_of_val(scene.lights.as_slice()) as u64)?;
+        let device_buffer =
+            |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, storage, Location::Device);
+        let frame_buf =
+            Buffer::with_data(ctx, "frame", bytemuck::bytes_of(&frame), U::UNIFORM_BUFFER)?;
+        let nodes = device_buffer(
+            "bvh_nodes",
+            std::mem::size_of_val(scene.bvh.nodes.as_slice()) as u64,
+        )?;
+        let triangles = device_buffer(
+            "triangles",
+            std::mem::size_of_val(scene.triangles.as_slice()) as u64,
+        )?;
+        let materials = device_buffer(
+            "materials",
+            std::mem::size_of_val(scene.materials.as_slice()) as u64,
+        )?;
+        let lights = device_buffer(
+            "lights",
+            std::mem::size_of_val(scene.lights.as_slice()) as u64,
+        )?;
         let paths = device_buffer("paths", cap * size_of::<PathState>() as u64)?;
         let rays = device_buffer("rays", 2 * cap * size_of::<QueuedRay>() as u64)?;
         let hits = device_buffer("hits", cap * size_of::<HitRecord>() as u64)?;
         let shadows = device_buffer("shadow_rays", cap * size_of::<ShadowRay>() as u64)?;
         let film = device_buffer("film", film_bytes)?;
         let counters = device_buffer("counters", 4 * counter::COUNT as u64)?;
-        let args = Buffer::new(ctx, "dispatch_args", 16 * crate::layout::args::COUNT as u64, U::STORAGE_BUFFER | U::INDIRECT_BUFFER, Location::Device)?;
-        let counters_back = Buffer::new(ctx, "counters_readback", counters.size, U::TRANSFER_DST, Location::Host)?;
+        let args = Buffer::new(
+            ctx,
+            "dispatch_args",
+            16 * crate::layout::args::COUNT as u64,
+            U::STORAGE_BUFFER | U::INDIRECT_BUFFER,
+            Location::Device,
+        )?;
+        let counters_back = Buffer::new(
+            ctx,
+            "counters_readback",
+            counters.size,
+            U::TRANSFER_DST,
+            Location::Host,
+        )?;
         self.pipelines.bind_buffers(&[
             (Binding::Frame, frame_buf.buffer),
             (Binding::BvhNodes, nodes.buffer),
@@ -138,14 +179,23 @@ impl GpuRenderer {
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
-        .map(|(data, dst)| Ok((Buffer::with_data(ctx, "staging", data, U::TRANSFER_SRC)?, dst)))
+        .map(|(data, dst)| {
+            Ok((
+                Buffer::with_data(ctx, "staging", data, U::TRANSFER_SRC)?,
+                dst,
+            ))
+        })
         .collect::<Result<_>>()?;
         self.commands.begin()?;
         for (src, dst) in &staged {
             self.commands.copy(src, dst, src.size.min(dst.size));
         }
-        unsafe { ctx.device.cmd_fill_buffer(self.commands.cmd, film.buffer, 0, vk::WHOLE_SIZE, 0) };
-        self.commands.submit_and_wait(ctx, "the scene upload", BATCH_TIMEOUT_S)?;
+        unsafe {
+            ctx.device
+                .cmd_fill_buffer(self.commands.cmd, film.buffer, 0, vk::WHOLE_SIZE, 0)
+        };
+        self.commands
+            .submit_and_wait(ctx, "the scene upload", BATCH_TIMEOUT_S)?;
         drop(staged);
 
         let query_pool = if self.timing {
@@ -156,18 +206,34 @@ impl GpuRenderer {
         } else {
             None
         };
-        let result = self.run_batches(settings, capacity, pixel_count as u32, &film, &counters, &counters_back, &args, query_pool);
+        let result = self.run_batches(
+            settings,
+            capacity,
+            pixel_count as u32,
+            &counters,
+            &counters_back,
+            &args,
+            query_pool,
+        );
         if let Some(pool) = query_pool {
             unsafe { ctx.device.destroy_query_pool(pool, None) };
         }
         let mut stats = result?;
 
         // Read the film back.
-        let film_back = Buffer::new(ctx, "film_readback", film_bytes, U::TRANSFER_DST, Location::Host)?;
+        let film_back = Buffer::new(
+            ctx,
+            "film_readback",
+            film_bytes,
+            U::TRANSFER_DST,
+            Location::Host,
+        )?;
         self.commands.begin()?;
         self.commands.copy(&film, &film_back, film_bytes);
-        self.commands.submit_and_wait(ctx, "the film read-back", BATCH_TIMEOUT_S)?;
-        let pixels: Vec<FilmPixel> = bytemuck::pod_collect_to_vec(&film_back.read(film_bytes as usize));
+        self.commands
+            .submit_and_wait(ctx, "the film read-back", BATCH_TIMEOUT_S)?;
+        let pixels: Vec<FilmPixel> =
+            bytemuck::pod_collect_to_vec(&film_back.read(film_bytes as usize));
         ctx.check_validation()?;
         stats.samples = settings.total_samples();
         let film = Film::from_pixels(settings.width, settings.height, pixels, stats.dropped);
@@ -180,7 +246,6 @@ impl GpuRenderer {
         settings: &RenderSettings,
         capacity: u32,
         pixel_count: u32,
-        _film: &Buffer,
         counters: &Buffer,
         counters_back: &Buffer,
         args: &Buffer,
@@ -230,15 +295,22 @@ impl GpuRenderer {
                 );
             }
             self.commands.copy(counters, counters_back, counters.size);
-            self.commands.submit_and_wait(ctx, "a wavefront batch", BATCH_TIMEOUT_S)?;
-            let c: Vec<u32> = bytemuck::pod_collect_to_vec(&counters_back.read(counters.size as usize));
+            self.commands
+                .submit_and_wait(ctx, "a wavefront batch", BATCH_TIMEOUT_S)?;
+            let c: Vec<u32> =
+                bytemuck::pod_collect_to_vec(&counters_back.read(counters.size as usize));
             stats.extension_rays += c[counter::TOTAL_EXTENSION_RAYS as usize] as u64;
             stats.shadow_rays += c[counter::TOTAL_SHADOW_RAYS as usize] as u64;
             stats.dropped += c[counter::DROPPED_SAMPLES as usize] as u64;
             if let Some(pool) = query_pool {
                 let mut ticks = vec![0u64; timed.len() + 1];
                 unsafe {
-                    ctx.device.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+                    ctx.device.get_query_pool_results(
+                        pool,
+                        0,
+                        &mut ticks,
+                        vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                    )
                 }?;
                 let period = ctx.properties.limits.timestamp_period as f64 * 1e-9;
                 for (k, name) in timed.iter().enumerate() {

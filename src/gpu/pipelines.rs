@@ -56,7 +56,8 @@ pub fn kernel_spirv(name: &str) -> Result<Vec<u32>> {
         .iter()
         .find(|(n, _)| *n == name)
         .ok_or_else(|| anyhow!("no kernel named {name}"))?;
-    ash::util::read_spv(&mut std::io::Cursor::new(bytes)).with_context(|| format!("reading SPIR-V of {name}"))
+    ash::util::read_spv(&mut std::io::Cursor::new(bytes))
+        .with_context(|| format!("reading SPIR-V of {name}"))
 }
 
 pub struct Pipelines {
@@ -82,7 +83,10 @@ impl Pipelines {
             })
             .collect();
         let set_layout = unsafe {
-            device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None)
+            device.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )
         }
         .context("creating the descriptor set layout")?;
         let push = [vk::PushConstantRange::default()
@@ -91,44 +95,66 @@ impl Pipelines {
         let set_layouts = [set_layout];
         let layout = unsafe {
             device.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push),
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
                 None,
             )
         }
         .context("creating the pipeline layout")?;
         let sizes = [
-            vk::DescriptorPoolSize::default().ty(vk::DescriptorType::UNIFORM_BUFFER).descriptor_count(1),
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::UNIFORM_BUFFER)
+                .descriptor_count(1),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
                 .descriptor_count(Binding::ALL.len() as u32 - 1),
         ];
         let pool = unsafe {
-            device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+            device.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(1)
+                    .pool_sizes(&sizes),
+                None,
+            )
         }
         .context("creating the descriptor pool")?;
         let set = unsafe {
             device.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts),
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(pool)
+                    .set_layouts(&set_layouts),
             )
         }
         .context("allocating the descriptor set")?[0];
 
-        let mut result =
-            Pipelines { device: device.clone(), set_layout, layout, pool, set, pipelines: HashMap::new() };
+        let mut result = Pipelines {
+            device: device.clone(),
+            set_layout,
+            layout,
+            pool,
+            set,
+            pipelines: HashMap::new(),
+        };
         for (name, _) in KERNELS {
             let words = kernel_spirv(name)?;
             let module = unsafe {
-                device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+                device
+                    .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
             }
             .with_context(|| format!("creating the shader module of kernel {name}"))?;
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-            let created = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+            let info = [vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(layout)];
+            let created =
+                unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
             unsafe { device.destroy_shader_module(module, None) };
-            let pipeline = created.map_err(|(_, e)| anyhow!("creating the pipeline of kernel {name}: {e}"))?[0];
+            let pipeline = created
+                .map_err(|(_, e)| anyhow!("creating the pipeline of kernel {name}: {e}"))?[0];
             result.pipelines.insert(name, pipeline);
         }
         Ok(result)
@@ -142,7 +168,11 @@ impl Pipelines {
     pub fn bind_buffers(&self, buffers: &[(Binding, vk::Buffer)]) {
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
-            .map(|(_, b)| [vk::DescriptorBufferInfo::default().buffer(*b).range(vk::WHOLE_SIZE)])
+            .map(|(_, b)| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(*b)
+                    .range(vk::WHOLE_SIZE)]
+            })
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = buffers
             .iter()
@@ -167,7 +197,8 @@ impl Drop for Pipelines {
             }
             self.device.destroy_descriptor_pool(self.pool, None);
             self.device.destroy_pipeline_layout(self.layout, None);
-            self.device.destroy_descriptor_set_layout(self.set_layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }

@@ -24,7 +24,11 @@ pub fn batches(pixel_count: u32, spp: u32, capacity: u32) -> Vec<Batch> {
         let mut s = 0;
         while s < spp {
             let k = passes.min(spp - s);
-            out.push(Batch { first_sample: s, first_pixel: 0, size: k * pixel_count });
+            out.push(Batch {
+                first_sample: s,
+                first_pixel: 0,
+                size: k * pixel_count,
+            });
             s += k;
         }
     } else {
@@ -32,7 +36,11 @@ pub fn batches(pixel_count: u32, spp: u32, capacity: u32) -> Vec<Batch> {
             let mut p = 0;
             while p < pixel_count {
                 let size = capacity.min(pixel_count - p);
-                out.push(Batch { first_sample: s, first_pixel: p, size });
+                out.push(Batch {
+                    first_sample: s,
+                    first_pixel: p,
+                    size,
+                });
                 p += size;
             }
         }
@@ -61,8 +69,14 @@ impl Recorder<'_> {
         self.reset_counters(batch);
         if let Some(pool) = self.timestamps {
             unsafe {
-                self.device.cmd_reset_query_pool(self.cmd, pool, 0, self.query_capacity(max_depth));
-                self.device.cmd_write_timestamp(self.cmd, vk::PipelineStageFlags::COMPUTE_SHADER, pool, 0);
+                self.device
+                    .cmd_reset_query_pool(self.cmd, pool, 0, self.query_capacity(max_depth));
+                self.device.cmd_write_timestamp(
+                    self.cmd,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    pool,
+                    0,
+                );
             }
         }
         self.generate(batch);
@@ -85,8 +99,20 @@ impl Recorder<'_> {
         let device = self.device;
         unsafe {
             // Queue 0 starts full (generate writes every slot); the other queues start empty.
-            device.cmd_fill_buffer(self.cmd, self.counters.buffer, 0, 4 * counter::TOTAL_EXTENSION_RAYS as u64, 0);
-            device.cmd_fill_buffer(self.cmd, self.counters.buffer, 4 * counter::RAYS_0 as u64, 4, batch.size);
+            device.cmd_fill_buffer(
+                self.cmd,
+                self.counters.buffer,
+                0,
+                4 * counter::TOTAL_EXTENSION_RAYS as u64,
+                0,
+            );
+            device.cmd_fill_buffer(
+                self.cmd,
+                self.counters.buffer,
+                4 * counter::RAYS_0 as u64,
+                4,
+                batch.size,
+            );
             device.cmd_fill_buffer(
                 self.cmd,
                 self.counters.buffer,
@@ -111,7 +137,11 @@ impl Recorder<'_> {
 
     /// Camera rays and fresh path states for the whole batch.
     fn generate(&mut self, batch: Batch) {
-        self.dispatch("generate", params(batch, 0), batch.size.div_ceil(WORKGROUP_SIZE));
+        self.dispatch(
+            "generate",
+            params(batch, 0),
+            batch.size.div_ceil(WORKGROUP_SIZE),
+        );
     }
 
     /// Closest hits of the extension queue of `depth`.
@@ -146,29 +176,49 @@ impl Recorder<'_> {
     /// Path radiance into the film, one thread per pixel of the batch.
     fn accumulate(&mut self, batch: Batch) {
         let threads = batch.size.min(self.pixel_count);
-        self.dispatch("accumulate", params(batch, 0), threads.div_ceil(WORKGROUP_SIZE));
+        self.dispatch(
+            "accumulate",
+            params(batch, 0),
+            threads.div_ceil(WORKGROUP_SIZE),
+        );
     }
 
     fn dispatch(&mut self, name: &'static str, p: DispatchParams, groups: u32) {
-        self.record(name, p, |d, cmd| unsafe { d.cmd_dispatch(cmd, groups, 1, 1) });
+        self.record(name, p, |d, cmd| unsafe {
+            d.cmd_dispatch(cmd, groups, 1, 1)
+        });
     }
 
     /// A dispatch whose size `dispatch_args` wrote into argument slot `slot`.
     fn dispatch_indirect(&mut self, name: &'static str, p: DispatchParams, slot: u32) {
         let buffer = self.args.buffer;
-        self.record(name, p, |d, cmd| unsafe { d.cmd_dispatch_indirect(cmd, buffer, 16 * slot as u64) });
+        self.record(name, p, |d, cmd| unsafe {
+            d.cmd_dispatch_indirect(cmd, buffer, 16 * slot as u64)
+        });
     }
 
     /// Binds, pushes, dispatches, then makes the results visible to the next kernel and to
     /// indirect argument reads.
-    fn record(&mut self, name: &'static str, p: DispatchParams, dispatch: impl FnOnce(&ash::Device, vk::CommandBuffer)) {
+    fn record(
+        &mut self,
+        name: &'static str,
+        p: DispatchParams,
+        dispatch: impl FnOnce(&ash::Device, vk::CommandBuffer),
+    ) {
         let (device, cmd) = (self.device, self.cmd);
         let label = std::ffi::CString::new(name).unwrap_or_default();
         unsafe {
             if let Some(labels) = self.labels {
-                labels.cmd_begin_debug_utils_label(cmd, &vk::DebugUtilsLabelEXT::default().label_name(&label));
+                labels.cmd_begin_debug_utils_label(
+                    cmd,
+                    &vk::DebugUtilsLabelEXT::default().label_name(&label),
+                );
             }
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipelines.get(name));
+            device.cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.pipelines.get(name),
+            );
             device.cmd_push_constants(
                 cmd,
                 self.pipelines.layout,
@@ -180,7 +230,9 @@ impl Recorder<'_> {
             let barrier = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
                 .dst_access_mask(
-                    vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::INDIRECT_COMMAND_READ,
+                    vk::AccessFlags::SHADER_READ
+                        | vk::AccessFlags::SHADER_WRITE
+                        | vk::AccessFlags::INDIRECT_COMMAND_READ,
                 )];
             device.cmd_pipeline_barrier(
                 cmd,
@@ -193,7 +245,12 @@ impl Recorder<'_> {
             );
             if let Some(pool) = self.timestamps {
                 self.timed.push(name);
-                device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, pool, self.timed.len() as u32);
+                device.cmd_write_timestamp(
+                    cmd,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    pool,
+                    self.timed.len() as u32,
+                );
             }
             if let Some(labels) = self.labels {
                 labels.cmd_end_debug_utils_label(cmd);
@@ -221,7 +278,13 @@ mod tests {
 
     #[test]
     fn batches_cover_every_path_once() {
-        for (pixels, spp, cap) in [(16u32, 5u32, 64u32), (100, 3, 64), (64, 4, 64), (7, 1, 1000), (1000, 2, 999)] {
+        for (pixels, spp, cap) in [
+            (16u32, 5u32, 64u32),
+            (100, 3, 64),
+            (64, 4, 64),
+            (7, 1, 1000),
+            (1000, 2, 999),
+        ] {
             let mut seen = vec![0u32; (pixels * spp) as usize];
             for b in batches(pixels, spp, cap) {
                 assert!(b.size <= cap && b.size > 0);
@@ -232,7 +295,10 @@ mod tests {
                     seen[(sample * pixels + pixel) as usize] += 1;
                 }
             }
-            assert!(seen.iter().all(|&c| c == 1), "{pixels} px × {spp} spp, capacity {cap}");
+            assert!(
+                seen.iter().all(|&c| c == 1),
+                "{pixels} px × {spp} spp, capacity {cap}"
+            );
         }
     }
 }

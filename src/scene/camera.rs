@@ -37,7 +37,11 @@ impl Camera {
         } else {
             1.0
         };
-        let centre = if centre.is_finite() { centre } else { Vec3::ZERO };
+        let centre = if centre.is_finite() {
+            centre
+        } else {
+            Vec3::ZERO
+        };
         Camera {
             position: centre + Vec3::Z * distance,
             forward: Vec3::NEG_Z,
@@ -51,24 +55,33 @@ impl Camera {
     /// A camera at a glTF camera node: origin, −Z and +Y of `world` give position, forward and
     /// up; the frame is re-orthonormalised (forward kept, up made perpendicular to it).
     /// Errors describe the problem (the caller names the node).
-    pub(crate) fn from_node(world: &Mat4, yfov: f32, aspect_ratio: Option<f32>) -> Result<Camera, String> {
+    pub(crate) fn from_node(
+        world: &Mat4,
+        yfov: f32,
+        aspect_ratio: Option<f32>,
+    ) -> Result<Camera, String> {
         if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
             return Err(format!("yfov = {yfov} rad is not in (0, π)"));
         }
         if let Some(aspect) = aspect_ratio {
             if !(aspect.is_finite() && aspect > 0.0) {
-                return Err(format!("aspectRatio = {aspect} is not a positive finite number"));
+                return Err(format!(
+                    "aspectRatio = {aspect} is not a positive finite number"
+                ));
             }
         }
         let position = world.transform_point3(Vec3::ZERO);
         let forward = world.transform_vector3(Vec3::NEG_Z).try_normalize();
         let up = world.transform_vector3(Vec3::Y);
         let (Some(forward), true) = (forward, position.is_finite()) else {
-            return Err("its node transform is degenerate (no finite viewing direction)".to_owned());
+            return Err(
+                "its node transform is degenerate (no finite viewing direction)".to_owned(),
+            );
         };
         let Some(right) = forward.cross(up).try_normalize() else {
             return Err(
-                "its node transform is degenerate (up is parallel to the viewing direction)".to_owned(),
+                "its node transform is degenerate (up is parallel to the viewing direction)"
+                    .to_owned(),
             );
         };
         Ok(Camera {

@@ -22,7 +22,10 @@ pub fn emitted_power(emission: Vec3, area: f32, double_sided: bool) -> f32 {
 ///
 /// `triangles[i].area` must already hold 0.5·|e1 × e2|; `material` indexes `materials`
 /// (an index out of range counts as non-emitting).
-pub fn build_light_table(triangles: &mut [GpuTriangle], materials: &[GpuMaterial]) -> Vec<LightEntry> {
+pub fn build_light_table(
+    triangles: &mut [GpuTriangle],
+    materials: &[GpuMaterial],
+) -> Vec<LightEntry> {
     let power: Vec<f64> = triangles
         .iter()
         .map(|tri| {
@@ -108,7 +111,10 @@ mod tests {
         let table = build_light_table(&mut tris, &materials);
         let powers = [1.0, 3.0, 2.0, 0.7152];
         let total: f32 = powers.iter().sum();
-        assert_eq!(table.iter().map(|e| e.triangle).collect::<Vec<_>>(), [1, 2, 3, 5]);
+        assert_eq!(
+            table.iter().map(|e| e.triangle).collect::<Vec<_>>(),
+            [1, 2, 3, 5]
+        );
         let mut cdf = 0.0;
         for (entry, p) in table.iter().zip(powers) {
             assert!((entry.pmf - p / total).abs() < 1e-6, "{entry:?}");

@@ -215,7 +215,9 @@ fn percent_decode(uri: &str) -> Result<String> {
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] == b'%' {
-            let hex = bytes.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok());
+            let hex = bytes
+                .get(i + 1..i + 3)
+                .and_then(|h| std::str::from_utf8(h).ok());
             let Some(byte) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) else {
                 bail!("malformed percent-escape at byte {i} of the URI");
             };
@@ -297,8 +299,8 @@ fn read_accessor<T: Copy + Default>(
         )
         .context("sparse indices")?;
         let values = sparse.values();
-        let values =
-            read_view(&values.view(), values.offset(), n, size, buffers, &decode).context("sparse values")?;
+        let values = read_view(&values.view(), values.offset(), n, size, buffers, &decode)
+            .context("sparse values")?;
         for (k, (slot, value)) in slots.into_iter().zip(values).enumerate() {
             let Some(element) = out.get_mut(slot) else {
                 bail!("sparse index {slot} (entry {k}) is out of range: the accessor has {count} elements");
@@ -325,7 +327,10 @@ fn read_view<T>(
         bail!("{what}: byteStride {stride} is smaller than the {size}-byte elements it holds");
     }
     let (start, length) = (view.offset(), view.length());
-    let Some(data) = start.checked_add(length).and_then(|end| buffer.get(start..end)) else {
+    let Some(data) = start
+        .checked_add(length)
+        .and_then(|end| buffer.get(start..end))
+    else {
         bail!(
             "{what} (bytes {start}..{}) lies outside {} of {} bytes",
             start.saturating_add(length),
@@ -375,11 +380,15 @@ fn read_indices(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>> {
     }
     match accessor.data_type() {
         DataType::U8 => read_accessor(accessor, buffers, 1, |b| b[0] as u32),
-        DataType::U16 => read_accessor(accessor, buffers, 2, |b| u16::from_le_bytes([b[0], b[1]]) as u32),
+        DataType::U16 => read_accessor(accessor, buffers, 2, |b| {
+            u16::from_le_bytes([b[0], b[1]]) as u32
+        }),
         DataType::U32 => read_accessor(accessor, buffers, 4, |b| {
             u32::from_le_bytes([b[0], b[1], b[2], b[3]])
         }),
-        other => bail!("indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, found {other:?}"),
+        other => {
+            bail!("indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, found {other:?}")
+        }
     }
 }
 
@@ -417,14 +426,20 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
     let [r, g, b, _] = material.pbr_metallic_roughness().base_color_factor();
     let base_color = Vec3::new(r, g, b);
     // The spec bounds factors to [0, 1]; forgive rounding just above 1.
-    if !(base_color.is_finite() && base_color.min_element() >= 0.0 && base_color.max_element() <= 1.0 + 1e-4)
+    if !(base_color.is_finite()
+        && base_color.min_element() >= 0.0
+        && base_color.max_element() <= 1.0 + 1e-4)
     {
         bail!("{what}: baseColorFactor {base_color} is outside [0, 1] (an albedo above 1 creates energy)");
     }
     let factor = Vec3::from(material.emissive_factor());
     let strength = material.emissive_strength().unwrap_or(1.0);
     let emission = factor * strength;
-    if !(factor.is_finite() && factor.min_element() >= 0.0 && strength >= 0.0 && emission.is_finite()) {
+    if !(factor.is_finite()
+        && factor.min_element() >= 0.0
+        && strength >= 0.0
+        && emission.is_finite())
+    {
         bail!("{what}: emission (emissiveFactor {factor} × emissiveStrength {strength}) must be finite and non-negative");
     }
     Ok(Material {
@@ -456,7 +471,8 @@ impl Builder<'_> {
     /// forest), which also bounds the work by the number of nodes.
     fn walk(&mut self, document: &Document, scene: &gltf::Scene) -> Result<()> {
         let node_count = document.nodes().len();
-        let node_label = |i: usize| label("node", i, document.nodes().nth(i).and_then(|n| n.name()));
+        let node_label =
+            |i: usize| label("node", i, document.nodes().nth(i).and_then(|n| n.name()));
         let mut parent: Vec<Option<usize>> = vec![None; node_count];
         let mut visited = vec![false; node_count];
         let mut stack: Vec<(gltf::Node, Mat4, Option<usize>)> =
@@ -495,12 +511,13 @@ impl Builder<'_> {
             }
             if let (None, Some(camera)) = (&self.camera, node.camera()) {
                 if let gltf::camera::Projection::Perspective(p) = camera.projection() {
-                    let camera = Camera::from_node(&world, p.yfov(), p.aspect_ratio()).map_err(|e| {
-                        anyhow!(
-                            "{} on {what}: {e}",
-                            label("camera", camera.index(), camera.name())
-                        )
-                    })?;
+                    let camera =
+                        Camera::from_node(&world, p.yfov(), p.aspect_ratio()).map_err(|e| {
+                            anyhow!(
+                                "{} on {what}: {e}",
+                                label("camera", camera.index(), camera.name())
+                            )
+                        })?;
                     self.camera = Some(camera);
                 }
             }
@@ -540,7 +557,10 @@ impl Builder<'_> {
         })?;
         let vertices: Vec<u32> = match primitive.indices() {
             Some(accessor) => {
-                let what = format!("indices {}", label("accessor", accessor.index(), accessor.name()));
+                let what = format!(
+                    "indices {}",
+                    label("accessor", accessor.index(), accessor.name())
+                );
                 let indices = read_indices(&accessor, self.buffers).context(what.clone())?;
                 if let Some((k, v)) = indices
                     .iter()

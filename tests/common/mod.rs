@@ -10,7 +10,9 @@ use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings};
 use wavetrace::scene::Scene;
 
 pub fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
 }
 
 pub fn prepared(name: &str) -> PreparedScene {
@@ -27,22 +29,38 @@ pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
             eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
             return None;
         }
-        let r = GpuRenderer::new(&GpuOptions { device_index: None, validation: true, timing: false })
-            .unwrap_or_else(|e| panic!("no GPU renderer: {e:#}"));
+        let r = GpuRenderer::new(&GpuOptions {
+            device_index: None,
+            validation: true,
+            timing: false,
+        })
+        .unwrap_or_else(|e| panic!("no GPU renderer: {e:#}"));
         eprintln!(
             "GPU tests on {} ({}), validation layer {}",
             r.device().name,
             r.device().driver,
-            if r.validating() { "on" } else { "not installed" }
+            if r.validating() {
+                "on"
+            } else {
+                "not installed"
+            }
         );
         Some(Mutex::new(r))
     });
-    gpu.as_ref().map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
+    gpu.as_ref()
+        .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
 }
 
-pub fn render_gpu(scene: &PreparedScene, settings: &RenderSettings, wavefront: Option<u32>) -> Option<RenderOutput> {
+pub fn render_gpu(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    wavefront: Option<u32>,
+) -> Option<RenderOutput> {
     let gpu = gpu()?;
-    Some(gpu.render(scene, settings, wavefront).unwrap_or_else(|e| panic!("GPU render failed: {e:#}")))
+    Some(
+        gpu.render(scene, settings, wavefront)
+            .unwrap_or_else(|e| panic!("GPU render failed: {e:#}")),
+    )
 }
 
 pub fn render_cpu(scene: &PreparedScene, settings: &RenderSettings) -> RenderOutput {
