@@ -64,6 +64,9 @@ pub struct RenderArgs {
     /// Paths in flight per GPU batch (default: 2^20 on GPUs, 2^17 on CPU Vulkan devices).
     #[arg(long)]
     pub wavefront: Option<u32>,
+    /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
+    #[arg(long, value_parser = parse_radiance, default_value = "0")]
+    pub environment: glam::Vec3,
     /// PNG exposure in stops.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
@@ -96,4 +99,21 @@ pub struct BenchArgs {
     /// Skip the CPU integrator.
     #[arg(long)]
     pub gpu_only: bool,
+}
+
+/// "v" or "r,g,b": finite, non-negative radiance.
+fn parse_radiance(text: &str) -> Result<glam::Vec3, String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("'{v}': {e}")))
+        .collect::<Result<_, _>>()?;
+    let rgb = match values.as_slice() {
+        [v] => glam::Vec3::splat(*v),
+        [r, g, b] => glam::Vec3::new(*r, *g, *b),
+        _ => return Err("expected one value or three (R,G,B)".into()),
+    };
+    if !rgb.is_finite() || rgb.min_element() < 0.0 {
+        return Err("radiance must be finite and non-negative".into());
+    }
+    Ok(rgb)
 }

@@ -102,6 +102,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         spp: args.spp,
         max_depth: args.max_depth,
         seed: args.seed,
+        environment: args.environment,
         ..RenderSettings::default()
     };
     let b = &prepared.bvh.stats;

@@ -117,3 +117,26 @@ fn cpu_is_deterministic() {
         "two CPU renders with the same seed differ"
     );
 }
+
+#[test]
+fn gpu_matches_cpu_with_an_environment() {
+    // Rays leaving the box through its open front see a uniform environment.
+    let scene = prepared("cornell-box.gltf");
+    let s = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 128,
+        environment: glam::Vec3::new(0.5, 0.7, 1.0),
+        ..settings(5)
+    };
+    let Some(gpu) = render_gpu(&scene, &s, None) else {
+        return;
+    };
+    let cpu = render_cpu(&scene, &RenderSettings { seed: 6, ..s });
+    let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
+    println!("{cmp}");
+    assert!(
+        cmp.passed(),
+        "GPU and CPU disagree with an environment:\n{cmp}"
+    );
+}
