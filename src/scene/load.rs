@@ -13,11 +13,12 @@
 //! morph targets, textures and KHR_mesh_quantization are not supported (the first two are
 //! ignored, quantized positions are an error).
 
+use super::buffers::load_buffers;
 use super::{bounds_of, Camera, Material, Scene, Triangle};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat3, Mat4, Vec3};
 use gltf::accessor::{sparse::IndexType, Accessor, DataType, Dimensions};
-use gltf::buffer::{self, View};
+use gltf::buffer::View;
 use gltf::mesh::{Mode, Primitive};
 use gltf::Document;
 use std::path::Path;
@@ -98,7 +99,7 @@ fn load_file(path: &Path) -> Result<Scene> {
 }
 
 /// `kind index "name"`, e.g. `mesh 3 "Chair"`, or `kind index` for unnamed objects.
-fn label(kind: &str, index: usize, name: Option<&str>) -> String {
+pub(super) fn label(kind: &str, index: usize, name: Option<&str>) -> String {
     match name {
         Some(name) if !name.is_empty() => format!("{kind} {index} \"{name}\""),
         _ => format!("{kind} {index}"),
@@ -146,123 +147,6 @@ fn check_glb_header(bytes: &[u8]) -> Result<()> {
         );
     }
     Ok(())
-}
-
-// ---------------------------------------------------------------------------------------------
-// Buffers
-
-fn load_buffers(document: &Document, blob: Option<&[u8]>, base: &Path) -> Result<Vec<Vec<u8>>> {
-    document
-        .buffers()
-        .map(|buffer| {
-            let what = label("buffer", buffer.index(), buffer.name());
-            let mut data = match buffer.source() {
-                buffer::Source::Bin => blob
-                    .ok_or_else(|| {
-                        anyhow!("{what} has no uri, and the file is not a GLB with a binary chunk")
-                    })?
-                    .to_vec(),
-                buffer::Source::Uri(uri) => read_uri(uri, base)
-                    .with_context(|| format!("{what}: cannot load {}", describe_uri(uri)))?,
-            };
-            if data.len() < buffer.length() {
-                bail!(
-                    "{what} declares byteLength {} but its data has only {} bytes",
-                    buffer.length(),
-                    data.len()
-                );
-            }
-            data.truncate(buffer.length());
-            Ok(data)
-        })
-        .collect()
-}
-
-/// The URI for a message: data URIs can be megabytes long.
-fn describe_uri(uri: &str) -> String {
-    if uri.starts_with("data:") {
-        format!("its data: URI ({} characters)", uri.len())
-    } else {
-        format!("\"{uri}\"")
-    }
-}
-
-fn read_uri(uri: &str, base: &Path) -> Result<Vec<u8>> {
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let Some((header, payload)) = rest.split_once(',') else {
-            bail!("malformed data URI (no ',' before the data)");
-        };
-        if !header.ends_with(";base64") {
-            bail!("the data URI is not base64-encoded (its header is \"data:{header}\")");
-        }
-        return decode_base64(payload);
-    }
-    // A scheme is letters/digits/+/-/. before the first ':' (RFC 3986 §3.1).
-    if let Some((scheme, _)) = uri.split_once(':') {
-        if !scheme.contains('/') {
-            bail!("unsupported URI scheme \"{scheme}:\" (only data: URIs and relative paths are supported)");
-        }
-    }
-    let relative = percent_decode(uri)?;
-    let file = base.join(relative);
-    std::fs::read(&file).with_context(|| format!("cannot read {}", file.display()))
-}
-
-/// Decodes `%XX` escapes of a relative URI reference into a path.
-fn percent_decode(uri: &str) -> Result<String> {
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i] == b'%' {
-            let hex = bytes
-                .get(i + 1..i + 3)
-                .and_then(|h| std::str::from_utf8(h).ok());
-            let Some(byte) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) else {
-                bail!("malformed percent-escape at byte {i} of the URI");
-            };
-            out.push(byte);
-            i += 3;
-        } else {
-            out.push(bytes[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8(out).map_err(|_| anyhow!("the URI does not decode to UTF-8"))
-}
-
-/// Standard or URL-safe base64 (RFC 4648), padding optional.
-fn decode_base64(text: &str) -> Result<Vec<u8>> {
-    let text = text.trim_end_matches('=');
-    if text.len() % 4 == 1 {
-        bail!(
-            "invalid base64 data: {} characters is not a whole number of bytes",
-            text.len()
-        );
-    }
-    let mut out = Vec::with_capacity(text.len() / 4 * 3 + 2);
-    let (mut acc, mut bits) = (0u32, 0u32);
-    for (i, c) in text.bytes().enumerate() {
-        let v = match c {
-            b'A'..=b'Z' => c - b'A',
-            b'a'..=b'z' => c - b'a' + 26,
-            b'0'..=b'9' => c - b'0' + 52,
-            b'+' | b'-' => 62,
-            b'/' | b'_' => 63,
-            _ => bail!(
-                "invalid base64 data: unexpected character {:?} at offset {i}",
-                c as char
-            ),
-        };
-        acc = (acc << 6) | v as u32;
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-            acc &= (1 << bits) - 1;
-        }
-    }
-    Ok(out)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -618,23 +502,6 @@ impl Builder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base64_round_trips() {
-        assert_eq!(decode_base64("AAECAw==").unwrap(), [0, 1, 2, 3]);
-        assert_eq!(decode_base64("AAECAw").unwrap(), [0, 1, 2, 3]);
-        assert_eq!(decode_base64("/+8=").unwrap(), [0xff, 0xef]);
-        assert_eq!(decode_base64("").unwrap(), Vec::<u8>::new());
-        assert!(decode_base64("AA*A").is_err());
-        assert!(decode_base64("AAAAA").is_err());
-    }
-
-    #[test]
-    fn percent_escapes_decode() {
-        assert_eq!(percent_decode("a%20b.bin").unwrap(), "a b.bin");
-        assert!(percent_decode("a%2").is_err());
-        assert!(percent_decode("%FF").is_err());
-    }
 
     #[test]
     fn strips_and_fans_keep_the_winding() {

@@ -1,0 +1,364 @@
+use super::*;
+
+/// PCG32 (O'Neill 2014): deterministic test data without a crate.
+struct Pcg(u64);
+
+impl Pcg {
+    const MUL: u64 = 6364136223846793005;
+    const INC: u64 = 1442695040888963407;
+    fn new(seed: u64) -> Pcg {
+        Pcg(seed.wrapping_mul(Self::MUL).wrapping_add(Self::INC))
+    }
+    fn next_u32(&mut self) -> u32 {
+        let old = self.0;
+        self.0 = old.wrapping_mul(Self::MUL).wrapping_add(Self::INC);
+        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
+    }
+    fn below(&mut self, n: u32) -> u32 {
+        self.next_u32() % n
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * ((self.next_u32() >> 8) as f32 / 16777216.0)
+    }
+    fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Kind {
+    Uniform,
+    Clustered,
+    Thin,
+    SameCentroid,
+    Duplicated,
+    Flat,
+}
+const ALL_KINDS: &[Kind] = &[
+    Kind::Uniform,
+    Kind::Clustered,
+    Kind::Thin,
+    Kind::SameCentroid,
+    Kind::Duplicated,
+    Kind::Flat,
+];
+/// The plane z = FLAT_Z holds every `Kind::Flat` triangle.
+const FLAT_Z: f32 = 0.25;
+
+fn soup(rng: &mut Pcg, n: usize, kinds: &[Kind]) -> Vec<[Vec3; 3]> {
+    let clusters: Vec<Vec3> = (0..4).map(|_| rng.vec3(-1.0, 1.0)).collect();
+    let mut tris: Vec<[Vec3; 3]> = Vec::with_capacity(n);
+    for i in 0..n {
+        let tri = match kinds[i % kinds.len()] {
+            Kind::Uniform => {
+                let c = rng.vec3(-1.0, 1.0);
+                [
+                    c + rng.vec3(-0.1, 0.1),
+                    c + rng.vec3(-0.1, 0.1),
+                    c + rng.vec3(-0.1, 0.1),
+                ]
+            }
+            Kind::Clustered => {
+                let c = clusters[rng.below(4) as usize] + rng.vec3(-0.02, 0.02);
+                [
+                    c + rng.vec3(-0.01, 0.01),
+                    c + rng.vec3(-0.01, 0.01),
+                    c + rng.vec3(-0.01, 0.01),
+                ]
+            }
+            Kind::Thin => {
+                let (a, b) = (rng.vec3(-1.0, 1.0), rng.vec3(-1.0, 1.0));
+                [a, b, a + rng.vec3(-0.005, 0.005)]
+            }
+            // Bounds symmetric about 0: every centroid is exactly the origin.
+            Kind::SameCentroid => {
+                let s = rng.vec3(0.01, 0.5);
+                [
+                    -s,
+                    s,
+                    Vec3::new(
+                        rng.range(-s.x, s.x),
+                        rng.range(-s.y, s.y),
+                        rng.range(-s.z, s.z),
+                    ),
+                ]
+            }
+            Kind::Duplicated if !tris.is_empty() => {
+                let [a, b, c] = tris[rng.below(tris.len() as u32) as usize];
+                if rng.below(2) == 0 {
+                    [a, b, c]
+                } else {
+                    [b, c, a]
+                }
+            }
+            Kind::Duplicated => [Vec3::ZERO, Vec3::X, Vec3::Y],
+            Kind::Flat => {
+                let c = rng.vec3(-1.0, 1.0).with_z(FLAT_Z);
+                let mut corner = || c + rng.vec3(-0.2, 0.2).with_z(0.0);
+                [corner(), corner(), corner()]
+            }
+        };
+        tris.push(tri);
+    }
+    tris
+}
+
+/// Origins inside and outside the bounds; some direction components exactly 0, some rays in
+/// the flat plane or on a box face (a vertex coordinate) along it.
+fn random_ray(rng: &mut Pcg, tris: &[[Vec3; 3]], lo: Vec3, hi: Vec3) -> Ray {
+    let size = hi - lo;
+    let mut origin = if rng.below(2) == 0 {
+        lo + size * rng.vec3(0.0, 1.0)
+    } else {
+        lo - size + 3.0 * size * rng.vec3(0.0, 1.0)
+    };
+    // Aim at a point of a random triangle half the time, anywhere in the bounds otherwise.
+    let target = if rng.below(2) == 0 {
+        let [a, b, c] = tris[rng.below(tris.len() as u32) as usize];
+        let (u, v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+        let (u, v) = if u + v > 1.0 {
+            (1.0 - u, 1.0 - v)
+        } else {
+            (u, v)
+        };
+        a + u * (b - a) + v * (c - a)
+    } else {
+        lo + size * rng.vec3(0.0, 1.0)
+    };
+    let mut dir = (target - origin) * rng.range(0.1, 10.0);
+    match rng.below(10) {
+        0 | 1 => dir[rng.below(3) as usize] = 0.0,
+        2 => {
+            let keep = rng.below(3) as usize;
+            dir = Vec3::select(
+                BVec3::new(keep == 0, keep == 1, keep == 2),
+                dir,
+                -Vec3::ZERO,
+            );
+        }
+        3 => {
+            origin.z = FLAT_Z;
+            dir.z = 0.0;
+        }
+        4 => {
+            let axis = rng.below(3) as usize;
+            origin[axis] = tris[rng.below(tris.len() as u32) as usize][rng.below(3) as usize][axis];
+            dir[axis] = 0.0;
+        }
+        _ => {}
+    }
+    if dir == Vec3::ZERO {
+        dir = Vec3::Y;
+    }
+    Ray { origin, dir }
+}
+
+fn brute_closest(tris: &[GpuTriangle], ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+    let mut closest = None;
+    let mut t_far = t_max;
+    for (i, tri) in tris.iter().enumerate() {
+        if let Some((t, u, v)) = intersect_triangle(tri, ray, t_min, t_far) {
+            t_far = t;
+            closest = Some(Hit {
+                t,
+                triangle: i as u32,
+                u,
+                v,
+            });
+        }
+    }
+    closest
+}
+
+fn brute_any(tris: &[GpuTriangle], ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    tris.iter()
+        .any(|tri| intersect_triangle(tri, ray, t_min, t_max).is_some())
+}
+
+/// Structure: depth-first numbering, every triangle in exactly one leaf, exact and nested
+/// bounds, stats that agree with the nodes.
+fn validate(bvh: &Bvh, tris: &[[Vec3; 3]]) {
+    if tris.is_empty() {
+        assert_eq!(bvh.nodes.len(), 1);
+        assert!(bvh.is_empty() && bvh.order.is_empty());
+        return;
+    }
+    assert!(!bvh.is_empty());
+    let mut sorted = bvh.order.clone();
+    sorted.sort_unstable();
+    assert!(
+        sorted.iter().enumerate().all(|(i, &o)| i as u32 == o),
+        "order is a permutation"
+    );
+
+    let mut covered = vec![0u32; tris.len()];
+    let (mut visited, mut leaves, mut max_depth, mut max_leaf) = (0, 0, 0, 0);
+    let mut stack = vec![(0u32, 0usize, None::<BvhNode>)];
+    while let Some((index, depth, parent)) = stack.pop() {
+        // Pre-order with the left child first must visit 0, 1, 2, …
+        assert_eq!(index as usize, visited, "depth-first flattening");
+        visited += 1;
+        let node = bvh.nodes[index as usize];
+        let (bmin, bmax) = (Vec3::from(node.bounds_min), Vec3::from(node.bounds_max));
+        if let Some(p) = parent {
+            assert!(bmin.cmpge(p.bounds_min.into()).all() && bmax.cmple(p.bounds_max.into()).all());
+        }
+        if node.is_leaf() {
+            leaves += 1;
+            max_depth = max_depth.max(depth);
+            max_leaf = max_leaf.max(node.count as usize);
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for i in node.first_triangle()..node.first_triangle() + node.count {
+                covered[i as usize] += 1;
+                for p in tris[bvh.order[i as usize] as usize] {
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
+            }
+            assert_eq!(
+                (lo, hi),
+                (bmin, bmax),
+                "leaf bounds are the exact union of its triangles"
+            );
+        } else {
+            assert!(node.right_child() > index + 1);
+            stack.push((node.right_child(), depth + 1, Some(node)));
+            stack.push((index + 1, depth + 1, Some(node)));
+        }
+    }
+    assert_eq!(visited, bvh.nodes.len(), "every node reachable once");
+    assert!(
+        covered.iter().all(|&c| c == 1),
+        "every triangle in exactly one leaf"
+    );
+    let s = &bvh.stats;
+    assert_eq!(
+        (s.nodes, s.leaves, s.max_depth, s.max_leaf_size),
+        (visited, leaves, max_depth, max_leaf)
+    );
+    assert_eq!(s.nodes, 2 * s.leaves - 1);
+    assert!(s.max_depth <= MAX_DEPTH);
+    assert!(s.max_leaf_size <= MAX_LEAF_SIZE);
+    assert_eq!(s.sah_cost, sah_cost(&bvh.nodes));
+}
+
+/// Builds, validates, and compares both traversals with brute force on `rays` random rays.
+/// Returns the BVH and how many closest-hit queries hit.
+fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
+    let bvh = Bvh::build(tris);
+    validate(&bvh, tris);
+    let gpu = gpu_triangles(tris, &[], &bvh.order);
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for p in tris.iter().flatten() {
+        (lo, hi) = (lo.min(*p), hi.max(*p));
+    }
+    // Padded, so that a flat soup still gets rays from off its plane.
+    let pad = Vec3::splat(0.1 * (hi - lo).max_element());
+    let (lo, hi) = (lo - pad, hi + pad);
+    let mut rng = Pcg::new(seed);
+    let mut hits = 0;
+    for _ in 0..rays {
+        let ray = random_ray(&mut rng, tris, lo, hi);
+        let t_min = [0.0, 1e-4, -1.0][rng.below(3) as usize];
+        let t_max = [f32::INFINITY, f32::MAX, rng.range(0.0, 2.0)][rng.below(3) as usize];
+        let got = bvh.intersect_closest(&gpu, &ray, t_min, t_max);
+        let want = brute_closest(&gpu, &ray, t_min, t_max);
+        match (got, want) {
+            (None, None) => {}
+            (Some(g), Some(w)) => {
+                hits += 1;
+                assert_eq!(g.t.to_bits(), w.t.to_bits(), "{ray:?}: {g:?} vs {w:?}");
+                if g.triangle == w.triangle {
+                    assert_eq!(g, w);
+                }
+            }
+            _ => panic!("{ray:?} ({t_min}, {t_max}): bvh {got:?}, brute force {want:?}"),
+        }
+        // Shadow-ray range ending just before or after the closest hit, or anywhere.
+        let t_max = match want {
+            Some(w) if rng.below(2) == 0 => w.t * rng.range(0.9, 1.1),
+            _ => rng.range(0.0, 3.0),
+        };
+        assert_eq!(
+            bvh.intersect_any(&gpu, &ray, t_min, t_max),
+            brute_any(&gpu, &ray, t_min, t_max),
+            "{ray:?} ({t_min}, {t_max})"
+        );
+    }
+    (bvh, hits)
+}
+
+#[test]
+fn matches_brute_force_on_random_soups() {
+    let mut rng = Pcg::new(1);
+    for (n, kinds) in [
+        (1, ALL_KINDS),
+        (2, ALL_KINDS),
+        (7, ALL_KINDS),
+        (100, ALL_KINDS),
+        (5000, ALL_KINDS),
+        (5000, &[Kind::Uniform][..]),
+        (300, &[Kind::Clustered][..]),
+        (300, &[Kind::Thin][..]),
+        (300, &[Kind::SameCentroid][..]),
+        (300, &[Kind::Duplicated][..]),
+        (300, &[Kind::Flat][..]),
+    ] {
+        let tris = soup(&mut rng, n, kinds);
+        let (bvh, hits) = check(&tris, 4000, n as u64);
+        assert!(
+            hits > 500,
+            "{n} triangles: only {hits} hits, the test is too weak"
+        );
+        if n == 5000 {
+            println!("{n} triangles, {} kinds: {:?}", kinds.len(), bvh.stats);
+        }
+    }
+}
+
+#[test]
+fn empty_input_misses() {
+    let bvh = Bvh::build(&[]);
+    validate(&bvh, &[]);
+    let ray = Ray {
+        origin: Vec3::ZERO,
+        dir: Vec3::X,
+    };
+    assert_eq!(bvh.intersect_closest(&[], &ray, 0.0, f32::MAX), None);
+    assert!(!bvh.intersect_any(&[], &ray, 0.0, f32::MAX));
+}
+
+#[test]
+fn identical_triangles_make_bounded_leaves() {
+    let tris = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 10_000];
+    let (bvh, hits) = check(&tris, 200, 3);
+    assert!(hits > 0);
+    assert!(bvh.stats.max_depth <= 12, "{:?}", bvh.stats);
+}
+
+#[test]
+fn depth_stays_bounded_on_geometric_spacing() {
+    // Sizes and gaps growing geometrically: the SAH peels a few triangles per level.
+    let tris: Vec<[Vec3; 3]> = (0..2000)
+        .map(|k| {
+            let x = 1.02f32.powi(k);
+            [
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x * 1.01, 0.0, 0.0),
+                Vec3::new(x, x * 0.01, 0.01),
+            ]
+        })
+        .collect();
+    let (bvh, _) = check(&tris, 2000, 4);
+    assert!(bvh.stats.max_depth <= MAX_DEPTH, "{:?}", bvh.stats);
+}
+
+#[test]
+fn builds_a_million_triangles() {
+    let tris = soup(
+        &mut Pcg::new(5),
+        1_000_000,
+        &[Kind::Uniform, Kind::Thin, Kind::Clustered],
+    );
+    let (bvh, _) = check(&tris, 20, 6);
+    println!("1M triangles: {:?}", bvh.stats);
+}
