@@ -5,6 +5,7 @@ mod cli;
 use anyhow::{bail, Context as _, Result};
 use clap::Parser;
 use cli::{BenchArgs, Cli, Command, DeviceKind, RenderArgs};
+use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
@@ -66,6 +67,17 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
             );
         }
     }
+}
+
+/// A progress bar over the render's samples on stderr (hidden when stderr is not a terminal).
+fn progress_bar(samples: u64) -> ProgressBar {
+    let bar = ProgressBar::new(samples);
+    if let Ok(style) = ProgressStyle::with_template(
+        "{bar:40} {percent:>3}%  {elapsed_precise} elapsed, {eta} left",
+    ) {
+        bar.set_style(style);
+    }
+    bar
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
@@ -132,7 +144,10 @@ fn render(args: &RenderArgs) -> Result<()> {
                 gpu.device().api_version,
                 gpu.device().driver
             );
-            gpu.render(&prepared, &settings, args.wavefront)?
+            let progress = progress_bar(settings.total_samples());
+            let out = gpu.render_with_progress(&prepared, &settings, args.wavefront, &progress);
+            progress.finish_and_clear();
+            out?
         }
         DeviceKind::Cpu => {
             println!(
@@ -141,7 +156,10 @@ fn render(args: &RenderArgs) -> Result<()> {
                 args.max_depth,
                 rayon::current_num_threads()
             );
-            wavetrace::cpu::render(&prepared, &settings)
+            let progress = progress_bar(settings.total_samples());
+            let out = wavetrace::cpu::render_with_progress(&prepared, &settings, &progress);
+            progress.finish_and_clear();
+            out
         }
     };
     print_stats(&stats, args.stats);
@@ -201,6 +219,17 @@ fn bench(args: &BenchArgs) -> Result<()> {
         validation: false,
         timing: true,
     });
+    // Warm-up: the first dispatches of a pipeline include the driver's lazy work.
+    if let (Ok(g), Some(first)) = (&gpu, scenes.first()) {
+        let (_, prepared) = load(first)?;
+        let tiny = RenderSettings {
+            width: 16,
+            height: 16,
+            spp: 1,
+            ..settings.clone()
+        };
+        g.render(&prepared, &tiny, args.wavefront)?;
+    }
     let gpu_name = match &gpu {
         Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
         Err(e) => format!("unavailable: {e:#}"),

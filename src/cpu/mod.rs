@@ -9,11 +9,21 @@ use crate::film::Film;
 use crate::layout::FilmPixel;
 use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
 use glam::Vec3;
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::time::Instant;
 
 /// Renders every sample of every pixel on the CPU.
 pub fn render(scene: &PreparedScene, settings: &RenderSettings) -> RenderOutput {
+    render_with_progress(scene, settings, &ProgressBar::hidden())
+}
+
+/// [`render`], advancing `progress` by each finished row's samples.
+pub fn render_with_progress(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    progress: &ProgressBar,
+) -> RenderOutput {
     let frame = scene.frame_params(settings);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
@@ -34,6 +44,7 @@ pub fn render(scene: &PreparedScene, settings: &RenderSettings) -> RenderOutput 
                     }
                 }
             }
+            progress.inc(settings.spp as u64 * pixels.len() as u64);
             (counts, dropped)
         })
         .reduce(

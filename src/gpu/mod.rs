@@ -14,6 +14,7 @@ use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
 use anyhow::{bail, Result};
 use ash::vk;
 use context::Context;
+use indicatif::ProgressBar;
 use memory::{Buffer, Commands, Location};
 use pipelines::{Binding, Pipelines};
 use std::mem::size_of;
@@ -88,6 +89,17 @@ impl GpuRenderer {
         scene: &PreparedScene,
         settings: &RenderSettings,
         wavefront: Option<u32>,
+    ) -> Result<RenderOutput> {
+        self.render_with_progress(scene, settings, wavefront, &ProgressBar::hidden())
+    }
+
+    /// [`GpuRenderer::render`], advancing `progress` by each finished batch's samples.
+    pub fn render_with_progress(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        wavefront: Option<u32>,
+        progress: &ProgressBar,
     ) -> Result<RenderOutput> {
         let ctx = &self.ctx;
         let pixel_count = settings.pixel_count();
@@ -214,6 +226,7 @@ impl GpuRenderer {
             &counters_back,
             &args,
             query_pool,
+            progress,
         );
         if let Some(pool) = query_pool {
             unsafe { ctx.device.destroy_query_pool(pool, None) };
@@ -250,6 +263,7 @@ impl GpuRenderer {
         counters_back: &Buffer,
         args: &Buffer,
         query_pool: Option<vk::QueryPool>,
+        progress: &ProgressBar,
     ) -> Result<RenderStats> {
         let ctx = &self.ctx;
         let mut stats = RenderStats::default();
@@ -302,6 +316,7 @@ impl GpuRenderer {
             stats.extension_rays += c[counter::TOTAL_EXTENSION_RAYS as usize] as u64;
             stats.shadow_rays += c[counter::TOTAL_SHADOW_RAYS as usize] as u64;
             stats.dropped += c[counter::DROPPED_SAMPLES as usize] as u64;
+            progress.inc(batch.size as u64);
             if let Some(pool) = query_pool {
                 let mut ticks = vec![0u64; timed.len() + 1];
                 unsafe {
