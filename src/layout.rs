@@ -91,7 +91,7 @@ pub struct LightEntry {
     pub pad: u32,      // 4 bytes
 }
 
-/// Constants of one render (std140 uniform). Total: 96 bytes.
+/// Constants of one render (std140 uniform). Total: 112 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
@@ -110,6 +110,11 @@ pub struct FrameParams {
     pub environment: [f32; 3],  // 12 bytes: radiance of rays that leave the scene
     /// `DEBUG_*` bits; 0 in every real render.
     pub debug_flags: u32, // 4 bytes
+    /// The GPU film holds a band of consecutive pixels (whole rows) at a time, so that no film
+    /// exceeds the device's storage-buffer range: the band's first pixel and its pixel count.
+    pub band_first_pixel: u32, // 4 bytes
+    pub band_pixel_count: u32,  // 4 bytes
+    pub pad: [u32; 2],          // 8 bytes
 }
 
 /// `FrameParams::debug_flags` bit: drop the emitter-sampling (NEE) term while BSDF-sampled hits
@@ -119,9 +124,10 @@ pub const DEBUG_NO_NEE: u32 = 1;
 
 /// Per-dispatch push constants. Total: 32 bytes.
 ///
-/// Path `i` of a batch has `local = first_pixel + i`, pixel `local % (width·height)` and sample
-/// `first_sample + local / (width·height)`: a batch is either whole sample passes over the image
-/// (`first_pixel` = 0) or a run of pixels inside one pass, so no index overflows 32 bits.
+/// Path `i` of a batch has `local = first_pixel + i`, pixel
+/// `band_first_pixel + local % band_pixel_count` and sample `first_sample + local /
+/// band_pixel_count`: a batch is either whole sample passes over the band (`first_pixel` = 0) or
+/// a run of pixels inside one pass, so no index overflows 32 bits.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DispatchParams {
@@ -274,7 +280,10 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         light_count,
         rr_start_depth,
         environment,
-        debug_flags
+        debug_flags,
+        band_first_pixel,
+        band_pixel_count,
+        pad
     }),
     struct_layout!(DispatchParams {
         first_sample,

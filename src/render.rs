@@ -105,6 +105,9 @@ impl PreparedScene {
             rr_start_depth: settings.rr_start_depth,
             environment: settings.environment.to_array(),
             debug_flags: settings.debug_flags,
+            band_first_pixel: 0,
+            band_pixel_count: settings.width * settings.height,
+            pad: [0; 2],
         }
     }
 }

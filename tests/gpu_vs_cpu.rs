@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{prepared, render_cpu, render_gpu};
+use common::{prepared, render_cpu, render_gpu, render_gpu_banded};
 use wavetrace::layout::DEBUG_NO_NEE;
 use wavetrace::render::RenderSettings;
 use wavetrace::stats::compare_films;
@@ -66,7 +66,7 @@ fn comparison_detects_a_dropped_nee_term() {
 }
 
 #[test]
-fn same_seed_gives_identical_bits_whatever_the_batch_size() {
+fn same_seed_gives_identical_bits_whatever_the_batch_and_band_size() {
     let scene = prepared("cornell-box.gltf");
     let s = RenderSettings {
         width: 32,
@@ -79,6 +79,16 @@ fn same_seed_gives_identical_bits_whatever_the_batch_size() {
     };
     let b = render_gpu(&scene, &s, None).unwrap();
     let c = render_gpu(&scene, &s, Some(1000)).unwrap();
+    // Bands of 9 rows (at most 300 pixels): four bands, the last one of 5 rows.
+    let d = render_gpu_banded(&scene, &s, 300).unwrap();
+    for (i, pd) in d.film.pixels.iter().enumerate() {
+        let pa = &a.film.pixels[i];
+        assert_eq!(
+            bytemuck::bytes_of(pa),
+            bytemuck::bytes_of(pd),
+            "pixel {i} differs in bands"
+        );
+    }
     for (i, ((pa, pb), pc)) in a
         .film
         .pixels

@@ -49,7 +49,7 @@ struct LightEntry {
     uint pad;         // 4 bytes
 };
 
-// Constants of one render (std140 uniform). Total: 96 bytes.
+// Constants of one render (std140 uniform). Total: 112 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
     float tan_half_fov_y; // 4 bytes
@@ -65,6 +65,9 @@ struct FrameParams {
     uint rr_start_depth;  // 4 bytes
     vec3 environment;     // 12 bytes
     uint debug_flags;     // 4 bytes
+    uint band_first_pixel;  // 4 bytes: the film holds pixels [band_first_pixel,
+    uint band_pixel_count;  // 4 bytes:   band_first_pixel + band_pixel_count)
+    uvec2 pad;              // 8 bytes
 };
 #define DEBUG_NO_NEE 1u
 

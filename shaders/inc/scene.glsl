@@ -4,10 +4,9 @@
 
 // Pixel and sample index of path i of the current batch (src/layout.rs, DispatchParams).
 void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
-    uint pixel_count = frame.width * frame.height;
     uint local_index = params.first_pixel + i;
-    pixel = local_index % pixel_count;
-    sample_index = params.first_sample + local_index / pixel_count;
+    pixel = frame.band_first_pixel + local_index % frame.band_pixel_count;
+    sample_index = params.first_sample + local_index / frame.band_pixel_count;
 }
 
 // Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.

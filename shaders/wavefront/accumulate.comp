@@ -10,9 +10,9 @@ layout(local_size_x = WORKGROUP_SIZE) in;
 
 void main() {
     uint t = gl_GlobalInvocationID.x;
-    uint pixel_count = frame.width * frame.height;
+    uint pixel_count = frame.band_pixel_count;
     if (t >= min(params.batch_size, pixel_count)) return;
-    uint pixel = (params.first_pixel + t) % pixel_count;
+    uint pixel = (params.first_pixel + t) % pixel_count;  // within the band the film holds
     FilmPixel acc = film[pixel];
     uint dropped = 0u;
     for (uint slot = t; slot < params.batch_size; slot += pixel_count) {

@@ -28,12 +28,17 @@ impl RayCounts {
     }
 }
 
-/// Pixel and sample of the path with global index `first_pixel + i` (see `DispatchParams`).
-pub fn path_pixel_sample(frame: &FrameParams, first_sample: u32, local_index: u32) -> (u32, u32) {
-    let pixel_count = frame.width * frame.height;
+/// Pixel and sample of path `i` of a batch (`scene.glsl`; see `DispatchParams`).
+pub fn path_pixel_sample(
+    frame: &FrameParams,
+    first_sample: u32,
+    first_pixel: u32,
+    i: u32,
+) -> (u32, u32) {
+    let local_index = first_pixel + i;
     (
-        local_index % pixel_count,
-        first_sample + local_index / pixel_count,
+        frame.band_first_pixel + local_index % frame.band_pixel_count,
+        first_sample + local_index / frame.band_pixel_count,
     )
 }
 

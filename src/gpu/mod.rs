@@ -4,19 +4,21 @@
 pub mod context;
 pub mod memory;
 pub mod pipelines;
+pub mod resources;
 pub mod wavefront;
 
 pub use context::{list_devices, DeviceInfo, INSTALL_HINT};
 
 use crate::film::Film;
-use crate::layout::{counter, FilmPixel, HitRecord, PathState, QueuedRay, ShadowRay};
+use crate::layout::{counter, FilmPixel, FrameParams, PathState, QueuedRay, ShadowRay};
 use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
 use anyhow::{bail, Result};
 use ash::vk;
 use context::Context;
 use indicatif::ProgressBar;
-use memory::{Buffer, Commands, Location};
-use pipelines::{Binding, Pipelines};
+use memory::Commands;
+use pipelines::Pipelines;
+use resources::{RenderBuffers, SUBMIT_TIMEOUT_S};
 use std::mem::size_of;
 use std::time::Instant;
 use wavefront::{batches, Recorder};
@@ -32,15 +34,14 @@ pub struct GpuOptions {
     pub timing: bool,
 }
 
-/// Longest a batch may run before the render is abandoned as hung.
-const BATCH_TIMEOUT_S: u64 = 300;
-
 /// A device with its pipelines built, ready to render any number of scenes.
 pub struct GpuRenderer {
     commands: Commands,
     pipelines: Pipelines,
     ctx: Context,
     timing: bool,
+    /// At most this many pixels in the GPU film at once (besides the device's storage range).
+    band_pixel_limit: Option<u64>,
 }
 
 impl GpuRenderer {
@@ -52,11 +53,18 @@ impl GpuRenderer {
             && ctx.timestamp_valid_bits > 0
             && ctx.properties.limits.timestamp_compute_and_graphics == vk::TRUE;
         Ok(GpuRenderer {
+            band_pixel_limit: None,
             commands,
             pipelines,
             ctx,
             timing,
         })
+    }
+
+    /// Renders in bands of at most `pixels` pixels (whole rows) even where the device's storage
+    /// range allows more; `None` restores the default. Results do not depend on it.
+    pub fn set_band_pixel_limit(&mut self, pixels: Option<u64>) {
+        self.band_pixel_limit = pixels;
     }
 
     pub fn device(&self) -> &DeviceInfo {
@@ -102,19 +110,6 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<RenderOutput> {
         let ctx = &self.ctx;
-        let pixel_count = settings.pixel_count();
-        let film_bytes = pixel_count * size_of::<FilmPixel>() as u64;
-        let range = ctx.properties.limits.max_storage_buffer_range as u64;
-        if film_bytes > range {
-            bail!(
-                "a {}×{} film needs {} MiB in one storage buffer but {} allows {} MiB: render a smaller image or use --device cpu",
-                settings.width,
-                settings.height,
-                film_bytes >> 20,
-                ctx.info.name,
-                range >> 20
-            );
-        }
         let capacity = wavefront.unwrap_or_else(|| self.default_wavefront());
         if capacity == 0 || capacity > self.max_wavefront() {
             bail!(
@@ -122,94 +117,23 @@ impl GpuRenderer {
                 self.max_wavefront()
             );
         }
-        let cap = capacity as u64;
-        let frame = scene.frame_params(settings);
-
-        use vk::BufferUsageFlags as U;
-        let storage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
-        let device_buffer =
-            |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, storage, Location::Device);
-        let frame_buf =
-            Buffer::with_data(ctx, "frame", bytemuck::bytes_of(&frame), U::UNIFORM_BUFFER)?;
-        let nodes = device_buffer(
-            "bvh_nodes",
-            std::mem::size_of_val(scene.bvh.nodes.as_slice()) as u64,
-        )?;
-        let triangles = device_buffer(
-            "triangles",
-            std::mem::size_of_val(scene.triangles.as_slice()) as u64,
-        )?;
-        let materials = device_buffer(
-            "materials",
-            std::mem::size_of_val(scene.materials.as_slice()) as u64,
-        )?;
-        let lights = device_buffer(
-            "lights",
-            std::mem::size_of_val(scene.lights.as_slice()) as u64,
-        )?;
-        let paths = device_buffer("paths", cap * size_of::<PathState>() as u64)?;
-        let rays = device_buffer("rays", 2 * cap * size_of::<QueuedRay>() as u64)?;
-        let hits = device_buffer("hits", cap * size_of::<HitRecord>() as u64)?;
-        let shadows = device_buffer("shadow_rays", cap * size_of::<ShadowRay>() as u64)?;
-        let film = device_buffer("film", film_bytes)?;
-        let counters = device_buffer("counters", 4 * counter::COUNT as u64)?;
-        let args = Buffer::new(
+        // The film is rendered in bands of whole rows that fit one storage binding.
+        let range = ctx.properties.limits.max_storage_buffer_range as u64;
+        let band_limit = self
+            .band_pixel_limit
+            .unwrap_or(u64::MAX)
+            .min(range / size_of::<FilmPixel>() as u64);
+        let band_rows =
+            (band_limit / settings.width as u64).clamp(1, settings.height as u64) as u32;
+        let band_pixels = band_rows * settings.width;
+        let buffers = RenderBuffers::new(
             ctx,
-            "dispatch_args",
-            16 * crate::layout::args::COUNT as u64,
-            U::STORAGE_BUFFER | U::INDIRECT_BUFFER,
-            Location::Device,
+            &self.pipelines,
+            &self.commands,
+            scene,
+            capacity as u64,
+            band_pixels as u64,
         )?;
-        let counters_back = Buffer::new(
-            ctx,
-            "counters_readback",
-            counters.size,
-            U::TRANSFER_DST,
-            Location::Host,
-        )?;
-        self.pipelines.bind_buffers(&[
-            (Binding::Frame, frame_buf.buffer),
-            (Binding::BvhNodes, nodes.buffer),
-            (Binding::Triangles, triangles.buffer),
-            (Binding::Materials, materials.buffer),
-            (Binding::Lights, lights.buffer),
-            (Binding::Paths, paths.buffer),
-            (Binding::Rays, rays.buffer),
-            (Binding::Hits, hits.buffer),
-            (Binding::Shadows, shadows.buffer),
-            (Binding::Film, film.buffer),
-            (Binding::Counters, counters.buffer),
-            (Binding::Args, args.buffer),
-        ]);
-
-        // Upload the scene and clear the film.
-        let staged: Vec<(Buffer, &Buffer)> = [
-            (bytemuck::cast_slice::<_, u8>(&scene.bvh.nodes), &nodes),
-            (bytemuck::cast_slice(&scene.triangles), &triangles),
-            (bytemuck::cast_slice(&scene.materials), &materials),
-            (bytemuck::cast_slice(&scene.lights), &lights),
-        ]
-        .into_iter()
-        .filter(|(data, _)| !data.is_empty())
-        .map(|(data, dst)| {
-            Ok((
-                Buffer::with_data(ctx, "staging", data, U::TRANSFER_SRC)?,
-                dst,
-            ))
-        })
-        .collect::<Result<_>>()?;
-        self.commands.begin()?;
-        for (src, dst) in &staged {
-            self.commands.copy(src, dst, src.size.min(dst.size));
-        }
-        unsafe {
-            ctx.device
-                .cmd_fill_buffer(self.commands.cmd, film.buffer, 0, vk::WHOLE_SIZE, 0)
-        };
-        self.commands
-            .submit_and_wait(ctx, "the scene upload", BATCH_TIMEOUT_S)?;
-        drop(staged);
-
         let query_pool = if self.timing {
             let info = vk::QueryPoolCreateInfo::default()
                 .query_type(vk::QueryType::TIMESTAMP)
@@ -218,58 +142,91 @@ impl GpuRenderer {
         } else {
             None
         };
-        let result = self.run_batches(
-            settings,
-            capacity,
-            pixel_count as u32,
-            &counters,
-            &counters_back,
-            &args,
-            query_pool,
-            progress,
+        let result = self.render_bands(
+            scene, settings, capacity, band_rows, &buffers, query_pool, progress,
         );
         if let Some(pool) = query_pool {
             unsafe { ctx.device.destroy_query_pool(pool, None) };
         }
-        let mut stats = result?;
-
-        // Read the film back.
-        let film_back = Buffer::new(
-            ctx,
-            "film_readback",
-            film_bytes,
-            U::TRANSFER_DST,
-            Location::Host,
-        )?;
-        self.commands.begin()?;
-        self.commands.copy(&film, &film_back, film_bytes);
-        self.commands
-            .submit_and_wait(ctx, "the film read-back", BATCH_TIMEOUT_S)?;
-        let pixels: Vec<FilmPixel> =
-            bytemuck::pod_collect_to_vec(&film_back.read(film_bytes as usize));
+        let (pixels, mut stats) = result?;
         ctx.check_validation()?;
         stats.samples = settings.total_samples();
         let film = Film::from_pixels(settings.width, settings.height, pixels, stats.dropped);
         Ok(RenderOutput { film, stats })
     }
 
+    /// Renders the image band by band: clear the band's film, run its batches, read it back.
+    #[allow(clippy::too_many_arguments)]
+    fn render_bands(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        capacity: u32,
+        band_rows: u32,
+        buffers: &RenderBuffers,
+        query_pool: Option<vk::QueryPool>,
+        progress: &ProgressBar,
+    ) -> Result<(Vec<FilmPixel>, RenderStats)> {
+        let ctx = &self.ctx;
+        let mut pixels = Vec::with_capacity(settings.pixel_count() as usize);
+        let mut stats = RenderStats::default();
+        let start = Instant::now();
+        for first_row in (0..settings.height).step_by(band_rows as usize) {
+            let rows = band_rows.min(settings.height - first_row);
+            let frame = FrameParams {
+                band_first_pixel: first_row * settings.width,
+                band_pixel_count: rows * settings.width,
+                ..scene.frame_params(settings)
+            };
+            buffers.frame.write(bytemuck::bytes_of(&frame));
+            let film_bytes = frame.band_pixel_count as u64 * size_of::<FilmPixel>() as u64;
+            self.commands.begin()?;
+            unsafe {
+                ctx.device
+                    .cmd_fill_buffer(self.commands.cmd, buffers.film.buffer, 0, film_bytes, 0)
+            };
+            self.commands
+                .submit_and_wait(ctx, "clearing the film", SUBMIT_TIMEOUT_S)?;
+
+            self.run_batches(
+                settings,
+                capacity,
+                frame.band_pixel_count,
+                buffers,
+                query_pool,
+                progress,
+                &mut stats,
+            )?;
+
+            self.commands.begin()?;
+            self.commands
+                .copy(&buffers.film, &buffers.film_back, film_bytes);
+            self.commands
+                .submit_and_wait(ctx, "the film read-back", SUBMIT_TIMEOUT_S)?;
+            pixels.extend(bytemuck::pod_collect_to_vec::<u8, FilmPixel>(
+                &buffers.film_back.read(film_bytes as usize),
+            ));
+        }
+        stats.seconds = start.elapsed().as_secs_f64();
+        Ok((pixels, stats))
+    }
+
+    /// Every batch of one band, each recorded into one command buffer and submitted.
     #[allow(clippy::too_many_arguments)]
     fn run_batches(
         &self,
         settings: &RenderSettings,
         capacity: u32,
-        pixel_count: u32,
-        counters: &Buffer,
-        counters_back: &Buffer,
-        args: &Buffer,
+        band_pixels: u32,
+        buffers: &RenderBuffers,
         query_pool: Option<vk::QueryPool>,
         progress: &ProgressBar,
-    ) -> Result<RenderStats> {
+        stats: &mut RenderStats,
+    ) -> Result<()> {
         let ctx = &self.ctx;
-        let mut stats = RenderStats::default();
-        let mut kernel_seconds: Vec<(String, f64)> = Vec::new();
-        let start = Instant::now();
-        for batch in batches(pixel_count, settings.spp, capacity) {
+        let (counters, counters_back, args) =
+            (&buffers.counters, &buffers.counters_back, &buffers.args);
+        for batch in batches(band_pixels, settings.spp, capacity) {
             self.commands.begin()?;
             let mut recorder = Recorder {
                 device: &ctx.device,
@@ -278,7 +235,7 @@ impl GpuRenderer {
                 cmd: self.commands.cmd,
                 args,
                 counters,
-                pixel_count,
+                pixel_count: band_pixels,
                 timestamps: query_pool,
                 timed: Vec::new(),
             };
@@ -310,7 +267,7 @@ impl GpuRenderer {
             }
             self.commands.copy(counters, counters_back, counters.size);
             self.commands
-                .submit_and_wait(ctx, "a wavefront batch", BATCH_TIMEOUT_S)?;
+                .submit_and_wait(ctx, "a wavefront batch", SUBMIT_TIMEOUT_S)?;
             let c: Vec<u32> =
                 bytemuck::pod_collect_to_vec(&counters_back.read(counters.size as usize));
             stats.extension_rays += c[counter::TOTAL_EXTENSION_RAYS as usize] as u64;
@@ -330,15 +287,13 @@ impl GpuRenderer {
                 let period = ctx.properties.limits.timestamp_period as f64 * 1e-9;
                 for (k, name) in timed.iter().enumerate() {
                     let dt = ticks[k + 1].saturating_sub(ticks[k]) as f64 * period;
-                    match kernel_seconds.iter_mut().find(|(n, _)| n == name) {
+                    match stats.kernel_seconds.iter_mut().find(|(n, _)| n == name) {
                         Some((_, s)) => *s += dt,
-                        None => kernel_seconds.push((name.to_string(), dt)),
+                        None => stats.kernel_seconds.push((name.to_string(), dt)),
                     }
                 }
             }
         }
-        stats.seconds = start.elapsed().as_secs_f64();
-        stats.kernel_seconds = kernel_seconds;
-        Ok(stats)
+        Ok(())
     }
 }

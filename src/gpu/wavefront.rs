@@ -275,6 +275,8 @@ fn params(batch: Batch, depth: u32) -> DispatchParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::path_pixel_sample;
+    use crate::layout::FrameParams;
 
     #[test]
     fn batches_cover_every_path_once() {
@@ -285,13 +287,18 @@ mod tests {
             (7, 1, 1000),
             (1000, 2, 999),
         ] {
+            let frame = FrameParams {
+                band_first_pixel: 0,
+                band_pixel_count: pixels,
+                ..Default::default()
+            };
             let mut seen = vec![0u32; (pixels * spp) as usize];
             for b in batches(pixels, spp, cap) {
                 assert!(b.size <= cap && b.size > 0);
                 assert!(b.first_pixel == 0 || b.first_pixel + b.size <= pixels);
                 for i in 0..b.size {
-                    let local = b.first_pixel + i;
-                    let (pixel, sample) = (local % pixels, b.first_sample + local / pixels);
+                    let (pixel, sample) =
+                        path_pixel_sample(&frame, b.first_sample, b.first_pixel, i);
                     seen[(sample * pixels + pixel) as usize] += 1;
                 }
             }

@@ -63,6 +63,19 @@ pub fn render_gpu(
     )
 }
 
+/// A GPU render whose film holds at most `band_pixels` pixels at a time.
+pub fn render_gpu_banded(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    band_pixels: u64,
+) -> Option<RenderOutput> {
+    let mut gpu = gpu()?;
+    gpu.set_band_pixel_limit(Some(band_pixels));
+    let out = gpu.render(scene, settings, None);
+    gpu.set_band_pixel_limit(None);
+    Some(out.unwrap_or_else(|e| panic!("banded GPU render failed: {e:#}")))
+}
+
 pub fn render_cpu(scene: &PreparedScene, settings: &RenderSettings) -> RenderOutput {
     wavetrace::cpu::render(scene, settings)
 }

@@ -1,0 +1,127 @@
+//! The buffers of one render: the scene (uploaded once), the wavefront's queues sized for the
+//! paths in flight, the film band, counters and indirect arguments, all bound to the one
+//! descriptor set.
+
+use super::context::Context;
+use super::memory::{Buffer, Commands, Location};
+use super::pipelines::{Binding, Pipelines};
+use crate::layout::{
+    args, counter, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
+};
+use crate::render::PreparedScene;
+use anyhow::Result;
+use ash::vk;
+use std::mem::{size_of, size_of_val};
+
+/// Longest a submission may run before the render is abandoned as hung.
+pub const SUBMIT_TIMEOUT_S: u64 = 300;
+
+pub struct RenderBuffers {
+    pub frame: Buffer,
+    pub film: Buffer,
+    pub film_back: Buffer,
+    pub counters: Buffer,
+    pub counters_back: Buffer,
+    pub args: Buffer,
+    /// Scene and queue buffers: only the descriptor set refers to them.
+    _bound: Vec<Buffer>,
+}
+
+impl RenderBuffers {
+    /// Creates every buffer for `capacity` paths in flight and a film of `band_pixels`, binds
+    /// them and uploads the scene.
+    pub fn new(
+        ctx: &Context,
+        pipelines: &Pipelines,
+        commands: &Commands,
+        scene: &PreparedScene,
+        capacity: u64,
+        band_pixels: u64,
+    ) -> Result<RenderBuffers> {
+        use vk::BufferUsageFlags as U;
+        let storage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
+        let device = |name: &str, bytes: usize| {
+            Buffer::new(ctx, name, bytes as u64, storage, Location::Device)
+        };
+        let host =
+            |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, U::TRANSFER_DST, Location::Host);
+        let cap = capacity as usize;
+        let film_bytes = band_pixels * size_of::<FilmPixel>() as u64;
+
+        let frame = Buffer::new(
+            ctx,
+            "frame",
+            size_of::<FrameParams>() as u64,
+            U::UNIFORM_BUFFER,
+            Location::Host,
+        )?;
+        let nodes = device("bvh_nodes", size_of_val(scene.bvh.nodes.as_slice()))?;
+        let triangles = device("triangles", size_of_val(scene.triangles.as_slice()))?;
+        let materials = device("materials", size_of_val(scene.materials.as_slice()))?;
+        let lights = device("lights", size_of_val(scene.lights.as_slice()))?;
+        let paths = device("paths", cap * size_of::<PathState>())?;
+        let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
+        let hits = device("hits", cap * size_of::<HitRecord>())?;
+        let shadows = device("shadow_rays", cap * size_of::<ShadowRay>())?;
+        let film = device("film", film_bytes as usize)?;
+        let counters = device("counters", 4 * counter::COUNT as usize)?;
+        let args = Buffer::new(
+            ctx,
+            "dispatch_args",
+            16 * args::COUNT as u64,
+            U::STORAGE_BUFFER | U::INDIRECT_BUFFER,
+            Location::Device,
+        )?;
+        let counters_back = host("counters_readback", counters.size)?;
+        let film_back = host("film_readback", film_bytes)?;
+        pipelines.bind_buffers(&[
+            (Binding::Frame, frame.buffer),
+            (Binding::BvhNodes, nodes.buffer),
+            (Binding::Triangles, triangles.buffer),
+            (Binding::Materials, materials.buffer),
+            (Binding::Lights, lights.buffer),
+            (Binding::Paths, paths.buffer),
+            (Binding::Rays, rays.buffer),
+            (Binding::Hits, hits.buffer),
+            (Binding::Shadows, shadows.buffer),
+            (Binding::Film, film.buffer),
+            (Binding::Counters, counters.buffer),
+            (Binding::Args, args.buffer),
+        ]);
+
+        // Upload the scene through host-visible staging buffers.
+        let staged: Vec<(Buffer, &Buffer)> = [
+            (bytemuck::cast_slice::<_, u8>(&scene.bvh.nodes), &nodes),
+            (bytemuck::cast_slice(&scene.triangles), &triangles),
+            (bytemuck::cast_slice(&scene.materials), &materials),
+            (bytemuck::cast_slice(&scene.lights), &lights),
+        ]
+        .into_iter()
+        .filter(|(data, _)| !data.is_empty())
+        .map(|(data, dst)| {
+            Ok((
+                Buffer::with_data(ctx, "staging", data, U::TRANSFER_SRC)?,
+                dst,
+            ))
+        })
+        .collect::<Result<_>>()?;
+        commands.begin()?;
+        for (src, dst) in &staged {
+            commands.copy(src, dst, src.size.min(dst.size));
+        }
+        commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)?;
+        drop(staged);
+
+        Ok(RenderBuffers {
+            frame,
+            film,
+            film_back,
+            counters,
+            counters_back,
+            args,
+            _bound: vec![
+                nodes, triangles, materials, lights, paths, rays, hits, shadows,
+            ],
+        })
+    }
+}
