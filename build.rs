@@ -1,4 +1,5 @@
-//! Compiles every compute kernel in `shaders/wavefront/` to SPIR-V with glslang (built from
+//! Compiles every compute kernel in `shaders/wavefront/` (and the twin-test kernels in
+//! `shaders/tests/`) to SPIR-V with glslang (built from
 //! source by the `glslang` crate) for SPIR-V 1.3 (1.4 brings OpCopyLogical, which naga cannot
 //! read yet), resolving `#include "x.glsl"` from `shaders/inc/`, and treats
 //! any compiler warning as an error. The binary embeds the modules through `$OUT_DIR/kernels.rs`.
@@ -67,42 +68,46 @@ fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let kernel_dir = root.join("shaders/wavefront");
+    let test_dir = root.join("shaders/tests");
     let include_dir = root.join("shaders/inc");
     println!("cargo:rerun-if-changed=shaders");
 
-    let mut kernels: Vec<PathBuf> = std::fs::read_dir(&kernel_dir)
-        .expect("shaders/wavefront exists")
-        .map(|e| e.expect("readable shaders/wavefront").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "comp"))
-        .collect();
-    kernels.sort();
-    for dir in [&kernel_dir, &include_dir] {
+    for dir in [&kernel_dir, &test_dir, &include_dir] {
         for entry in std::fs::read_dir(dir).expect("shader folder exists") {
             println!("cargo:rerun-if-changed={}", entry.unwrap().path().display());
         }
     }
-
     let compiler = Compiler::acquire().expect("glslang initialises");
-    let mut table = String::from("/// Every wavefront kernel: (name, SPIR-V bytes).\n");
-    table.push_str("pub const KERNELS: &[(&str, &[u8])] = &[\n");
+    let mut table = String::new();
     let mut failures = Vec::new();
-    for path in &kernels {
-        let name = path.file_stem().unwrap().to_str().unwrap().to_owned();
-        match compile(compiler, path, &include_dir) {
-            Ok(words) => {
-                let spv = out.join(format!("{name}.spv"));
-                std::fs::write(&spv, bytemuck_words(&words)).unwrap();
-                writeln!(
-                    table,
-                    "    ({name:?}, include_bytes!({:?})),",
-                    spv.display()
-                )
-                .unwrap();
+    for (constant, dir, doc) in [
+        ("KERNELS", &kernel_dir, "Every wavefront kernel"),
+        (
+            "TEST_KERNELS",
+            &test_dir,
+            "Kernels that run GLSL twins of Rust functions for the tests",
+        ),
+    ] {
+        writeln!(table, "/// {doc}: (name, SPIR-V bytes).").unwrap();
+        writeln!(table, "pub const {constant}: &[(&str, &[u8])] = &[").unwrap();
+        for path in comp_files(dir) {
+            let name = path.file_stem().unwrap().to_str().unwrap().to_owned();
+            match compile(compiler, &path, &include_dir) {
+                Ok(words) => {
+                    let spv = out.join(format!("{name}.spv"));
+                    std::fs::write(&spv, words_to_bytes(&words)).unwrap();
+                    writeln!(
+                        table,
+                        "    ({name:?}, include_bytes!({:?})),",
+                        spv.display()
+                    )
+                    .unwrap();
+                }
+                Err(e) => failures.push(e),
             }
-            Err(e) => failures.push(e),
         }
+        table.push_str("];\n");
     }
-    table.push_str("];\n");
     if !failures.is_empty() {
         for f in &failures {
             println!("cargo:warning={}", f.lines().next().unwrap_or(""));
@@ -112,6 +117,17 @@ fn main() {
     std::fs::write(out.join("kernels.rs"), table).unwrap();
 }
 
-fn bytemuck_words(words: &[u32]) -> Vec<u8> {
+/// The `.comp` files of a folder, sorted.
+fn comp_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("shader folder exists")
+        .map(|e| e.expect("readable shader folder").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "comp"))
+        .collect();
+    files.sort();
+    files
+}
+
+fn words_to_bytes(words: &[u32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }

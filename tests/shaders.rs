@@ -6,11 +6,14 @@
 use naga::{AddressSpace, Module, TypeInner};
 use std::collections::BTreeSet;
 use wavetrace::gpu::pipelines::{kernel_spirv, Binding};
-use wavetrace::kernels::KERNELS;
+use wavetrace::kernels::{KERNELS, TEST_KERNELS};
 use wavetrace::layout::STRUCT_LAYOUTS;
 
 fn parse(name: &str) -> Module {
-    let words = kernel_spirv(name).unwrap();
+    let words = match TEST_KERNELS.iter().find(|(n, _)| *n == name) {
+        Some((_, bytes)) => ash::util::read_spv(&mut std::io::Cursor::new(bytes)).unwrap(),
+        None => kernel_spirv(name).unwrap(),
+    };
     naga::front::spv::parse_u8_slice(
         bytemuck::cast_slice(&words),
         &naga::front::spv::Options::default(),
@@ -25,7 +28,7 @@ fn every_kernel_parses_and_validates() {
         "expected the six wavefront kernels, found {}",
         KERNELS.len()
     );
-    for (name, _) in KERNELS {
+    for (name, _) in KERNELS.iter().chain(TEST_KERNELS) {
         let module = parse(name);
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),

@@ -1,6 +1,7 @@
 //! The GPU integrator: Vulkan (ash) on any Vulkan 1.2 device, lavapipe included, running the
 //! wavefront kernels of `shaders/wavefront/`.
 
+pub mod compute;
 pub mod context;
 pub mod memory;
 pub mod pipelines;

@@ -1,0 +1,210 @@
+//! Each GLSL function the integrators share with Rust, run on the GPU (shaders/tests/twins.comp)
+//! against its Rust twin on the same inputs, so a disagreement names the function, the case and
+//! both values (DESIGN.md: "when they disagree, the test says where").
+//!
+//! Tolerances come from the precision Vulkan requires of SPIR-V instructions (Vulkan spec,
+//! "Precision and Operation of SPIR-V Instructions"): integer hashing is exact; sin and cos may
+//! be off by 2⁻¹¹ absolute on [−π, π], so everything downstream of a sampled angle is held to
+//! 2⁻¹⁰; atan by 4096 ulp; sqrt, division and the rest by a few ulp, held to 1e-5 relative.
+
+mod common;
+
+use glam::{UVec4, Vec2, Vec3, Vec4};
+use wavetrace::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use wavetrace::bvh::Ray;
+use wavetrace::mis::mis_power2;
+use wavetrace::sampling::*;
+
+const CASES: u32 = 4096;
+const INPUTS_PER_CASE: usize = 4;
+const OUTPUTS_PER_CASE: usize = 12;
+/// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
+const ANGLE_TOL: f32 = 1.0 / 1024.0;
+const ULP_TOL: f32 = 1e-5;
+
+struct Case {
+    u: Vec4,
+    n: Vec3,
+    wo: Vec3,
+    key: UVec4,
+}
+
+fn unit_vector(u: Vec4) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+fn cases() -> Vec<Case> {
+    (0..CASES)
+        .map(|i| {
+            let u = rng_uniform4(11, i, 0, 0);
+            let n = unit_vector(rng_uniform4(11, i, 1, 0));
+            let w = unit_vector(rng_uniform4(11, i, 2, 0));
+            let wo = if w.dot(n) < 0.0 { -w } else { w };
+            let o = rng_uniform4(11, i, 3, 0) * 1.8 - Vec4::splat(0.9);
+            let key = UVec4::new(o.x.to_bits(), o.y.to_bits(), o.z.to_bits(), i);
+            Case { u, n, wo, key }
+        })
+        .collect()
+}
+
+fn close(a: Vec4, b: Vec4, tol: f32) -> bool {
+    (a - b)
+        .abs()
+        .cmple(Vec4::splat(tol) * b.abs().max(Vec4::ONE))
+        .all()
+}
+
+#[test]
+fn glsl_functions_equal_their_rust_twins() {
+    let scene = common::prepared("cornell-box.gltf");
+    let cases = cases();
+    let mut inputs: Vec<Vec4> = Vec::with_capacity(cases.len() * INPUTS_PER_CASE);
+    for c in &cases {
+        let key = Vec4::new(
+            f32::from_bits(c.key.x),
+            f32::from_bits(c.key.y),
+            f32::from_bits(c.key.z),
+            f32::from_bits(c.key.w),
+        );
+        inputs.extend([c.u, c.n.extend(0.0), c.wo.extend(0.0), key]);
+    }
+    let outputs = vec![Vec4::ZERO; cases.len() * OUTPUTS_PER_CASE];
+    let Some(gpu) = common::gpu() else { return };
+    let result = gpu
+        .run_test_kernel(
+            "twins",
+            CASES,
+            &[
+                bytemuck::cast_slice(&inputs).to_vec(),
+                bytemuck::cast_slice(&outputs).to_vec(),
+                bytemuck::cast_slice(&scene.bvh.nodes).to_vec(),
+                bytemuck::cast_slice(&scene.triangles).to_vec(),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let gpu_out: Vec<Vec4> = bytemuck::pod_collect_to_vec(&result[1]);
+
+    let albedo = Vec3::new(0.2, 0.5, 0.9);
+    let mut failures = Vec::new();
+    for (i, c) in cases.iter().enumerate() {
+        let g = |slot: usize| gpu_out[i * OUTPUTS_PER_CASE + slot];
+        let mut check = |slot: usize, what: &str, cpu: Vec4, ok: &dyn Fn(Vec4, Vec4) -> bool| {
+            if !ok(g(slot), cpu) && failures.len() < 20 {
+                failures.push(format!(
+                    "{what}, case {i} (u = {}, n = {}, wo = {}): GPU {} vs CPU {cpu}",
+                    c.u,
+                    c.n,
+                    c.wo,
+                    g(slot)
+                ));
+            }
+        };
+        let rng = rng_uniform4(c.key.x, c.key.y, c.key.z, c.key.w);
+        check(0, "rng_uniform4", rng, &|a, b| a == b);
+        let w = sample_cosine_hemisphere(Vec2::new(c.u.x, c.u.y));
+        check(
+            1,
+            "sample_cosine_hemisphere / cosine_hemisphere_pdf",
+            w.extend(cosine_hemisphere_pdf(w.z)),
+            &|a, b| close(a, b, ANGLE_TOL),
+        );
+        let tri = sample_uniform_triangle(Vec2::new(c.u.z, c.u.w));
+        let inv = invert_cosine_hemisphere_sample(w);
+        check(
+            2,
+            "invert_cosine_hemisphere_sample / sample_uniform_triangle",
+            Vec4::new(inv.x, inv.y, tri.x, tri.y),
+            &|a, b| {
+                // φ/2π wraps at 1: compare it on the circle.
+                let dphi = (a.y - b.y).abs();
+                close(
+                    Vec4::new(a.x, 0.0, a.z, a.w),
+                    Vec4::new(b.x, 0.0, b.z, b.w),
+                    ANGLE_TOL,
+                ) && dphi.min(1.0 - dphi) <= ANGLE_TOL
+            },
+        );
+        let back = invert_uniform_triangle_sample(tri);
+        check(
+            3,
+            "invert_uniform_triangle_sample / mis_power2 / uniform_triangle_pdf",
+            Vec4::new(
+                back.x,
+                back.y,
+                mis_power2(c.u.x, c.u.y),
+                uniform_triangle_pdf(c.u.z + 0.5),
+            ),
+            &|a, b| close(a, b, ULP_TOL * 10.0),
+        );
+        let (t, bt) = build_frame(c.n);
+        check(4, "build_frame (t)", t.extend(0.0), &|a, b| {
+            close(a, b, ULP_TOL)
+        });
+        check(5, "build_frame (b)", bt.extend(0.0), &|a, b| {
+            close(a, b, ULP_TOL)
+        });
+        let p = offset_ray_origin(c.wo * 10.0 * c.u.w, c.n);
+        check(6, "offset_ray_origin", p.extend(0.0), &|a, b| {
+            close(a, b, ULP_TOL)
+        });
+        let s = bsdf_sample(albedo, c.n, c.wo, Vec2::new(c.u.x, c.u.y));
+        check(7, "bsdf_sample (wi, pdf)", s.wi.extend(s.pdf), &|a, b| {
+            close(a, b, ANGLE_TOL)
+        });
+        check(
+            8,
+            "bsdf_sample (f) / bsdf_pdf",
+            s.f.extend(bsdf_pdf(c.n, c.wo, s.wi)),
+            &|a, b| close(a, b, ANGLE_TOL),
+        );
+        check(
+            9,
+            "bsdf_eval",
+            bsdf_eval(albedo, c.n, c.wo, -c.wo).extend(0.0),
+            &|a, b| a == b,
+        );
+
+        let origin = Vec3::new(
+            f32::from_bits(c.key.x),
+            f32::from_bits(c.key.y),
+            f32::from_bits(c.key.z),
+        );
+        let ray = Ray { origin, dir: -c.wo };
+        let hit = scene
+            .bvh
+            .intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);
+        let cpu_hit = match hit {
+            Some(h) => Vec4::new(h.t, f32::from_bits(h.triangle), h.u, h.v),
+            None => Vec4::new(f32::MAX, f32::from_bits(u32::MAX), 0.0, 0.0),
+        };
+        check(
+            10,
+            "bvh_intersect_closest (t, triangle, u, v)",
+            cpu_hit,
+            &|a, b| {
+                a.y.to_bits() == b.y.to_bits()
+                    && close(
+                        Vec4::new(a.x, 0.0, a.z, a.w),
+                        Vec4::new(b.x, 0.0, b.z, b.w),
+                        ULP_TOL,
+                    )
+            },
+        );
+        let t_max = c.u.z * 4.0;
+        let any = scene.bvh.intersect_any(&scene.triangles, &ray, 0.0, t_max);
+        check(
+            11,
+            "bvh_intersect_any",
+            Vec4::new(any as u32 as f32, t_max, 0.0, 0.0),
+            &|a, b| a == b,
+        );
+    }
+    assert!(
+        failures.is_empty(),
+        "GLSL and Rust twins disagree:\n{}",
+        failures.join("\n")
+    );
+}
