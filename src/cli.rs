@@ -3,6 +3,7 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use wavetrace::mis::Heuristic;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -31,6 +32,30 @@ pub enum DeviceKind {
     Gpu,
     /// The reference path tracer on all CPU cores.
     Cpu,
+}
+
+/// The seed's combined-sampling weightings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MisArg {
+    /// w = p^β / Σ p^β.
+    Power,
+    /// w = p / Σ p.
+    Balance,
+    /// w = 1 for the strategy with the largest pdf.
+    Maximum,
+    /// w = 1/2 each.
+    Average,
+}
+
+impl MisArg {
+    pub fn heuristic(self, beta: f32) -> Heuristic {
+        match self {
+            MisArg::Power => Heuristic::Power(beta),
+            MisArg::Balance => Heuristic::Balance,
+            MisArg::Maximum => Heuristic::Maximum,
+            MisArg::Average => Heuristic::Average,
+        }
+    }
 }
 
 #[derive(Args, Debug, Clone)]
@@ -64,6 +89,12 @@ pub struct RenderArgs {
     /// Paths in flight per GPU batch (default: 2^20 on GPUs, 2^17 on CPU Vulkan devices).
     #[arg(long)]
     pub wavefront: Option<u32>,
+    /// How emitter sampling and BSDF sampling are weighted (multiple importance sampling).
+    #[arg(long, value_enum, default_value_t = MisArg::Power)]
+    pub mis: MisArg,
+    /// β of the power heuristic (2 is Veach's recommendation; 1 is the balance heuristic).
+    #[arg(long, default_value_t = 2.0, value_parser = parse_beta)]
+    pub mis_beta: f32,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,
@@ -116,4 +147,14 @@ fn parse_radiance(text: &str) -> Result<glam::Vec3, String> {
         return Err("radiance must be finite and non-negative".into());
     }
     Ok(rgb)
+}
+
+/// β of the power heuristic: finite and positive.
+fn parse_beta(text: &str) -> Result<f32, String> {
+    let beta: f32 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if beta.is_finite() && beta > 0.0 && beta <= 64.0 {
+        Ok(beta)
+    } else {
+        Err("β must lie in (0, 64]".into())
+    }
 }

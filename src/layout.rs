@@ -114,7 +114,9 @@ pub struct FrameParams {
     /// exceeds the device's storage-buffer range: the band's first pixel and its pixel count.
     pub band_first_pixel: u32, // 4 bytes
     pub band_pixel_count: u32,  // 4 bytes
-    pub pad: [u32; 2],          // 8 bytes
+    /// How emitter and BSDF sampling are combined: `mis::MIS_*` and β of the power heuristic.
+    pub mis_heuristic: u32, // 4 bytes
+    pub mis_beta: f32,          // 4 bytes
 }
 
 /// `FrameParams::debug_flags` bit: drop the emitter-sampling (NEE) term while BSDF-sampled hits
@@ -283,7 +285,8 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         debug_flags,
         band_first_pixel,
         band_pixel_count,
-        pad
+        mis_heuristic,
+        mis_beta
     }),
     struct_layout!(DispatchParams {
         first_sample,

@@ -115,6 +115,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         max_depth: args.max_depth,
         seed: args.seed,
         environment: args.environment,
+        mis: args.mis.heuristic(args.mis_beta),
         ..RenderSettings::default()
     };
     let b = &prepared.bvh.stats;

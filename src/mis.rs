@@ -2,7 +2,8 @@
 //! average, maximum (cutoff), balance and power(β). Each returns the weight of strategy `i`
 //! whose pdf at the sample is `pdfs[i]`; for every x the weights over all strategies sum to 1,
 //! which keeps the combined estimate unbiased. Non-finite weights become 0 (Mitsuba's rule).
-//! `shaders/inc/mis.glsl` has the two-strategy forms the integrators use.
+//! `mis_weight2` (twin of `shaders/inc/mis.glsl`) is the two-strategy form the integrators use,
+//! selected with `--mis`.
 
 /// Which weighting combines the strategies.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,10 +46,48 @@ pub fn mis_weight(heuristic: Heuristic, i: usize, pdfs: &[f32]) -> f32 {
     }
 }
 
-/// Power heuristic with β = 2 for two strategies: the weight of the one with pdf `a`.
-pub fn mis_power2(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    let w = a2 / (a2 + b2);
+/// `Heuristic` as the GPU's `FrameParams` carries it: (`MIS_*` code, β).
+pub const MIS_POWER: u32 = 0;
+pub const MIS_BALANCE: u32 = 1;
+pub const MIS_MAXIMUM: u32 = 2;
+pub const MIS_AVERAGE: u32 = 3;
+
+impl Heuristic {
+    pub fn code_and_beta(self) -> (u32, f32) {
+        match self {
+            Heuristic::Power(beta) => (MIS_POWER, beta),
+            Heuristic::Balance => (MIS_BALANCE, 1.0),
+            Heuristic::Maximum => (MIS_MAXIMUM, 0.0),
+            Heuristic::Average => (MIS_AVERAGE, 0.0),
+        }
+    }
+}
+
+/// Two strategies (emitter sampling and BSDF sampling), as the integrators combine them: the
+/// weight of the one whose pdf at the sample is `a`, against the other's `b` (both solid angle).
+/// A strategy that cannot produce the sample (pdf 0) leaves the other weight 1, which keeps the
+/// weights summing to 1 for average too; `a_wins_ties` gives maximum's ties to one side only.
+/// Written with the ratio r = b/a so that no power overflows. Twin of `mis_weight2` in mis.glsl.
+pub fn mis_weight2(heuristic: u32, beta: f32, a: f32, b: f32, a_wins_ties: bool) -> f32 {
+    if b.is_nan() || b <= 0.0 {
+        return 1.0;
+    }
+    if a.is_nan() || a <= 0.0 {
+        return 0.0;
+    }
+    let r = b / a;
+    let w = match heuristic {
+        MIS_BALANCE => 1.0 / (1.0 + r),
+        MIS_MAXIMUM => {
+            if a > b || (a == b && a_wins_ties) {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        MIS_AVERAGE => 0.5,
+        _ => 1.0 / (1.0 + r.powf(beta)),
+    };
     if w.is_finite() {
         w
     } else {
@@ -78,17 +117,47 @@ mod tests {
     }
 
     #[test]
-    fn power2_matches_general_form_and_is_finite() {
-        for (a, b) in [(0.5f32, 2.0f32), (3.0, 0.0), (1e-30, 1e-30), (1e30, 1.0)] {
-            let w = mis_power2(a, b);
-            assert!(w.is_finite() && (0.0..=1.0).contains(&w));
-            let g = mis_weight(Heuristic::Power(2.0), 0, &[a, b]);
-            if g.is_finite() && g > 0.0 {
-                assert!((w - g).abs() < 1e-5, "{a} {b}: {w} vs {g}");
+    fn two_strategy_form_matches_the_general_one() {
+        let heuristics = [
+            Heuristic::Average,
+            Heuristic::Maximum,
+            Heuristic::Balance,
+            Heuristic::Power(2.0),
+            Heuristic::Power(3.5),
+        ];
+        for h in heuristics {
+            let (code, beta) = h.code_and_beta();
+            for (a, b) in [
+                (0.5f32, 2.0f32),
+                (3.0, 1e-3),
+                (1e-20, 1e-20),
+                (1e30, 1.0),
+                (2.0, 2.0),
+                (1e-30, 1e30),
+            ] {
+                let light = mis_weight2(code, beta, a, b, true);
+                let bsdf = mis_weight2(code, beta, b, a, false);
+                assert!(
+                    light.is_finite() && (0.0..=1.0).contains(&light),
+                    "{h:?} {a} {b}: {light}"
+                );
+                assert!(
+                    (light + bsdf - 1.0).abs() < 1e-6,
+                    "{h:?} {a} {b}: {light} + {bsdf}"
+                );
+                let general = mis_weight(h, 0, &[a, b]);
+                if h != Heuristic::Maximum && general.is_finite() && general > 0.0 && general < 1.0
+                {
+                    assert!(
+                        (light - general).abs() < 1e-5,
+                        "{h:?} {a} {b}: {light} vs {general}"
+                    );
+                }
             }
+            // A strategy that cannot produce the sample leaves the other everything.
+            assert_eq!(mis_weight2(code, beta, 1.0, 0.0, false), 1.0);
+            assert_eq!(mis_weight2(code, beta, 0.0, 1.0, true), 0.0);
         }
-        assert_eq!(mis_power2(0.0, 0.0), 0.0);
-        assert_eq!(mis_power2(1.0, 0.0), 1.0);
     }
 
     #[test]

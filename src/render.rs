@@ -4,6 +4,7 @@
 use crate::bvh::{gpu_triangles, Bvh};
 use crate::film::Film;
 use crate::layout::{FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED};
+use crate::mis::Heuristic;
 use crate::scene::{build_light_table, Camera, Scene};
 use glam::Vec3;
 
@@ -20,6 +21,8 @@ pub struct RenderSettings {
     pub rr_start_depth: u32,
     /// Radiance of rays that leave the scene.
     pub environment: Vec3,
+    /// How emitter and BSDF sampling are combined (the power heuristic, β = 2, by default).
+    pub mis: Heuristic,
     /// `layout::DEBUG_*` bits; 0 except in tests.
     pub debug_flags: u32,
 }
@@ -34,6 +37,7 @@ impl Default for RenderSettings {
             seed: 0,
             rr_start_depth: 3,
             environment: Vec3::ZERO,
+            mis: Heuristic::Power(2.0),
             debug_flags: 0,
         }
     }
@@ -107,7 +111,8 @@ impl PreparedScene {
             debug_flags: settings.debug_flags,
             band_first_pixel: 0,
             band_pixel_count: settings.width * settings.height,
-            pad: [0; 2],
+            mis_heuristic: settings.mis.code_and_beta().0,
+            mis_beta: settings.mis.code_and_beta().1,
         }
     }
 }

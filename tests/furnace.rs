@@ -6,6 +6,7 @@ mod common;
 
 use common::{prepared, render_cpu, render_gpu};
 use wavetrace::film::Film;
+use wavetrace::mis::Heuristic;
 use wavetrace::render::RenderSettings;
 use wavetrace::stats::film_mean;
 
@@ -85,6 +86,28 @@ fn emitters_seen_directly_are_exact() {
                 (m - glam::Vec3::splat(LE as f32)).abs().max_element() < 1e-6,
                 "{who}: pixel {i} = {m}, expected exactly {LE}"
             );
+        }
+    }
+}
+
+/// Every weighting of the seed keeps the estimate unbiased: in the furnace, where every triangle
+/// emits, emitter and BSDF sampling both contribute at every vertex.
+#[test]
+fn every_mis_heuristic_is_unbiased_in_the_furnace() {
+    let scene = prepared("furnace.gltf");
+    for mis in [
+        Heuristic::Average,
+        Heuristic::Maximum,
+        Heuristic::Balance,
+        Heuristic::Power(3.0),
+    ] {
+        let s = RenderSettings {
+            mis,
+            ..settings(5, 64)
+        };
+        check(&render_cpu(&scene, &s).film, 5, &format!("cpu {mis:?}"));
+        if let Some(out) = render_gpu(&scene, &s, None) {
+            check(&out.film, 5, &format!("gpu {mis:?}"));
         }
     }
 }

@@ -7,6 +7,7 @@ mod common;
 
 use common::{prepared, render_cpu, render_gpu, render_gpu_banded};
 use wavetrace::layout::DEBUG_NO_NEE;
+use wavetrace::mis::Heuristic;
 use wavetrace::render::RenderSettings;
 use wavetrace::stats::compare_films;
 
@@ -149,4 +150,47 @@ fn gpu_matches_cpu_with_an_environment() {
         cmp.passed(),
         "GPU and CPU disagree with an environment:\n{cmp}"
     );
+}
+
+/// The GPU with each of the seed's weightings against the CPU with the power heuristic: every
+/// combination has the same expectation.
+#[test]
+fn every_mis_heuristic_agrees_with_the_reference() {
+    let scene = prepared("cornell-box.gltf");
+    let small = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 128,
+        ..settings(7)
+    };
+    let cpu = render_cpu(
+        &scene,
+        &RenderSettings {
+            seed: 8,
+            ..small.clone()
+        },
+    );
+    for mis in [
+        Heuristic::Average,
+        Heuristic::Maximum,
+        Heuristic::Balance,
+        Heuristic::Power(3.0),
+    ] {
+        let Some(gpu) = render_gpu(
+            &scene,
+            &RenderSettings {
+                mis,
+                ..small.clone()
+            },
+            None,
+        ) else {
+            return;
+        };
+        let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
+        println!("{mis:?}: {cmp}");
+        assert!(
+            cmp.passed(),
+            "GPU with {mis:?} disagrees with the CPU reference:\n{cmp}"
+        );
+    }
 }

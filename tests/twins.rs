@@ -12,7 +12,7 @@ mod common;
 use glam::{UVec4, Vec2, Vec3, Vec4};
 use wavetrace::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
 use wavetrace::bvh::Ray;
-use wavetrace::mis::mis_power2;
+use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
 
 const CASES: u32 = 4096;
@@ -130,11 +130,11 @@ fn glsl_functions_equal_their_rust_twins() {
         let back = invert_uniform_triangle_sample(tri);
         check(
             3,
-            "invert_uniform_triangle_sample / mis_power2 / uniform_triangle_pdf",
+            "invert_uniform_triangle_sample / mis_weight2 / uniform_triangle_pdf",
             Vec4::new(
                 back.x,
                 back.y,
-                mis_power2(c.u.x, c.u.y),
+                mis_weight2(i as u32 % 4, 1.5 + (i % 3) as f32, c.u.x, c.u.y, i & 4 != 0),
                 uniform_triangle_pdf(c.u.z + 0.5),
             ),
             &|a, b| close(a, b, ULP_TOL * 10.0),

@@ -67,7 +67,8 @@ struct FrameParams {
     uint debug_flags;     // 4 bytes
     uint band_first_pixel;  // 4 bytes: the film holds pixels [band_first_pixel,
     uint band_pixel_count;  // 4 bytes:   band_first_pixel + band_pixel_count)
-    uvec2 pad;              // 8 bytes
+    uint mis_heuristic;     // 4 bytes: MIS_* of mis.glsl
+    float mis_beta;         // 4 bytes: beta of the power heuristic
 };
 #define DEBUG_NO_NEE 1u
 

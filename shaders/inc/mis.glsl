@@ -1,12 +1,30 @@
-// Combined-sampling weights for two strategies: twin of src/mis.rs.
+// Combined-sampling weights for two strategies (lecture, "Combined sampling"): twin of the
+// two-strategy form in src/mis.rs.
 #ifndef MIS_GLSL
 #define MIS_GLSL
 
-// Power heuristic, beta = 2: weight of the strategy with pdf a; non-finite weights become 0.
-float mis_power2(float a, float b) {
-    float a2 = a * a;
-    float b2 = b * b;
-    float w = a2 / (a2 + b2);
+#define MIS_POWER 0u
+#define MIS_BALANCE 1u
+#define MIS_MAXIMUM 2u
+#define MIS_AVERAGE 3u
+
+// Weight of the strategy with pdf a against the other's b at the same sample. A strategy that
+// cannot produce the sample (pdf 0) leaves the other weight 1; a_wins_ties gives maximum's ties
+// to one side only; written with r = b/a so no power overflows; non-finite weights become 0.
+float mis_weight2(uint heuristic, float beta, float a, float b, bool a_wins_ties) {
+    if (!(b > 0.0)) return 1.0;
+    if (!(a > 0.0)) return 0.0;
+    float r = b / a;
+    float w;
+    if (heuristic == MIS_BALANCE) {
+        w = 1.0 / (1.0 + r);
+    } else if (heuristic == MIS_MAXIMUM) {
+        w = (a > b || (a == b && a_wins_ties)) ? 1.0 : 0.0;
+    } else if (heuristic == MIS_AVERAGE) {
+        w = 0.5;
+    } else {
+        w = 1.0 / (1.0 + pow(r, beta));
+    }
     return (isnan(w) || isinf(w)) ? 0.0 : w;
 }
 

@@ -36,7 +36,7 @@ void main() {
     outputs[o + 1u] = vec4(w, cosine_hemisphere_pdf(w.z));
     vec2 b = sample_uniform_triangle(u.zw);
     outputs[o + 2u] = vec4(invert_cosine_hemisphere_sample(w), b);
-    outputs[o + 3u] = vec4(invert_uniform_triangle_sample(b), mis_power2(u.x, u.y), uniform_triangle_pdf(u.z + 0.5));
+    outputs[o + 3u] = vec4(invert_uniform_triangle_sample(b), mis_weight2(i % 4u, 1.5 + float(i % 3u), u.x, u.y, (i & 4u) != 0u), uniform_triangle_pdf(u.z + 0.5));
     vec3 t, bt;
     build_frame(n, t, bt);
     outputs[o + 4u] = vec4(t, 0.0);

@@ -43,7 +43,7 @@ void main() {
         float w = 1.0;
         if (state.prev_specular == 0u) {
             float light_pdf = tri.light_pmf * hit.t * hit.t / (abs(cos_out) * tri.area);
-            w = mis_power2(state.prev_bsdf_pdf, light_pdf);
+            w = mis_weight2(frame.mis_heuristic, frame.mis_beta, state.prev_bsdf_pdf, light_pdf, false);
         }
         state.radiance += state.throughput * w * le;
     }
@@ -70,7 +70,7 @@ void main() {
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);
         if (cos_surface > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
-            float w = mis_power2(light_pdf, bsdf_pdf(n, wo, wi));
+            float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_pdf(n, wo, wi), true);
             vec3 f = bsdf_eval(mat.base_color, n, wo, wi);
             vec3 origin = offset_ray_origin(p, n);
             vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);

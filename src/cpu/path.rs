@@ -7,7 +7,7 @@ use crate::bvh::Ray;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED,
 };
-use crate::mis::mis_power2;
+use crate::mis::mis_weight2;
 use crate::render::PreparedScene;
 use crate::sampling::{offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle};
 use glam::{Vec2, Vec3};
@@ -154,7 +154,13 @@ fn shade(
         let mut w = 1.0;
         if state.prev_specular == 0 {
             let light_pdf = tri.light_pmf * hit.t * hit.t / (cos_out.abs() * tri.area);
-            w = mis_power2(state.prev_bsdf_pdf, light_pdf);
+            w = mis_weight2(
+                frame.mis_heuristic,
+                frame.mis_beta,
+                state.prev_bsdf_pdf,
+                light_pdf,
+                false,
+            );
         }
         radiance += throughput * w * le;
     }
@@ -187,7 +193,13 @@ fn shade(
             && light_pdf > 0.0
             && light_pdf.is_finite()
         {
-            let w = mis_power2(light_pdf, bsdf_pdf(n, wo, wi));
+            let w = mis_weight2(
+                frame.mis_heuristic,
+                frame.mis_beta,
+                light_pdf,
+                bsdf_pdf(n, wo, wi),
+                true,
+            );
             let f = bsdf_eval(Vec3::from(mat.base_color), n, wo, wi);
             let origin = offset_ray_origin(p, n);
             let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
