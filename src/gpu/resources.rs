@@ -9,7 +9,7 @@ use crate::layout::{
     args, counter, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
 };
 use crate::render::PreparedScene;
-use anyhow::Result;
+use anyhow::{bail, Result};
 use ash::vk;
 use std::mem::{size_of, size_of_val};
 
@@ -47,6 +47,22 @@ impl RenderBuffers {
             |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, U::TRANSFER_DST, Location::Host);
         let cap = capacity as usize;
         let film_bytes = band_pixels * size_of::<FilmPixel>() as u64;
+        let range = ctx.properties.limits.max_storage_buffer_range as usize;
+        for (what, bytes) in [
+            ("BVH nodes", size_of_val(scene.bvh.nodes.as_slice())),
+            ("triangles", size_of_val(scene.triangles.as_slice())),
+            ("emitters", size_of_val(scene.lights.as_slice())),
+        ] {
+            if bytes > range {
+                bail!(
+                    "the scene's {what} take {} MiB, more than the {} MiB one storage buffer of {} may hold; \
+                     render it with --device cpu",
+                    bytes >> 20,
+                    range >> 20,
+                    ctx.info.name
+                );
+            }
+        }
 
         let frame = Buffer::new(
             ctx,
