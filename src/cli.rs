@@ -24,6 +24,9 @@ pub enum Command {
     Devices,
     /// Measure samples/s and rays/s of the GPU and CPU integrators on the committed scenes.
     Bench(BenchArgs),
+    /// Test whether two EXR renders by wavetrace have the same expectation (per-tile Welch
+    /// tests); exit status 0 if they agree, 1 if they differ, 2 on errors, like diff(1).
+    Compare(CompareArgs),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -156,5 +159,29 @@ fn parse_beta(text: &str) -> Result<f32, String> {
         Ok(beta)
     } else {
         Err("β must lie in (0, 64]".into())
+    }
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct CompareArgs {
+    /// First image (.exr written by wavetrace: mean, variance and count per pixel).
+    pub a: PathBuf,
+    /// Second image, e.g. the CPU reference render of the same scene with another seed.
+    pub b: PathBuf,
+    /// Tile size in pixels: one Welch test per tile and channel.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub tile: u32,
+    /// Family-wise significance level, Šidák-corrected over tiles × channels.
+    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
+    pub alpha: f64,
+}
+
+/// A significance level in (0, 1).
+fn parse_alpha(text: &str) -> Result<f64, String> {
+    let alpha: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if alpha > 0.0 && alpha < 1.0 {
+        Ok(alpha)
+    } else {
+        Err("α must lie strictly between 0 and 1".into())
     }
 }

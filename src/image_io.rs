@@ -9,6 +9,7 @@
 //! Rows run top to bottom; pixel (0, 0) is the top-left corner, as in the film.
 
 use crate::film::Film;
+use crate::layout::FilmPixel;
 use anyhow::{bail, Context};
 use exr::prelude::*;
 use std::path::Path;
@@ -59,6 +60,38 @@ pub struct ImageData {
 /// count are returned when present. Errors name the path.
 pub fn read_exr(path: &Path) -> anyhow::Result<ImageData> {
     read_exr_inner(path).with_context(|| format!("reading OpenEXR image {}", path.display()))
+}
+
+/// A film rebuilt from an EXR that wavetrace wrote (mean, variance of the mean and count), for
+/// comparing saved renders: sum = n·mean, sum of squares = (n − 1)·s² + n·mean², s² = n·variance.
+pub fn read_film(path: &Path) -> anyhow::Result<Film> {
+    let image = read_exr(path)?;
+    let (Some(variance), Some(count)) = (&image.variance, &image.count) else {
+        bail!(
+            "{}: the EXR has no variance.R/G/B and count channels; only EXRs written by wavetrace can be compared",
+            path.display()
+        );
+    };
+    let pixels = image
+        .mean
+        .iter()
+        .zip(variance)
+        .zip(count)
+        .map(|((mean, var), &n)| {
+            let nf = n as f64;
+            let mut p = FilmPixel {
+                count: n,
+                ..Default::default()
+            };
+            for c in 0..3 {
+                let (m, v) = (mean[c] as f64, var[c] as f64);
+                p.sum[c] = (nf * m) as f32;
+                p.sum_sq[c] = ((nf - 1.0).max(0.0) * nf * v + nf * m * m) as f32;
+            }
+            p
+        })
+        .collect();
+    Ok(Film::from_pixels(image.width, image.height, pixels, 0))
 }
 
 fn write_exr(film: &Film, path: &Path) -> anyhow::Result<()> {

@@ -4,7 +4,7 @@ mod cli;
 
 use anyhow::{bail, Context as _, Result};
 use clap::Parser;
-use cli::{BenchArgs, Cli, Command, DeviceKind, RenderArgs};
+use cli::{BenchArgs, Cli, Command, CompareArgs, DeviceKind, RenderArgs};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -16,11 +16,27 @@ use wavetrace::scene::Scene;
 const MAX_PIXELS: u64 = 1 << 26;
 
 fn main() -> ExitCode {
+    // A closed pipe (`wavetrace compare a b | head`) ends the process quietly, as for any Unix
+    // tool, instead of making println! panic.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(&args),
         Command::Devices => devices(),
         Command::Bench(args) => bench(&args),
+        Command::Compare(args) => {
+            return match compare(&args) {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => ExitCode::from(1),
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    ExitCode::from(2)
+                }
+            };
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -280,4 +296,14 @@ fn bench(args: &BenchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Prints the per-tile comparison of two saved renders; true if they agree.
+fn compare(args: &CompareArgs) -> Result<bool> {
+    let a = wavetrace::image_io::read_film(&args.a)?;
+    let b = wavetrace::image_io::read_film(&args.b)?;
+    let cmp = wavetrace::stats::compare_films(&a, &b, args.tile, args.alpha)
+        .with_context(|| format!("comparing {} with {}", args.a.display(), args.b.display()))?;
+    println!("{} vs {}: {cmp}", args.a.display(), args.b.display());
+    Ok(cmp.passed())
 }

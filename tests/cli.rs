@@ -134,3 +134,57 @@ fn no_vulkan_driver_gives_advice_and_a_failure() {
         "{e}"
     );
 }
+
+#[test]
+fn compare_tells_agreeing_renders_from_different_ones() {
+    let render = |name: &str, device: &str, seed: &str, depth: &str| {
+        let out = temp(name);
+        let o = wavetrace(&[
+            "render",
+            "--device",
+            device,
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "64",
+            "--seed",
+            seed,
+            "--max-depth",
+            depth,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        out
+    };
+    let gpu = std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1");
+    let a = render("a.exr", if gpu { "cpu" } else { "gpu" }, "1", "6");
+    let b = render("b.exr", "cpu", "2", "6");
+    let direct = render("direct.exr", "cpu", "3", "1");
+    let same = wavetrace(&["compare", a.to_str().unwrap(), b.to_str().unwrap()]);
+    assert_eq!(
+        same.status.code(),
+        Some(0),
+        "{}{}",
+        String::from_utf8_lossy(&same.stdout),
+        stderr(&same)
+    );
+    let differ = wavetrace(&["compare", a.to_str().unwrap(), direct.to_str().unwrap()]);
+    assert_eq!(
+        differ.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&differ.stdout)
+    );
+    assert!(
+        String::from_utf8_lossy(&differ.stdout).contains("tile"),
+        "the report names no tile"
+    );
+    let png = temp("x.png");
+    std::fs::write(&png, b"not an exr").unwrap();
+    let error = wavetrace(&["compare", a.to_str().unwrap(), png.to_str().unwrap()]);
+    assert_eq!(error.status.code(), Some(2));
+    assert!(stderr(&error).contains("x.png"), "{}", stderr(&error));
+}
