@@ -134,6 +134,15 @@ fn render(args: &RenderArgs) -> Result<()> {
         mis: args.mis.heuristic(args.mis_beta),
         ..RenderSettings::default()
     };
+    for note in &scene.notes {
+        eprintln!("note: {}: {note}", path.display());
+    }
+    if prepared.lights.is_empty() && settings.environment.max_element() <= 0.0 {
+        eprintln!(
+            "note: {}: nothing emits light (no emissive surfaces, --environment 0): the image will be black",
+            path.display()
+        );
+    }
     let b = &prepared.bvh.stats;
     println!(
         "{}: {} triangles, {} emitting, {} materials; BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",

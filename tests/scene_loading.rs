@@ -602,3 +602,25 @@ fn valid_samples_load() {
         );
     }
 }
+
+#[test]
+fn ignored_textures_are_noted() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid/BoxTextured.gltf");
+    if !path.exists() {
+        eprintln!("skipping: ../shared/gltf-samples not found");
+        return;
+    }
+    let scene = Scene::load(&path).unwrap();
+    assert!(
+        scene
+            .notes
+            .iter()
+            .any(|n| n.contains("textures are not supported")),
+        "no note about the ignored texture: {:?}",
+        scene.notes
+    );
+    let plain = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf"))
+        .unwrap();
+    assert!(plain.notes.is_empty(), "{:?}", plain.notes);
+}

@@ -85,6 +85,7 @@ fn load_file(path: &Path) -> Result<Scene> {
             builder.skipped_primitives
         );
     }
+    let notes = notes(&document, &builder);
     let camera = builder
         .camera
         .unwrap_or_else(|| Camera::framing(bounds_of(&builder.triangles)));
@@ -95,7 +96,56 @@ fn load_file(path: &Path) -> Result<Scene> {
         camera,
         dropped_degenerate: builder.dropped_degenerate,
         skipped_primitives: builder.skipped_primitives,
+        notes,
     })
+}
+
+/// What the file holds that the render will not show, said once each (`Scene::notes`).
+fn notes(document: &Document, builder: &Builder) -> Vec<String> {
+    let mut notes = Vec::new();
+    let textured: Vec<String> = document
+        .materials()
+        .enumerate()
+        .filter(|(_, m)| {
+            m.pbr_metallic_roughness().base_color_texture().is_some()
+                || m.emissive_texture().is_some()
+        })
+        .map(|(i, m)| label("material", i, m.name()))
+        .collect();
+    if !textured.is_empty() {
+        let verb = if textured.len() == 1 {
+            "uses its"
+        } else {
+            "use their"
+        };
+        notes.push(format!(
+            "textures are not supported yet: {} {verb} colour factors only",
+            textured.join(", ")
+        ));
+    }
+    let ignored: Vec<&str> = document
+        .extensions_used()
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    if !ignored.is_empty() {
+        notes.push(format!("ignored glTF extensions: {}", ignored.join(", ")));
+    }
+    if builder.camera.is_none() && document.cameras().next().is_some() {
+        notes.push("the file has no perspective camera (orthographic ones are not supported): using a camera that frames the scene".into());
+    }
+    if builder.dropped_degenerate > 0 {
+        notes.push(format!(
+            "{} zero-area triangles dropped",
+            builder.dropped_degenerate
+        ));
+    }
+    if builder.skipped_primitives > 0 {
+        notes.push(format!(
+            "{} point and line primitives skipped",
+            builder.skipped_primitives
+        ));
+    }
+    notes
 }
 
 /// `kind index "name"`, e.g. `mesh 3 "Chair"`, or `kind index` for unnamed objects.

@@ -38,6 +38,9 @@ pub struct Scene {
     pub dropped_degenerate: usize,
     /// Point and line primitives skipped while loading (they have no surface to hit).
     pub skipped_primitives: usize,
+    /// What the file holds that the render will not show (textures, unsupported extensions,
+    /// dropped geometry), one sentence each, for the user.
+    pub notes: Vec<String>,
 }
 
 /// A world-space triangle. Counter-clockwise (seen from the front) = front face.
