@@ -37,6 +37,24 @@ pub enum DeviceKind {
     Cpu,
 }
 
+/// How the random numbers of a pixel's samples relate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SamplerArg {
+    /// Latin hypercube (N rooks) over the pixel's samples for every 2-D pair.
+    Stratified,
+    /// Every number independent.
+    Independent,
+}
+
+impl SamplerArg {
+    pub fn code(self) -> u32 {
+        match self {
+            SamplerArg::Stratified => wavetrace::layout::SAMPLER_STRATIFIED,
+            SamplerArg::Independent => wavetrace::layout::SAMPLER_INDEPENDENT,
+        }
+    }
+}
+
 /// The seed's combined-sampling weightings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MisArg {
@@ -98,6 +116,10 @@ pub struct RenderArgs {
     /// β of the power heuristic (2 is Veach's recommendation; 1 is the balance heuristic).
     #[arg(long, default_value_t = 2.0, value_parser = parse_beta)]
     pub mis_beta: f32,
+    /// How each pixel's samples place their random pairs (pixel position, point on a light,
+    /// BSDF direction): N-rooks stratified, or independent.
+    #[arg(long, value_enum, default_value_t = SamplerArg::Stratified)]
+    pub sampler: SamplerArg,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,

@@ -91,7 +91,7 @@ pub struct LightEntry {
     pub pad: u32,      // 4 bytes
 }
 
-/// Constants of one render (std140 uniform). Total: 112 bytes.
+/// Constants of one render (std140 uniform). Total: 128 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
@@ -117,7 +117,18 @@ pub struct FrameParams {
     /// How emitter and BSDF sampling are combined: `mis::MIS_*` and β of the power heuristic.
     pub mis_heuristic: u32, // 4 bytes
     pub mis_beta: f32,          // 4 bytes
+    /// Samples per pixel of the whole render (the stratified sampler's strata).
+    pub spp: u32, // 4 bytes
+    /// `SAMPLER_*`: how the pairs of random numbers of a pixel's samples are placed.
+    pub sampler_mode: u32, // 4 bytes
+    pub pad: [u32; 2],          // 8 bytes
 }
+
+/// `FrameParams::sampler_mode`: every number independent.
+pub const SAMPLER_INDEPENDENT: u32 = 0;
+/// `FrameParams::sampler_mode`: the 2-D pairs (pixel jitter, point on a light, BSDF direction) of a
+/// pixel's samples are N-rooks stratified (`sampling::stratify2`).
+pub const SAMPLER_STRATIFIED: u32 = 1;
 
 /// `FrameParams::debug_flags` bit: drop the emitter-sampling (NEE) term while BSDF-sampled hits
 /// on emitters keep their MIS weights. Biased on purpose: only for the test that proves the
@@ -286,7 +297,10 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         band_first_pixel,
         band_pixel_count,
         mis_heuristic,
-        mis_beta
+        mis_beta,
+        spp,
+        sampler_mode,
+        pad
     }),
     struct_layout!(DispatchParams {
         first_sample,

@@ -132,6 +132,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         seed: args.seed,
         environment: args.environment,
         mis: args.mis.heuristic(args.mis_beta),
+        sampler: args.sampler.code(),
         ..RenderSettings::default()
     };
     for note in &scene.notes {

@@ -3,7 +3,9 @@
 
 use crate::bvh::{gpu_triangles, Bvh};
 use crate::film::Film;
-use crate::layout::{FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED};
+use crate::layout::{
+    FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED, SAMPLER_STRATIFIED,
+};
 use crate::mis::Heuristic;
 use crate::scene::{build_light_table, Camera, Scene};
 use glam::Vec3;
@@ -23,6 +25,8 @@ pub struct RenderSettings {
     pub environment: Vec3,
     /// How emitter and BSDF sampling are combined (the power heuristic, β = 2, by default).
     pub mis: Heuristic,
+    /// `layout::SAMPLER_*`: stratified by default.
+    pub sampler: u32,
     /// `layout::DEBUG_*` bits; 0 except in tests.
     pub debug_flags: u32,
 }
@@ -38,6 +42,7 @@ impl Default for RenderSettings {
             rr_start_depth: 3,
             environment: Vec3::ZERO,
             mis: Heuristic::Power(2.0),
+            sampler: SAMPLER_STRATIFIED,
             debug_flags: 0,
         }
     }
@@ -113,6 +118,9 @@ impl PreparedScene {
             band_pixel_count: settings.width * settings.height,
             mis_heuristic: settings.mis.code_and_beta().0,
             mis_beta: settings.mis.code_and_beta().1,
+            spp: settings.spp,
+            sampler_mode: settings.sampler,
+            pad: [0; 2],
         }
     }
 }

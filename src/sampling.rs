@@ -38,6 +38,64 @@ pub fn rng_uniform4(seed: u32, pixel: u32, sample: u32, block: u32) -> Vec4 {
     )
 }
 
+/// A pseudo-random permutation of [0, n) keyed by `key`: `i` ↦ its image. Kensler's
+/// construction ("Correlated Multi-Jittered Sampling", Pixar TM 13-01, 2013, §3): a hash made of
+/// steps that are each bijective on the low k bits (xor with a constant, multiply by an odd
+/// constant, xorshift of the masked value), k the bits of n − 1, cycle-walked until the value
+/// falls below n, then rotated by the key.
+pub fn permute(i: u32, n: u32, key: u32) -> u32 {
+    let mut w = n.wrapping_sub(1);
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    let mut i = i;
+    loop {
+        i ^= key;
+        i = i.wrapping_mul(0x9e37_79b1);
+        i ^= (i & w) >> 3;
+        i ^= key >> 11;
+        i = i.wrapping_mul(0x85eb_ca6b | 1);
+        i ^= (i & w) >> 7;
+        i = i.wrapping_mul(1 | (key >> 25));
+        i = i.wrapping_mul(0xc2b2_ae35 | 1);
+        i ^= (i & w) >> 2;
+        i &= w;
+        i ^= i >> 5;
+        if i < n {
+            break;
+        }
+    }
+    (i.wrapping_add(key)) % n
+}
+
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Stratified (N-rooks, Latin hypercube) version of a pair of uniform numbers: sample `sample`
+/// of `spp` falls in column stratum π₁(sample) and row stratum π₂(sample), with π₁, π₂
+/// permutations keyed by (seed, pixel, dimension), jittered inside its cell by `jitter`. Each
+/// sample stays uniform on [0, 1)², so estimates stay unbiased, while the `spp` samples of a
+/// pixel cover every row and every column once (lecture, "Stratified sampling": N rooks).
+pub fn stratify2(
+    seed: u32,
+    pixel: u32,
+    sample: u32,
+    spp: u32,
+    dimension: u32,
+    jitter: Vec2,
+) -> Vec2 {
+    let keys = pcg4d(UVec4::new(pixel, dimension, seed, 0x5354_5241));
+    let sx = permute(sample, spp, keys.x) as f32;
+    let sy = permute(sample, spp, keys.y) as f32;
+    let inv = 1.0 / spp as f32;
+    Vec2::new(
+        ((sx + jitter.x) * inv).min(ONE_MINUS_EPSILON),
+        ((sy + jitter.y) * inv).min(ONE_MINUS_EPSILON),
+    )
+}
+
 /// Cosine-weighted direction on the hemisphere around +Z (Malley's method: uniform disk by
 /// inverting its CDF, r = √u₀, φ = 2πu₁, then projected up).
 pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
@@ -264,6 +322,58 @@ mod tests {
         let exp: Vec<f64> = kept.iter().map(|&i| pmfs[i] as f64 * n as f64).collect();
         let (_, _, p) = chi_square_gof(&obs, &exp);
         assert!(p > 0.01, "light selection does not follow the pmf: p = {p}");
+    }
+
+    #[test]
+    fn permute_is_a_bijection() {
+        for n in [1u32, 2, 3, 7, 16, 17, 100, 1000, 4096] {
+            for key in [0u32, 1, 0xdead_beef, 12345] {
+                let mut seen = vec![false; n as usize];
+                for i in 0..n {
+                    let j = permute(i, n, key);
+                    assert!(
+                        j < n && !seen[j as usize],
+                        "n = {n}, key = {key}: {i} -> {j} repeats"
+                    );
+                    seen[j as usize] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stratified_pairs_are_latin_hypercubes_and_uniform() {
+        // Each pixel's spp samples take every row and every column stratum once.
+        let spp = 64;
+        for pixel in 0..50 {
+            let (mut rows, mut cols) = (vec![0; spp as usize], vec![0; spp as usize]);
+            for s in 0..spp {
+                let j = rng_uniform4(9, pixel, s, 0);
+                let u = stratify2(9, pixel, s, spp, 3, Vec2::new(j.x, j.y));
+                assert!((0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y));
+                cols[(u.x * spp as f32) as usize] += 1;
+                rows[(u.y * spp as f32) as usize] += 1;
+            }
+            assert!(
+                rows.iter().chain(&cols).all(|&c| c == 1),
+                "pixel {pixel}: {rows:?} {cols:?}"
+            );
+        }
+        // Over many pixels each sample index is uniform on the square: χ² on an 8×8 grid of
+        // sample 5 of 16, α = 0.01.
+        let k = 8;
+        let mut observed = vec![0f64; k * k];
+        let n = 200_000u32;
+        for pixel in 0..n {
+            let j = rng_uniform4(9, pixel, 5, 0);
+            let u = stratify2(9, pixel, 5, 16, 3, Vec2::new(j.x, j.y));
+            observed[(u.y * k as f32) as usize * k + (u.x * k as f32) as usize] += 1.0;
+        }
+        let (_, _, p) = chi_square_gof(&observed, &vec![n as f64 / (k * k) as f64; k * k]);
+        assert!(
+            p > 0.01,
+            "stratified sample 5 is not uniform over pixels: p = {p}"
+        );
     }
 
     #[test]

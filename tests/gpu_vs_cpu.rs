@@ -6,7 +6,7 @@
 mod common;
 
 use common::{prepared, render_cpu, render_gpu, render_gpu_banded};
-use wavetrace::layout::DEBUG_NO_NEE;
+use wavetrace::layout::{DEBUG_NO_NEE, SAMPLER_INDEPENDENT};
 use wavetrace::mis::Heuristic;
 use wavetrace::render::RenderSettings;
 use wavetrace::stats::compare_films;
@@ -193,4 +193,30 @@ fn every_mis_heuristic_agrees_with_the_reference() {
             "GPU with {mis:?} disagrees with the CPU reference:\n{cmp}"
         );
     }
+}
+
+/// The independent sampler against the (default) stratified one: same expectation.
+#[test]
+fn independent_and_stratified_samplers_agree() {
+    let scene = prepared("cornell-box.gltf");
+    let small = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 128,
+        ..settings(11)
+    };
+    let independent = RenderSettings {
+        sampler: SAMPLER_INDEPENDENT,
+        ..small.clone()
+    };
+    let Some(gpu) = render_gpu(&scene, &independent, None) else {
+        return;
+    };
+    let cpu = render_cpu(&scene, &RenderSettings { seed: 12, ..small });
+    let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
+    println!("{cmp}");
+    assert!(
+        cmp.passed(),
+        "independent (GPU) and stratified (CPU) samplers disagree:\n{cmp}"
+    );
 }

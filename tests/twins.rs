@@ -17,7 +17,7 @@ use wavetrace::sampling::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 12;
+const OUTPUTS_PER_CASE: usize = 13;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -200,6 +200,29 @@ fn glsl_functions_equal_their_rust_twins() {
             "bvh_intersect_any",
             Vec4::new(any as u32 as f32, t_max, 0.0, 0.0),
             &|a, b| a == b,
+        );
+        let n_perm = 1 + i as u32 % 300;
+        let p = permute(i as u32 % n_perm, n_perm, c.key.x);
+        let strat = stratify2(
+            c.key.x,
+            i as u32,
+            i as u32 % 64,
+            64,
+            c.key.y,
+            Vec2::new(c.u.z, c.u.w),
+        );
+        check(
+            12,
+            "permute / stratify2",
+            Vec4::new(f32::from_bits(p), strat.x, strat.y, 0.0),
+            &|a, b| {
+                a.x.to_bits() == b.x.to_bits()
+                    && close(
+                        Vec4::new(0.0, a.y, a.z, 0.0),
+                        Vec4::new(0.0, b.y, b.z, 0.0),
+                        ULP_TOL,
+                    )
+            },
         );
     }
     assert!(

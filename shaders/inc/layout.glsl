@@ -49,7 +49,7 @@ struct LightEntry {
     uint pad;         // 4 bytes
 };
 
-// Constants of one render (std140 uniform). Total: 112 bytes.
+// Constants of one render (std140 uniform). Total: 128 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
     float tan_half_fov_y; // 4 bytes
@@ -69,7 +69,12 @@ struct FrameParams {
     uint band_pixel_count;  // 4 bytes:   band_first_pixel + band_pixel_count)
     uint mis_heuristic;     // 4 bytes: MIS_* of mis.glsl
     float mis_beta;         // 4 bytes: beta of the power heuristic
+    uint spp;               // 4 bytes: samples per pixel of the whole render
+    uint sampler_mode;      // 4 bytes: SAMPLER_*
+    uvec2 pad;              // 8 bytes
 };
+#define SAMPLER_INDEPENDENT 0u
+#define SAMPLER_STRATIFIED 1u
 #define DEBUG_NO_NEE 1u
 
 // Per-dispatch push constants; see src/layout.rs for the batch indexing. Total: 32 bytes.

@@ -29,4 +29,41 @@ vec4 rng_uniform4(uint seed, uint pixel, uint sample_index, uint block) {
                 uint_to_unit_float(h.w));
 }
 
+// Pseudo-random permutation of [0, n) keyed by key (Kensler, "Correlated Multi-Jittered
+// Sampling", 2013, section 3): twin of sampling::permute.
+uint permute(uint i, uint n, uint key) {
+    uint w = n - 1u;
+    w |= w >> 1u;
+    w |= w >> 2u;
+    w |= w >> 4u;
+    w |= w >> 8u;
+    w |= w >> 16u;
+    for (;;) {
+        i ^= key;
+        i *= 0x9e3779b1u;
+        i ^= (i & w) >> 3u;
+        i ^= key >> 11u;
+        i *= 0x85ebca6bu | 1u;
+        i ^= (i & w) >> 7u;
+        i *= 1u | (key >> 25u);
+        i *= 0xc2b2ae35u | 1u;
+        i ^= (i & w) >> 2u;
+        i &= w;
+        i ^= i >> 5u;
+        if (i < n) break;
+    }
+    return (i + key) % n;
+}
+
+#define ONE_MINUS_EPSILON 0.99999994
+
+// Stratified (N-rooks) version of a pair of uniforms: twin of sampling::stratify2.
+vec2 stratify2(uint seed, uint pixel, uint sample_index, uint spp, uint dimension, vec2 jitter) {
+    uvec4 keys = pcg4d(uvec4(pixel, dimension, seed, 0x53545241u));
+    float sx = float(permute(sample_index, spp, keys.x));
+    float sy = float(permute(sample_index, spp, keys.y));
+    float inv = 1.0 / float(spp);
+    return min((vec2(sx, sy) + jitter) * inv, vec2(ONE_MINUS_EPSILON));
+}
+
 #endif

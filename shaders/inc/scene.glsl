@@ -9,6 +9,13 @@ void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
     sample_index = params.first_sample + local_index / frame.band_pixel_count;
 }
 
+// The pair (u.x, u.y) of dimension `dimension` (block * 4 + first component) of a path's sample,
+// stratified over the pixel's samples when the frame asks for it (src/cpu/path.rs, sample_pair).
+vec2 sample_pair(uint pixel, uint sample_index, uint dimension, vec2 u) {
+    if (frame.sampler_mode != SAMPLER_STRATIFIED) return u;
+    return stratify2(frame.seed, pixel, sample_index, frame.spp, dimension, u);
+}
+
 // Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
 vec3 camera_ray_direction(uint pixel, vec2 jitter) {
     float px = float(pixel % frame.width) + jitter.x;

@@ -18,7 +18,7 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bvh.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 12u
+#define OUTPUTS_PER_CASE 13u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -57,4 +57,9 @@ void main() {
     outputs[o + 10u] = vec4(hit.t, uintBitsToFloat(hit.triangle), hit.u, hit.v);
     float t_max = u.z * 4.0;
     outputs[o + 11u] = vec4(bvh_intersect_any(origin, -wo, 0.0, t_max) ? 1.0 : 0.0, t_max, 0.0, 0.0);
+
+    uint n_perm = 1u + i % 300u;
+    uint p = permute(i % n_perm, n_perm, key.x);
+    vec2 strat = stratify2(key.x, i, i % 64u, 64u, key.y, u.zw);
+    outputs[o + 12u] = vec4(uintBitsToFloat(p), strat, 0.0);
 }

@@ -26,7 +26,7 @@ void main() {
     QueuedRay ray;
     ray.origin = frame.cam_position;
     ray.path = i;
-    ray.dir = camera_ray_direction(pixel, u.xy);
+    ray.dir = camera_ray_direction(pixel, sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK, u.xy));
     ray.pad = 0u;
     rays[i] = ray;  // queue 0; its counter is set to batch_size by the host
 }

@@ -57,7 +57,7 @@ void main() {
     if (frame.light_count > 0u && (frame.debug_flags & DEBUG_NO_NEE) == 0u) {
         LightEntry entry = lights[sample_light(u_light.x)];
         GpuTriangle light = triangles[entry.triangle];
-        vec2 b = sample_uniform_triangle(u_light.yz);
+        vec2 b = sample_uniform_triangle(sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz));
         vec3 y = light.p0 + b.x * light.e1 + b.y * light.e2;
         vec3 light_n = normalize(cross(light.e1, light.e2));
         vec3 to_light = y - p;
@@ -91,7 +91,8 @@ void main() {
     vec4 u_bsdf = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth) + 1u);
     vec3 f;
     float pdf;
-    vec3 wi = bsdf_sample(mat.base_color, n, wo, u_bsdf.xy, f, pdf);
+    vec2 u_dir = sample_pair(pixel, sample_index, 4u * (bounce_block(depth) + 1u), u_bsdf.xy);
+    vec3 wi = bsdf_sample(mat.base_color, n, wo, u_dir, f, pdf);
     float cos_in = dot(n, wi);
     if (pdf <= 0.0 || cos_in <= 0.0) {
         paths[ray.path] = state;

@@ -6,10 +6,13 @@ use crate::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
 use crate::bvh::Ray;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED,
+    SAMPLER_STRATIFIED,
 };
 use crate::mis::mis_weight2;
 use crate::render::PreparedScene;
-use crate::sampling::{offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle};
+use crate::sampling::{
+    offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
+};
 use glam::{Vec2, Vec3};
 
 /// Extension and shadow rays traced.
@@ -40,6 +43,15 @@ pub fn path_pixel_sample(
         frame.band_first_pixel + local_index % frame.band_pixel_count,
         first_sample + local_index / frame.band_pixel_count,
     )
+}
+
+/// The pair (u.x, u.y) of dimension `dimension` (block · 4 + first component) of a path's
+/// sample, stratified over the pixel's samples when the frame asks for it (scene.glsl).
+pub fn sample_pair(frame: &FrameParams, pixel: u32, sample: u32, dimension: u32, u: Vec2) -> Vec2 {
+    if frame.sampler_mode != SAMPLER_STRATIFIED {
+        return u;
+    }
+    stratify2(frame.seed, pixel, sample, frame.spp, dimension, u)
 }
 
 /// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
@@ -85,7 +97,17 @@ pub fn trace_path(
     let u = rng_uniform4(frame.seed, pixel, sample, dim::CAMERA_BLOCK);
     let mut ray = Ray {
         origin: Vec3::from(frame.cam_position),
-        dir: camera_ray_direction(frame, pixel, Vec2::new(u.x, u.y)),
+        dir: camera_ray_direction(
+            frame,
+            pixel,
+            sample_pair(
+                frame,
+                pixel,
+                sample,
+                4 * dim::CAMERA_BLOCK,
+                Vec2::new(u.x, u.y),
+            ),
+        ),
     };
     let mut state = PathState {
         throughput: [1.0; 3],
@@ -175,7 +197,14 @@ fn shade(
     if frame.light_count > 0 && frame.debug_flags & DEBUG_NO_NEE == 0 {
         let entry = &scene.lights[sample_light(&scene.lights, u_light.x)];
         let light = &scene.triangles[entry.triangle as usize];
-        let b = sample_uniform_triangle(Vec2::new(u_light.y, u_light.z));
+        let dimension = 4 * dim::bounce_block(depth) + 1;
+        let b = sample_uniform_triangle(sample_pair(
+            frame,
+            pixel,
+            sample,
+            dimension,
+            Vec2::new(u_light.y, u_light.z),
+        ));
         let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
         let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
         let light_n = l1.cross(l2).normalize();
@@ -222,7 +251,13 @@ fn shade(
         Vec3::from(mat.base_color),
         n,
         wo,
-        Vec2::new(u_bsdf.x, u_bsdf.y),
+        sample_pair(
+            frame,
+            pixel,
+            sample,
+            4 * (dim::bounce_block(depth) + 1),
+            Vec2::new(u_bsdf.x, u_bsdf.y),
+        ),
     );
     let cos_in = n.dot(s.wi);
     if s.pdf <= 0.0 || cos_in <= 0.0 {
