@@ -220,3 +220,33 @@ fn independent_and_stratified_samplers_agree() {
         "independent (GPU) and stratified (CPU) samplers disagree:\n{cmp}"
     );
 }
+
+/// A validation-layer error fails the render that follows it (DESIGN.md, Verification 6).
+#[test]
+fn validation_errors_fail_the_render() {
+    let scene = prepared("cornell-box.gltf");
+    let Some(gpu) = common::gpu() else { return };
+    if !gpu
+        .context()
+        .report_validation_error_for_test(c"test: a deliberate validation error")
+    {
+        eprintln!("skipping: the validation layer is not installed");
+        return;
+    }
+    let s = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        ..settings(1)
+    };
+    let result = gpu.render(&scene, &s, None);
+    let errors = gpu.context().take_validation_errors();
+    let message = format!(
+        "{:#}",
+        result
+            .err()
+            .expect("the render succeeded despite a validation error")
+    );
+    assert!(message.contains("deliberate validation error"), "{message}");
+    assert_eq!(errors.len(), 1);
+}

@@ -279,6 +279,33 @@ impl Context {
         self.messenger.is_some()
     }
 
+    /// Sends an error-severity message through the validation messenger, as the layer would, so
+    /// that a test can prove such errors fail the render. False when no messenger runs.
+    #[doc(hidden)]
+    pub fn report_validation_error_for_test(&self, message: &CStr) -> bool {
+        let Some((loader, _)) = &self.messenger else {
+            return false;
+        };
+        let data = vk::DebugUtilsMessengerCallbackDataEXT::default().message(message);
+        unsafe {
+            loader.submit_debug_utils_message(
+                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
+                &data,
+            )
+        };
+        true
+    }
+
+    /// Takes the validation errors reported so far (a test that expects one clears it this way).
+    #[doc(hidden)]
+    pub fn take_validation_errors(&self) -> Vec<String> {
+        self.validation_errors
+            .lock()
+            .map(|mut e| std::mem::take(&mut *e))
+            .unwrap_or_default()
+    }
+
     /// Fails with every validation error reported so far.
     pub fn check_validation(&self) -> Result<()> {
         let errors = self

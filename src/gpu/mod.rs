@@ -76,6 +76,11 @@ impl GpuRenderer {
         self.ctx.validating()
     }
 
+    /// The Vulkan context (device, queue, validation messages).
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
     /// The default number of paths in flight: smaller on CPU devices, bounded by the storage
     /// range of one binding (the ray queues hold two rays per path) and by 65535 workgroups.
     pub fn default_wavefront(&self) -> u32 {
