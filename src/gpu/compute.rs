@@ -2,7 +2,7 @@
 //! wavefront loop (the GLSL-twin tests): bind buffers 0..n, push a u32 invocation count,
 //! dispatch, read every buffer back.
 
-use super::memory::{Buffer, Location};
+use super::memory::{barrier, Buffer, Location};
 use super::resources::SUBMIT_TIMEOUT_S;
 use super::GpuRenderer;
 use crate::kernels::TEST_KERNELS;
@@ -134,17 +134,14 @@ impl GpuRenderer {
                     &count.to_le_bytes(),
                 );
                 device.cmd_dispatch(cmd, count.div_ceil(WORKGROUP_SIZE), 1, 1);
-                let barrier = [vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
-                device.cmd_pipeline_barrier(
+                barrier(
+                    device,
                     cmd,
-                    vk::PipelineStageFlags::COMPUTE_SHADER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &barrier,
-                    &[],
-                    &[],
+                    (
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::AccessFlags::SHADER_WRITE,
+                    ),
+                    (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
                 );
                 self.commands.submit_and_wait(ctx, name, SUBMIT_TIMEOUT_S)
             });

@@ -89,10 +89,16 @@ fn create_instance(entry: &ash::Entry, validation: bool) -> Result<(ash::Instanc
         .application_name(c"wavetrace")
         .engine_name(c"wavetrace")
         .api_version(vk::API_VERSION_1_2);
-    let info = vk::InstanceCreateInfo::default()
+    // With the layer on, also check synchronization (hazards between commands and submissions).
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+    let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_layer_names(&layer_ptrs)
         .enabled_extension_names(&ext_ptrs);
+    if use_layer {
+        info = info.push_next(&mut features);
+    }
     let instance = unsafe { entry.create_instance(&info, None) }
         .map_err(|e| anyhow!("vkCreateInstance failed ({e}): {INSTALL_HINT}"))?;
     Ok((instance, use_layer, has_debug_utils))

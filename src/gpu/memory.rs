@@ -230,3 +230,27 @@ impl Drop for Commands {
         }
     }
 }
+
+/// A global memory barrier: accesses `src` (stage, access) of earlier commands, in this and
+/// earlier submissions, happen before and are visible to accesses `dst` of later ones.
+pub fn barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(src.1)
+        .dst_access_mask(dst.1)];
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cmd,
+            src.0,
+            dst.0,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}

@@ -257,20 +257,18 @@ impl GpuRenderer {
             }
             recorder.record_batch(batch, settings.max_depth);
             let timed = std::mem::take(&mut recorder.timed);
-            unsafe {
-                let barrier = [vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
-                ctx.device.cmd_pipeline_barrier(
-                    self.commands.cmd,
+            memory::barrier(
+                &ctx.device,
+                self.commands.cmd,
+                (
                     vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::AccessFlags::SHADER_WRITE,
+                ),
+                (
                     vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &barrier,
-                    &[],
-                    &[],
-                );
-            }
+                    vk::AccessFlags::TRANSFER_READ,
+                ),
+            );
             self.commands.copy(counters, counters_back, counters.size);
             self.commands
                 .submit_and_wait(ctx, "a wavefront batch", SUBMIT_TIMEOUT_S)?;

@@ -2,10 +2,13 @@
 //! generate → (dispatch_args → extend → shade → dispatch_args → connect) per bounce → accumulate.
 //! One function per kernel, named as the kernel; every dispatch is labelled and timestamped.
 
-use super::memory::Buffer;
+use super::memory::{barrier, Buffer};
 use super::pipelines::Pipelines;
 use crate::layout::{args, counter, DispatchParams, WORKGROUP_SIZE};
 use ash::vk;
+
+// reset_counters sets counter 0 to the batch size and zeroes every counter after it.
+const _: () = assert!(counter::RAYS_0 == 0);
 
 /// Which paths a batch holds (see `DispatchParams`).
 #[derive(Clone, Copy, Debug)]
@@ -98,14 +101,8 @@ impl Recorder<'_> {
     fn reset_counters(&self, batch: Batch) {
         let device = self.device;
         unsafe {
-            // Queue 0 starts full (generate writes every slot); the other queues start empty.
-            device.cmd_fill_buffer(
-                self.cmd,
-                self.counters.buffer,
-                0,
-                4 * counter::TOTAL_EXTENSION_RAYS as u64,
-                0,
-            );
+            // Queue 0 starts full (generate writes every slot); every other counter starts at 0.
+            // The two fills touch disjoint bytes, so they need no barrier between them.
             device.cmd_fill_buffer(
                 self.cmd,
                 self.counters.buffer,
@@ -116,23 +113,27 @@ impl Recorder<'_> {
             device.cmd_fill_buffer(
                 self.cmd,
                 self.counters.buffer,
-                4 * counter::TOTAL_EXTENSION_RAYS as u64,
-                4 * (counter::COUNT - counter::TOTAL_EXTENSION_RAYS) as u64,
+                4,
+                4 * (counter::COUNT - 1) as u64,
                 0,
             );
-            let barrier = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
-            device.cmd_pipeline_barrier(
-                self.cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::DependencyFlags::empty(),
-                &barrier,
-                &[],
-                &[],
-            );
         }
+        // Covers this batch's fills and every earlier submission's transfers (scene upload,
+        // film clear).
+        barrier(
+            device,
+            self.cmd,
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::AccessFlags::SHADER_READ
+                    | vk::AccessFlags::SHADER_WRITE
+                    | vk::AccessFlags::UNIFORM_READ,
+            ),
+        );
     }
 
     /// Camera rays and fresh path states for the whole batch.
@@ -227,21 +228,19 @@ impl Recorder<'_> {
                 bytemuck::bytes_of(&p),
             );
             dispatch(device, cmd);
-            let barrier = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(
+            barrier(
+                device,
+                cmd,
+                (
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::AccessFlags::SHADER_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::DRAW_INDIRECT,
                     vk::AccessFlags::SHADER_READ
                         | vk::AccessFlags::SHADER_WRITE
                         | vk::AccessFlags::INDIRECT_COMMAND_READ,
-                )];
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::DRAW_INDIRECT,
-                vk::DependencyFlags::empty(),
-                &barrier,
-                &[],
-                &[],
+                ),
             );
             if let Some(pool) = self.timestamps {
                 self.timed.push(name);
