@@ -6,13 +6,27 @@
 mod common;
 
 use common::{prepared, render_cpu, render_gpu, render_gpu_banded};
+use wavetrace::film::Film;
 use wavetrace::layout::{DEBUG_NO_NEE, SAMPLER_INDEPENDENT};
 use wavetrace::mis::Heuristic;
 use wavetrace::render::RenderSettings;
-use wavetrace::stats::compare_films;
+use wavetrace::stats::{compare_films, Comparison};
 
 const TILE: u32 = 8;
 const ALPHA: f64 = 0.01;
+
+/// The per-tile comparison of a GPU and a CPU film, printed.
+fn compare(gpu: &Film, cpu: &Film) -> Comparison {
+    let cmp = compare_films(gpu, cpu, TILE, ALPHA).unwrap();
+    println!("{cmp}");
+    cmp
+}
+
+/// Fails with the comparison's report (which tiles, which channels) unless the films agree.
+fn assert_agree(gpu: &Film, cpu: &Film, what: &str) {
+    let cmp = compare(gpu, cpu);
+    assert!(cmp.passed(), "{what}:\n{cmp}");
+}
 
 /// The acceptance render: `--width 64 --height 64 --spp 512 --max-depth 7`.
 fn settings(seed: u32) -> RenderSettings {
@@ -36,9 +50,7 @@ fn gpu_matches_cpu_reference_on_cornell_box() {
     let cpu = render_cpu(&scene, &settings(2));
     assert_eq!(gpu.film.dropped, 0, "GPU dropped NaN/Inf samples");
     assert_eq!(cpu.film.dropped, 0, "CPU dropped NaN/Inf samples");
-    let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
-    println!("{cmp}");
-    assert!(cmp.passed(), "GPU and CPU disagree:\n{cmp}");
+    assert_agree(&gpu.film, &cpu.film, "GPU and CPU disagree");
 }
 
 #[test]
@@ -58,8 +70,7 @@ fn comparison_detects_a_dropped_nee_term() {
         return;
     };
     let cpu = render_cpu(&scene, &RenderSettings { seed: 2, ..small });
-    let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
-    println!("{cmp}");
+    let cmp = compare(&gpu.film, &cpu.film);
     assert!(
         !cmp.passed(),
         "a GPU render without next event estimation passed the comparison"
@@ -144,11 +155,10 @@ fn gpu_matches_cpu_with_an_environment() {
         return;
     };
     let cpu = render_cpu(&scene, &RenderSettings { seed: 6, ..s });
-    let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
-    println!("{cmp}");
-    assert!(
-        cmp.passed(),
-        "GPU and CPU disagree with an environment:\n{cmp}"
+    assert_agree(
+        &gpu.film,
+        &cpu.film,
+        "GPU and CPU disagree with an environment",
     );
 }
 
@@ -186,11 +196,10 @@ fn every_mis_heuristic_agrees_with_the_reference() {
         ) else {
             return;
         };
-        let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
-        println!("{mis:?}: {cmp}");
-        assert!(
-            cmp.passed(),
-            "GPU with {mis:?} disagrees with the CPU reference:\n{cmp}"
+        assert_agree(
+            &gpu.film,
+            &cpu.film,
+            &format!("GPU with {mis:?} disagrees with the CPU reference"),
         );
     }
 }
@@ -213,11 +222,10 @@ fn independent_and_stratified_samplers_agree() {
         return;
     };
     let cpu = render_cpu(&scene, &RenderSettings { seed: 12, ..small });
-    let cmp = compare_films(&gpu.film, &cpu.film, TILE, ALPHA).unwrap();
-    println!("{cmp}");
-    assert!(
-        cmp.passed(),
-        "independent (GPU) and stratified (CPU) samplers disagree:\n{cmp}"
+    assert_agree(
+        &gpu.film,
+        &cpu.film,
+        "independent (GPU) and stratified (CPU) samplers disagree",
     );
 }
 
