@@ -624,3 +624,28 @@ fn ignored_textures_are_noted() {
         .unwrap();
     assert!(plain.notes.is_empty(), "{:?}", plain.notes);
 }
+
+/// The committed scenes are exactly what tools/gen_scenes.py writes (skipped without python3).
+#[test]
+fn committed_scenes_match_their_generator() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("wavetrace-gen-scenes-{}", std::process::id()));
+    let status = std::process::Command::new("python3")
+        .arg(root.join("tools/gen_scenes.py"))
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .status();
+    let Ok(status) = status else {
+        eprintln!("skipping: python3 is not installed");
+        return;
+    };
+    assert!(status.success(), "tools/gen_scenes.py failed");
+    for name in ["cornell-box.gltf", "furnace.gltf"] {
+        let generated = std::fs::read(out.join(name)).unwrap();
+        let committed = std::fs::read(root.join("scenes").join(name)).unwrap();
+        assert!(
+            generated == committed,
+            "scenes/{name} differs from what tools/gen_scenes.py writes; run it and commit"
+        );
+    }
+}

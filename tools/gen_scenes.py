@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes the committed test scenes as self-contained glTF 2.0 files (base64 data: buffers).
 
-    python3 tools/gen_scenes.py        # writes scenes/cornell-box.gltf and scenes/furnace.gltf
+    python3 tools/gen_scenes.py           # writes scenes/cornell-box.gltf and scenes/furnace.gltf
+    python3 tools/gen_scenes.py OUT_DIR   # writes them into OUT_DIR instead
 
 Output is deterministic (same bytes on every run). Python 3 standard library only.
 
@@ -21,6 +22,7 @@ import math
 import os
 import re
 import struct
+import sys
 
 FLOAT, UNSIGNED_SHORT = 5126, 5123
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -246,7 +248,7 @@ def furnace():
 
 
 def main():
-    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenes")
+    root = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenes")
     os.makedirs(root, exist_ok=True)
     for name, scene in (("cornell-box.gltf", cornell_box()), ("furnace.gltf", furnace())):
         path = os.path.normpath(os.path.join(root, name))
