@@ -327,7 +327,8 @@ impl Bvh {
         let slab_ray = SlabRay::new(ray);
         let mut closest: Option<Hit> = None;
         let mut t_far = t_max;
-        let mut stack = [0u32; MAX_DEPTH];
+        // Deferred nodes with the distance at which the ray enters them.
+        let mut stack = [(0u32, 0f32); MAX_DEPTH];
         let mut sp = 0;
         let (mut index, mut node) = (0u32, self.nodes[0]);
         bvh_slab(&node, &slab_ray, t_min, t_far)?;
@@ -356,9 +357,9 @@ impl Bvh {
                 match (dl, dr) {
                     (Some(a), Some(b)) => {
                         let (near, far) = if a <= b {
-                            ((li, left), ri)
+                            ((li, left), (ri, b))
                         } else {
-                            ((ri, right), li)
+                            ((ri, right), (li, a))
                         };
                         stack[sp] = far;
                         sp += 1;
@@ -376,15 +377,17 @@ impl Bvh {
                     (None, None) => {}
                 }
             }
-            // Pop the next node that can still hold a closer hit.
+            // Pop the next node the ray enters before the closest hit so far (its entry distance
+            // was found when it was pushed; t_far can only have shrunk since).
             loop {
                 if sp == 0 {
                     return closest;
                 }
                 sp -= 1;
-                index = stack[sp];
-                node = self.nodes[index as usize];
-                if bvh_slab(&node, &slab_ray, t_min, t_far).is_some() {
+                let (deferred, t_enter) = stack[sp];
+                if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
+                    index = deferred;
+                    node = self.nodes[index as usize];
                     break;
                 }
             }

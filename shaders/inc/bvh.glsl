@@ -75,7 +75,9 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, out 
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0);
     if (bvh_is_empty()) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    // Deferred nodes with the distance at which the ray enters them.
     uint stack[BVH_STACK_SIZE];
+    float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
     uint index = 0u;
     BvhNode node = bvh_nodes[0];
@@ -102,34 +104,27 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, out 
             bool hit_left = bvh_slab(left, ray, t_min, t_far, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
             if (hit_left && hit_right) {
-                if (dl <= dr) {
-                    stack[sp++] = ri;
-                    index = li;
-                    node = left;
-                } else {
-                    stack[sp++] = li;
-                    index = ri;
-                    node = right;
-                }
+                bool left_first = dl <= dr;
+                stack[sp] = left_first ? ri : li;
+                stack_enter[sp] = left_first ? dr : dl;
+                ++sp;
+                index = left_first ? li : ri;
+                node = left_first ? left : right;
                 continue;
             }
-            if (hit_left) {
-                index = li;
-                node = left;
-                continue;
-            }
-            if (hit_right) {
-                index = ri;
-                node = right;
+            if (hit_left || hit_right) {
+                index = hit_left ? li : ri;
+                node = hit_left ? left : right;
                 continue;
             }
         }
-        // Pop the next node that can still hold a closer hit.
+        // Pop the next node the ray enters before the closest hit so far.
         bool found = false;
         while (sp > 0u) {
-            index = stack[--sp];
-            node = bvh_nodes[index];
-            if (bvh_slab(node, ray, t_min, t_far, t_enter)) {
+            --sp;
+            if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= t_far) {
+                index = stack[sp];
+                node = bvh_nodes[index];
                 found = true;
                 break;
             }
