@@ -86,7 +86,7 @@ pub fn mis_weight2(heuristic: u32, beta: f32, a: f32, b: f32, a_wins_ties: bool)
             }
         }
         MIS_AVERAGE => 0.5,
-        _ => 1.0 / (1.0 + r.powf(beta)),
+        _ => 1.0 / (1.0 + if beta == 2.0 { r * r } else { r.powf(beta) }),
     };
     if w.is_finite() {
         w

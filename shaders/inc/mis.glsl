@@ -23,7 +23,7 @@ float mis_weight2(uint heuristic, float beta, float a, float b, bool a_wins_ties
     } else if (heuristic == MIS_AVERAGE) {
         w = 0.5;
     } else {
-        w = 1.0 / (1.0 + pow(r, beta));
+        w = 1.0 / (1.0 + (beta == 2.0 ? r * r : pow(r, beta)));
     }
     return (isnan(w) || isinf(w)) ? 0.0 : w;
 }
