@@ -1,20 +1,26 @@
 #!/usr/bin/env bash
-# Installs what wavetrace needs at run time on a fresh Debian/Ubuntu machine: the Vulkan loader,
-# Mesa's software Vulkan driver (lavapipe) and, where packaged, the Khronos validation layers.
+# Installs what a fresh Debian/Ubuntu machine lacks for wavetrace: the Vulkan loader, Mesa's
+# software Vulkan driver (lavapipe), where packaged the Khronos validation layers, and the C++
+# compiler the build needs (the glslang crate compiles glslang from source).
 # On Debian 12 (bookworm) Mesa 22.3.6 has known lavapipe crashes, so Mesa comes from
-# bookworm-backports there. Idempotent: does nothing when a Vulkan driver is already installed.
+# bookworm-backports there. Idempotent: does nothing when all of it is already installed.
 set -euo pipefail
 
 have_driver() {
-  ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' &&
-    ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1
+  local libs
+  libs=$(ldconfig -p 2>/dev/null || /sbin/ldconfig -p 2>/dev/null || true)
+  [[ $libs == *libvulkan.so.1* ]] &&
+    { compgen -G '/usr/share/vulkan/icd.d/*.json' || compgen -G '/etc/vulkan/icd.d/*.json'; } >/dev/null
 }
 have_layers() {
-  ls /usr/share/vulkan/explicit_layer.d/*validation*.json >/dev/null 2>&1
+  compgen -G '/usr/share/vulkan/explicit_layer.d/*validation*.json' >/dev/null
+}
+have_compiler() {
+  command -v c++ >/dev/null 2>&1
 }
 
-if have_driver && { have_layers || [ "${WAVETRACE_NEED_LAYERS:-0}" = 0 ]; }; then
-  echo "install-vulkan: a Vulkan loader and driver are already installed"
+if have_driver && have_compiler && { have_layers || [ "${WAVETRACE_NEED_LAYERS:-0}" = 0 ]; }; then
+  echo "install-vulkan: a Vulkan loader, a driver and a C++ compiler are already installed"
   exit 0
 fi
 
@@ -34,6 +40,7 @@ fi
 
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${suite[@]}" mesa-vulkan-drivers libvulkan1
+have_compiler || $sudo apt-get install -y -qq --no-install-recommends g++
 # The validation layers are optional at run time; tests enable them when they are installed.
 $sudo apt-get install -y -qq --no-install-recommends vulkan-validationlayers ||
   echo "install-vulkan: vulkan-validationlayers is not packaged here; tests run without it"
