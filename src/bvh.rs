@@ -15,7 +15,7 @@
 
 use crate::layout::{BvhNode, GpuTriangle};
 use glam::{BVec3, Vec3};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// SAH bins on the longest centroid axis.
 pub const SAH_BINS: usize = 16;
@@ -70,242 +70,7 @@ pub struct Bvh {
     pub stats: BvhStats,
 }
 
-/// An axis-aligned box; empty when min > max.
-#[derive(Clone, Copy, Debug)]
-struct Aabb {
-    min: Vec3,
-    max: Vec3,
-}
-
-impl Aabb {
-    const EMPTY: Aabb = Aabb {
-        min: Vec3::INFINITY,
-        max: Vec3::NEG_INFINITY,
-    };
-
-    fn grow(&mut self, min: Vec3, max: Vec3) {
-        self.min = self.min.min(min);
-        self.max = self.max.max(max);
-    }
-
-    /// Half the surface area (0 for an empty box): the SAH only uses ratios.
-    fn half_area(&self) -> f32 {
-        let d = self.max - self.min;
-        if d.x < 0.0 || d.y < 0.0 || d.z < 0.0 {
-            return 0.0;
-        }
-        d.x * d.y + d.y * d.z + d.z * d.x
-    }
-}
-
-/// A triangle during the build: its bounds and input index.
-#[derive(Clone, Copy, Debug)]
-struct PrimRef {
-    min: Vec3,
-    max: Vec3,
-    id: u32,
-}
-
-impl PrimRef {
-    fn centroid(&self) -> Vec3 {
-        (self.min + self.max) * 0.5
-    }
-}
-
-/// A range of `refs` still to become a subtree; `patch` is the node whose `offset` must point to
-/// it (it is a right child), or `u32::MAX`.
-struct Task {
-    start: usize,
-    end: usize,
-    depth: usize,
-    patch: u32,
-}
-
-fn ceil_log2(n: usize) -> usize {
-    (usize::BITS - n.saturating_sub(1).leading_zeros()) as usize
-}
-
-/// Bin of a centroid coordinate; the same float expression when binning and partitioning.
-fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
-    (((c - lo) * scale) as usize).min(SAH_BINS - 1)
-}
-
-/// Reorders `refs` so that those with `pred` come first; returns how many there are.
-fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
-    let mut mid = 0;
-    for i in 0..refs.len() {
-        if pred(&refs[i]) {
-            refs.swap(i, mid);
-            mid += 1;
-        }
-    }
-    mid
-}
-
-/// Where to split `refs` (0 < mid < len, after reordering them), or `None` for a leaf.
-fn choose_split(
-    refs: &mut [PrimRef],
-    bounds: &Aabb,
-    centroids: &Aabb,
-    depth: usize,
-) -> Option<usize> {
-    let n = refs.len();
-    if n <= 1 {
-        return None;
-    }
-    let extent = centroids.max - centroids.min;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
-    };
-    // Identical centroids: the SAH cannot separate them; halve large sets in any order.
-    if extent[axis].is_nan() || extent[axis] <= 0.0 {
-        return (n > MAX_LEAF_SIZE).then_some(n / 2);
-    }
-    // Near the depth limit: object median, which halves the set and so bounds the depth.
-    if depth + ceil_log2(n) >= MAX_DEPTH {
-        if n <= MAX_LEAF_SIZE {
-            return None;
-        }
-        refs.select_nth_unstable_by(n / 2, |a, b| {
-            a.centroid()[axis].total_cmp(&b.centroid()[axis])
-        });
-        return Some(n / 2);
-    }
-
-    // Binned SAH: bounds and counts per bin, then sweep the 15 planes between bins.
-    let lo = centroids.min[axis];
-    let scale = SAH_BINS as f32 / extent[axis];
-    let mut bins = [(Aabb::EMPTY, 0usize); SAH_BINS];
-    for r in refs.iter() {
-        let b = &mut bins[bin_of(r.centroid()[axis], lo, scale)];
-        b.0.grow(r.min, r.max);
-        b.1 += 1;
-    }
-    let mut right_cost = [0.0f32; SAH_BINS];
-    let (mut acc, mut count) = (Aabb::EMPTY, 0);
-    for plane in (1..SAH_BINS).rev() {
-        acc.grow(bins[plane].0.min, bins[plane].0.max);
-        count += bins[plane].1;
-        right_cost[plane] = acc.half_area() * count as f32;
-    }
-    let (mut acc, mut count) = (Aabb::EMPTY, 0);
-    let mut best: Option<(usize, f32)> = None;
-    for plane in 1..SAH_BINS {
-        acc.grow(bins[plane - 1].0.min, bins[plane - 1].0.max);
-        count += bins[plane - 1].1;
-        if count == 0 || count == n {
-            continue;
-        }
-        let cost = acc.half_area() * count as f32 + right_cost[plane];
-        if best.is_none_or(|(_, c)| cost < c) {
-            best = Some((plane, cost));
-        }
-    }
-    let (plane, cost) = best?;
-    // Split when C_T·A + C_I·(A_L·N_L + A_R·N_R) < C_I·N·A (areas unnormalised).
-    let area = bounds.half_area();
-    let pays =
-        TRAVERSAL_COST * area + INTERSECTION_COST * cost < INTERSECTION_COST * n as f32 * area;
-    if !pays && n <= MAX_LEAF_SIZE {
-        return None;
-    }
-    let mid = partition(refs, |r| bin_of(r.centroid()[axis], lo, scale) < plane);
-    debug_assert!(mid > 0 && mid < n);
-    Some(mid)
-}
-
 impl Bvh {
-    /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
-    /// for millions (work stack, bounded depth).
-    pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
-        let start_time = Instant::now();
-        let mut refs: Vec<PrimRef> = triangles
-            .iter()
-            .enumerate()
-            .map(|(i, t)| PrimRef {
-                min: t[0].min(t[1]).min(t[2]),
-                max: t[0].max(t[1]).max(t[2]),
-                id: i as u32,
-            })
-            .collect();
-        let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
-        let mut stats = BvhStats::default();
-
-        let mut stack = Vec::new();
-        if refs.is_empty() {
-            nodes.push(BvhNode {
-                bounds_min: [f32::MAX; 3],
-                offset: 0,
-                bounds_max: [-f32::MAX; 3],
-                count: 0,
-            });
-        } else {
-            stack.push(Task {
-                start: 0,
-                end: refs.len(),
-                depth: 0,
-                patch: u32::MAX,
-            });
-        }
-        while let Some(task) = stack.pop() {
-            let index = nodes.len() as u32;
-            if task.patch != u32::MAX {
-                nodes[task.patch as usize].offset = index;
-            }
-            let range = &mut refs[task.start..task.end];
-            let (mut bounds, mut centroids) = (Aabb::EMPTY, Aabb::EMPTY);
-            for r in range.iter() {
-                bounds.grow(r.min, r.max);
-                centroids.grow(r.centroid(), r.centroid());
-            }
-            let mut node = BvhNode {
-                bounds_min: bounds.min.into(),
-                offset: 0,
-                bounds_max: bounds.max.into(),
-                count: 0,
-            };
-            match choose_split(range, &bounds, &centroids, task.depth) {
-                Some(mid) => {
-                    let mid = task.start + mid;
-                    // Right pushed first: the left subtree is built (and numbered) first.
-                    stack.push(Task {
-                        start: mid,
-                        end: task.end,
-                        depth: task.depth + 1,
-                        patch: index,
-                    });
-                    stack.push(Task {
-                        start: task.start,
-                        end: mid,
-                        depth: task.depth + 1,
-                        patch: u32::MAX,
-                    });
-                }
-                None => {
-                    node.offset = task.start as u32;
-                    node.count = range.len() as u32;
-                    stats.leaves += 1;
-                    stats.max_depth = stats.max_depth.max(task.depth);
-                    stats.max_leaf_size = stats.max_leaf_size.max(range.len());
-                }
-            }
-            nodes.push(node);
-        }
-
-        stats.nodes = nodes.len();
-        stats.sah_cost = sah_cost(&nodes);
-        stats.build_time = start_time.elapsed();
-        Bvh {
-            nodes,
-            order: refs.iter().map(|r| r.id).collect(),
-            stats,
-        }
-    }
-
     /// True for the BVH of no triangles (a single node with inverted bounds).
     pub fn is_empty(&self) -> bool {
         self.nodes
@@ -514,33 +279,6 @@ pub fn intersect_triangle(
     (t > t_min && t < t_max).then_some((t, u, v))
 }
 
-/// SAH cost of a flattened BVH: Σ interior area·C_T + Σ leaf area·count·C_I, over the root's area
-/// (C_T = C_I = 1). 0 for an empty or zero-area BVH.
-pub fn sah_cost(nodes: &[BvhNode]) -> f32 {
-    let area = |n: &BvhNode| {
-        Aabb {
-            min: n.bounds_min.into(),
-            max: n.bounds_max.into(),
-        }
-        .half_area()
-    };
-    let Some(root_area) = nodes.first().map(area).filter(|&a| a > 0.0) else {
-        return 0.0;
-    };
-    let total: f64 = nodes
-        .iter()
-        .map(|n| {
-            let cost = if n.is_leaf() {
-                INTERSECTION_COST * n.count as f32
-            } else {
-                TRAVERSAL_COST
-            };
-            (area(n) * cost) as f64
-        })
-        .sum();
-    (total / root_area as f64) as f32
-}
-
 /// The triangles as the intersector wants them, in BVH order: BVH triangle `i` is input triangle
 /// `order[i]` with material `materials[order[i]]` (0 when `materials` is empty); `light_pmf` = 0.
 pub fn gpu_triangles(
@@ -568,6 +306,10 @@ pub fn gpu_triangles(
         })
         .collect()
 }
+
+mod build;
+
+pub use build::sah_cost;
 
 #[cfg(test)]
 mod tests;

@@ -11,6 +11,7 @@
 //! - [`Camera`] (`camera.rs`): the file's first perspective camera, or a framing default.
 //! - [`build_light_table`] (`lights.rs`): the emitter table sampled by next event estimation.
 
+mod accessors;
 mod buffers;
 mod camera;
 mod lights;

@@ -1,0 +1,177 @@
+//! glTF accessors: positions and indices decoded with every offset, stride, count and index
+//! checked (sparse substitutions included), and triangle lists, strips and fans turned into
+//! vertex triples.
+
+use super::load::label;
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use gltf::accessor::{sparse::IndexType, Accessor, DataType, Dimensions};
+use gltf::buffer::View;
+use gltf::mesh::Mode;
+
+/// The most elements an accessor without a buffer view (all zeros) may claim.
+const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 26;
+
+/// Decoded elements of an accessor: dense data (zeros without a buffer view), then sparse
+/// substitutions. `size` is the element size in bytes, `decode` reads one element.
+fn read_accessor<T: Copy + Default>(
+    accessor: &Accessor,
+    buffers: &[Vec<u8>],
+    size: usize,
+    decode: impl Fn(&[u8]) -> T,
+) -> Result<Vec<T>> {
+    let count = accessor.count();
+    let mut out = match accessor.view() {
+        Some(view) => read_view(&view, accessor.offset(), count, size, buffers, &decode)?,
+        None if count <= MAX_ZERO_ACCESSOR_COUNT => vec![T::default(); count],
+        None => bail!("count {count} without a bufferView is implausibly large"),
+    };
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        let indices = sparse.indices();
+        let slots = read_view(
+            &indices.view(),
+            indices.offset(),
+            n,
+            indices.index_type().size(),
+            buffers,
+            &|b| match indices.index_type() {
+                IndexType::U8 => b[0] as usize,
+                IndexType::U16 => u16::from_le_bytes([b[0], b[1]]) as usize,
+                IndexType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+            },
+        )
+        .context("sparse indices")?;
+        let values = sparse.values();
+        let values = read_view(&values.view(), values.offset(), n, size, buffers, &decode)
+            .context("sparse values")?;
+        for (k, (slot, value)) in slots.into_iter().zip(values).enumerate() {
+            let Some(element) = out.get_mut(slot) else {
+                bail!("sparse index {slot} (entry {k}) is out of range: the accessor has {count} elements");
+            };
+            *element = value;
+        }
+    }
+    Ok(out)
+}
+
+/// `count` elements of `size` bytes at `offset` within a buffer view, honouring its stride.
+fn read_view<T>(
+    view: &View,
+    offset: usize,
+    count: usize,
+    size: usize,
+    buffers: &[Vec<u8>],
+    decode: &dyn Fn(&[u8]) -> T,
+) -> Result<Vec<T>> {
+    let what = label("bufferView", view.index(), view.name());
+    let buffer = &buffers[view.buffer().index()];
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        bail!("{what}: byteStride {stride} is smaller than the {size}-byte elements it holds");
+    }
+    let (start, length) = (view.offset(), view.length());
+    let Some(data) = start
+        .checked_add(length)
+        .and_then(|end| buffer.get(start..end))
+    else {
+        bail!(
+            "{what} (bytes {start}..{}) lies outside {} of {} bytes",
+            start.saturating_add(length),
+            label("buffer", view.buffer().index(), view.buffer().name()),
+            buffer.len()
+        );
+    };
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let end = (count - 1)
+        .checked_mul(stride)
+        .and_then(|x| x.checked_add(offset))
+        .and_then(|x| x.checked_add(size));
+    if !matches!(end, Some(end) if end <= data.len()) {
+        bail!(
+            "{count} elements of {size} bytes (stride {stride}) from byte offset {offset} do not fit \
+             in {what} of {length} bytes"
+        );
+    }
+    Ok((0..count)
+        .map(|i| decode(&data[offset + i * stride..][..size]))
+        .collect())
+}
+
+pub(super) fn read_positions(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vec3>> {
+    if accessor.dimensions() != Dimensions::Vec3
+        || accessor.data_type() != DataType::F32
+        || accessor.normalized()
+    {
+        bail!(
+            "positions must be VEC3 of FLOAT, found {:?} of {:?} (quantized positions, \
+             KHR_mesh_quantization, are not supported)",
+            accessor.dimensions(),
+            accessor.data_type()
+        );
+    }
+    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    read_accessor(accessor, buffers, 12, |b| {
+        Vec3::new(f(&b[0..4]), f(&b[4..8]), f(&b[8..12]))
+    })
+}
+
+pub(super) fn read_indices(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>> {
+    if accessor.dimensions() != Dimensions::Scalar {
+        bail!("indices must be SCALAR, found {:?}", accessor.dimensions());
+    }
+    match accessor.data_type() {
+        DataType::U8 => read_accessor(accessor, buffers, 1, |b| b[0] as u32),
+        DataType::U16 => read_accessor(accessor, buffers, 2, |b| {
+            u16::from_le_bytes([b[0], b[1]]) as u32
+        }),
+        DataType::U32 => read_accessor(accessor, buffers, 4, |b| {
+            u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+        }),
+        other => {
+            bail!("indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, found {other:?}")
+        }
+    }
+}
+
+/// Vertex triples of a triangle list, strip or fan (glTF 2.0 §3.7.2.1 topology rules).
+pub(super) fn triangle_corners(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>> {
+    let n = v.len();
+    Ok(match mode {
+        Mode::Triangles => {
+            if !n.is_multiple_of(3) {
+                bail!("a triangle list needs a multiple of 3 vertices/indices, found {n}");
+            }
+            v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        }
+        Mode::TriangleStrip => (0..n.saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [v[i], v[i + 1], v[i + 2]]
+                } else {
+                    [v[i], v[i + 2], v[i + 1]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (0..n.saturating_sub(2))
+            .map(|i| [v[i + 1], v[i + 2], v[0]])
+            .collect(),
+        _ => Vec::new(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_the_winding() {
+        let strip = triangle_corners(Mode::TriangleStrip, &[0, 1, 2, 3]).unwrap();
+        assert_eq!(strip, [[0, 1, 2], [1, 3, 2]]);
+        let fan = triangle_corners(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap();
+        assert_eq!(fan, [[1, 2, 0], [2, 3, 0]]);
+        assert!(triangle_corners(Mode::Triangles, &[0, 1]).is_err());
+    }
+}
