@@ -92,10 +92,10 @@ pub struct RenderArgs {
     /// Scattering events per path: 0 shows emitters only, 1 is direct lighting.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=1024))]
     pub max_depth: u32,
-    /// Image width in pixels (default 512).
+    /// Image width in pixels (default: 512, or from the height and the camera's aspect ratio).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub width: Option<u32>,
-    /// Image height in pixels (default: from the width and the camera's aspect ratio).
+    /// Image height in pixels (default: from the width and the camera's aspect ratio, if any).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     pub height: Option<u32>,
     /// Random seed: the same seed gives the same image on the same device.

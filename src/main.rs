@@ -14,6 +14,23 @@ use wavetrace::scene::Scene;
 
 /// Largest image the film may hold (pixels), far above any real render.
 const MAX_PIXELS: u64 = 1 << 26;
+/// Largest side of an image in pixels.
+const MAX_SIDE: u32 = 16384;
+/// Width of an image when neither --width nor --height is given.
+const DEFAULT_WIDTH: u32 = 512;
+
+/// The image size from --width and --height, filling a missing one from the camera's aspect ratio
+/// (width / height) where the file gives one, else making the image square.
+fn image_size(width: Option<u32>, height: Option<u32>, aspect: Option<f32>) -> (u32, u32) {
+    let aspect = aspect.filter(|a| a.is_finite() && *a > 0.0).unwrap_or(1.0) as f64;
+    let scaled = |v: u32, by: f64| ((v as f64 * by).round().clamp(1.0, u32::MAX as f64)) as u32;
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, scaled(w, 1.0 / aspect)),
+        (None, Some(h)) => (scaled(h, aspect), h),
+        (None, None) => (DEFAULT_WIDTH, scaled(DEFAULT_WIDTH, 1.0 / aspect)),
+    }
+}
 
 fn main() -> ExitCode {
     // A closed pipe (`wavetrace compare a b | head`) ends the process quietly, as for any Unix
@@ -102,15 +119,12 @@ fn render(args: &RenderArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
     let (scene, prepared) = load(&path)?;
-    let width = args.width.unwrap_or(512);
-    let height = args
-        .height
-        .unwrap_or_else(|| match (args.width, scene.camera.aspect_ratio) {
-            (None, _) | (_, None) => width,
-            (Some(w), Some(a)) => ((w as f32 / a).round() as u32).max(1),
-        });
-    if width as u64 * height as u64 > MAX_PIXELS {
-        bail!("{width}×{height} is more than {MAX_PIXELS} pixels; render a smaller image");
+    let (width, height) = image_size(args.width, args.height, scene.camera.aspect_ratio);
+    if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
+        bail!(
+            "{width}×{height} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} in all); \
+             render a smaller image"
+        );
     }
     let output = args.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
@@ -316,4 +330,19 @@ fn compare(args: &CompareArgs) -> Result<bool> {
         .with_context(|| format!("comparing {} with {}", args.a.display(), args.b.display()))?;
     println!("{} vs {}: {cmp}", args.a.display(), args.b.display());
     Ok(cmp.passed())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::image_size;
+
+    #[test]
+    fn missing_sides_follow_the_camera_aspect() {
+        assert_eq!(image_size(None, None, None), (512, 512));
+        assert_eq!(image_size(None, None, Some(2.0)), (512, 256));
+        assert_eq!(image_size(Some(300), None, Some(1.5)), (300, 200));
+        assert_eq!(image_size(None, Some(100), Some(1.5)), (150, 100));
+        assert_eq!(image_size(Some(64), Some(48), Some(1.0)), (64, 48));
+        assert_eq!(image_size(Some(64), None, Some(f32::NAN)), (64, 64));
+    }
 }
