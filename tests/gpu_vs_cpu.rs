@@ -23,6 +23,37 @@ fn compare(gpu: &Film, cpu: &Film) -> Comparison {
     cmp
 }
 
+/// The smaller configuration of the other comparisons: 32×32 at 128 spp.
+fn small(seed: u32) -> RenderSettings {
+    RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 128,
+        ..settings(seed)
+    }
+}
+
+/// Renders `gpu_settings` on the GPU and `cpu_settings` on the CPU (their seeds must differ, so
+/// the films are independent samples), checks that neither dropped a sample and that they agree;
+/// returns the CPU film, or `None` without a GPU.
+fn gpu_agrees_with_cpu(
+    scene: &PreparedScene,
+    gpu_settings: &RenderSettings,
+    cpu_settings: &RenderSettings,
+    what: &str,
+) -> Option<Film> {
+    assert_ne!(
+        gpu_settings.seed, cpu_settings.seed,
+        "the two sides need different seeds"
+    );
+    let gpu = render_gpu(scene, gpu_settings, None)?;
+    let cpu = render_cpu(scene, cpu_settings);
+    assert_eq!(gpu.film.dropped, 0, "GPU dropped NaN/Inf samples");
+    assert_eq!(cpu.film.dropped, 0, "CPU dropped NaN/Inf samples");
+    assert_agree(&gpu.film, &cpu.film, what);
+    Some(cpu.film)
+}
+
 /// Fails with the comparison's report (which tiles, which channels) unless the films agree.
 fn assert_agree(gpu: &Film, cpu: &Film, what: &str) {
     let cmp = compare(gpu, cpu);
@@ -44,33 +75,24 @@ fn settings(seed: u32) -> RenderSettings {
 #[test]
 fn gpu_matches_cpu_reference_on_cornell_box() {
     let scene = prepared("cornell-box.gltf");
-    // Different seeds: the two films must be independent samples for the test to hold.
-    let Some(gpu) = render_gpu(&scene, &settings(1), None) else {
-        return;
-    };
-    let cpu = render_cpu(&scene, &settings(2));
-    assert_eq!(gpu.film.dropped, 0, "GPU dropped NaN/Inf samples");
-    assert_eq!(cpu.film.dropped, 0, "CPU dropped NaN/Inf samples");
-    assert_agree(&gpu.film, &cpu.film, "GPU and CPU disagree");
+    gpu_agrees_with_cpu(&scene, &settings(1), &settings(2), "GPU and CPU disagree");
 }
 
 #[test]
 fn comparison_detects_a_dropped_nee_term() {
     let scene = prepared("cornell-box.gltf");
-    let small = RenderSettings {
-        width: 32,
-        height: 32,
+    let short = |seed| RenderSettings {
         spp: 64,
-        ..settings(1)
+        ..small(seed)
     };
     let biased = RenderSettings {
         debug_flags: DEBUG_NO_NEE,
-        ..small.clone()
+        ..short(1)
     };
     let Some(gpu) = render_gpu(&scene, &biased, None) else {
         return;
     };
-    let cpu = render_cpu(&scene, &RenderSettings { seed: 2, ..small });
+    let cpu = render_cpu(&scene, &short(2));
     let cmp = compare(&gpu.film, &cpu.film);
     assert!(
         !cmp.passed(),
@@ -145,20 +167,14 @@ fn cpu_is_deterministic() {
 fn gpu_matches_cpu_with_an_environment() {
     // Rays leaving the box through its open front see a uniform environment.
     let scene = prepared("cornell-box.gltf");
-    let s = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 128,
+    let lit = |seed| RenderSettings {
         environment: glam::Vec3::new(0.5, 0.7, 1.0),
-        ..settings(5)
+        ..small(seed)
     };
-    let Some(gpu) = render_gpu(&scene, &s, None) else {
-        return;
-    };
-    let cpu = render_cpu(&scene, &RenderSettings { seed: 6, ..s });
-    assert_agree(
-        &gpu.film,
-        &cpu.film,
+    gpu_agrees_with_cpu(
+        &scene,
+        &lit(5),
+        &lit(6),
         "GPU and CPU disagree with an environment",
     );
 }
@@ -168,33 +184,14 @@ fn gpu_matches_cpu_with_an_environment() {
 #[test]
 fn every_mis_heuristic_agrees_with_the_reference() {
     let scene = prepared("cornell-box.gltf");
-    let small = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 128,
-        ..settings(7)
-    };
-    let cpu = render_cpu(
-        &scene,
-        &RenderSettings {
-            seed: 8,
-            ..small.clone()
-        },
-    );
+    let cpu = render_cpu(&scene, &small(8));
     for mis in [
         Heuristic::Average,
         Heuristic::Maximum,
         Heuristic::Balance,
         Heuristic::Power(3.0),
     ] {
-        let Some(gpu) = render_gpu(
-            &scene,
-            &RenderSettings {
-                mis,
-                ..small.clone()
-            },
-            None,
-        ) else {
+        let Some(gpu) = render_gpu(&scene, &RenderSettings { mis, ..small(7) }, None) else {
             return;
         };
         assert_agree(
@@ -209,23 +206,14 @@ fn every_mis_heuristic_agrees_with_the_reference() {
 #[test]
 fn independent_and_stratified_samplers_agree() {
     let scene = prepared("cornell-box.gltf");
-    let small = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 128,
-        ..settings(11)
-    };
     let independent = RenderSettings {
         sampler: SAMPLER_INDEPENDENT,
-        ..small.clone()
+        ..small(11)
     };
-    let Some(gpu) = render_gpu(&scene, &independent, None) else {
-        return;
-    };
-    let cpu = render_cpu(&scene, &RenderSettings { seed: 12, ..small });
-    assert_agree(
-        &gpu.film,
-        &cpu.film,
+    gpu_agrees_with_cpu(
+        &scene,
+        &independent,
+        &small(12),
         "independent (GPU) and stratified (CPU) samplers disagree",
     );
 }
@@ -273,34 +261,18 @@ fn double_sided_emitters_agree() {
         m.double_sided = true;
     }
     let scene = PreparedScene::new(&scene);
-    let small = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 128,
-        ..settings(13)
-    };
-    let Some(gpu) = render_gpu(&scene, &small, None) else {
+    let Some(cpu) = gpu_agrees_with_cpu(
+        &scene,
+        &small(13),
+        &small(14),
+        "GPU and CPU disagree with a double-sided light",
+    ) else {
         return;
     };
-    let cpu = render_cpu(
-        &scene,
-        &RenderSettings {
-            seed: 14,
-            ..small.clone()
-        },
-    );
-    assert_agree(
-        &gpu.film,
-        &cpu.film,
-        "GPU and CPU disagree with a double-sided light",
-    );
     // The back face adds light to the box: the image mean must exceed the one-sided one by more
     // than 4 standard errors of the difference (independent seeds).
-    let one_sided = render_cpu(
-        &prepared("cornell-box.gltf"),
-        &RenderSettings { seed: 15, ..small },
-    );
-    let ((m2, e2), (m1, e1)) = (film_mean(&cpu.film), film_mean(&one_sided.film));
+    let one_sided = render_cpu(&prepared("cornell-box.gltf"), &small(15));
+    let ((m2, e2), (m1, e1)) = (film_mean(&cpu), film_mean(&one_sided.film));
     // The standard error of a sum of correlated channels is at most the sum of theirs.
     let z = (m2.element_sum() - m1.element_sum()) / e2.element_sum().hypot(e1.element_sum());
     println!(

@@ -3,8 +3,8 @@
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use wavetrace::layout::{GpuMaterial, GpuTriangle, MATERIAL_DOUBLE_SIDED};
-use wavetrace::scene::{build_light_table, Scene, Triangle};
+use wavetrace::render::PreparedScene;
+use wavetrace::scene::{Scene, Triangle};
 
 fn crate_root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -127,40 +127,14 @@ fn cornell_box_geometry_materials_and_camera() {
 
 #[test]
 fn cornell_box_light_table_has_the_two_light_triangles() {
-    let scene = load_committed("cornell-box.gltf");
-    let mut tris: Vec<GpuTriangle> = scene
-        .triangles
-        .iter()
-        .map(|t| GpuTriangle {
-            p0: t.p[0].into(),
-            material: t.material,
-            e1: (t.p[1] - t.p[0]).into(),
-            light_pmf: 0.0,
-            e2: (t.p[2] - t.p[0]).into(),
-            area: t.area(),
-        })
-        .collect();
-    let materials: Vec<GpuMaterial> = scene
-        .materials
-        .iter()
-        .map(|m| GpuMaterial {
-            base_color: m.base_color.into(),
-            flags: if m.double_sided {
-                MATERIAL_DOUBLE_SIDED
-            } else {
-                0
-            },
-            emission: m.emission.into(),
-            pad: 0,
-        })
-        .collect();
-    let table = build_light_table(&mut tris, &materials);
+    let prepared = PreparedScene::new(&load_committed("cornell-box.gltf"));
+    let table = &prepared.lights;
     assert_eq!(table.len(), 2);
-    for entry in &table {
+    for entry in table {
         assert!((entry.pmf - 0.5).abs() < 1e-6);
     }
     assert_eq!(table[1].cdf, 1.0);
-    let pmf_sum: f32 = tris.iter().map(|t| t.light_pmf).sum();
+    let pmf_sum: f32 = prepared.triangles.iter().map(|t| t.light_pmf).sum();
     assert!((pmf_sum - 1.0).abs() < 1e-6);
 }
 

@@ -143,7 +143,7 @@ impl GpuRenderer {
         let query_pool = if self.timing {
             let info = vk::QueryPoolCreateInfo::default()
                 .query_type(vk::QueryType::TIMESTAMP)
-                .query_count(3 + 5 * (settings.max_depth + 1));
+                .query_count(wavefront::query_count(settings.max_depth));
             Some(unsafe { ctx.device.create_query_pool(&info, None) }?)
         } else {
             None

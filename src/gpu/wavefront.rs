@@ -51,6 +51,12 @@ pub fn batches(pixel_count: u32, spp: u32, capacity: u32) -> Vec<Batch> {
     out
 }
 
+/// Timestamps one batch writes at most: one before the first kernel and one after each of
+/// generate, (2 + 1 + 2) per bounce and accumulate.
+pub fn query_count(max_depth: u32) -> u32 {
+    1 + 1 + 5 * (max_depth + 1) + 1
+}
+
 /// Records the kernels of one batch into a command buffer.
 pub struct Recorder<'a> {
     pub device: &'a ash::Device,
@@ -73,7 +79,7 @@ impl Recorder<'_> {
         if let Some(pool) = self.timestamps {
             unsafe {
                 self.device
-                    .cmd_reset_query_pool(self.cmd, pool, 0, self.query_capacity(max_depth));
+                    .cmd_reset_query_pool(self.cmd, pool, 0, query_count(max_depth));
                 self.device.cmd_write_timestamp(
                     self.cmd,
                     vk::PipelineStageFlags::COMPUTE_SHADER,
@@ -91,11 +97,6 @@ impl Recorder<'_> {
             }
         }
         self.accumulate(batch);
-    }
-
-    /// Timestamps one batch writes (one before the first kernel, one after each).
-    pub fn query_capacity(&self, max_depth: u32) -> u32 {
-        1 + 1 + 5 * (max_depth + 1) + 1
     }
 
     fn reset_counters(&self, batch: Batch) {
