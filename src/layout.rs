@@ -69,14 +69,19 @@ pub struct GpuTriangle {
 /// Material flags (`Material::flags`).
 pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
 
-/// Lambertian reflectance and emitted radiance. Total: 32 bytes.
+/// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance.
+/// Total: 48 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
-    pub base_color: [f32; 3], // 12 bytes: linear RGB albedo
+    pub base_color: [f32; 3], // 12 bytes: linear RGB, baseColorFactor
     pub flags: u32,           // 4 bytes: MATERIAL_* bits
     pub emission: [f32; 3],   // 12 bytes: radiance, W·sr⁻¹·m⁻²
-    pub pad: u32,             // 4 bytes
+    pub metallic: f32,        // 4 bytes: metallicFactor
+    pub roughness: f32,       // 4 bytes: roughnessFactor (GGX α = roughness²)
+    pub ior: f32,             // 4 bytes: KHR_materials_ior (1.5 by default)
+    pub transmission: f32,    // 4 bytes: KHR_materials_transmission's factor
+    pub specular: f32,        // 4 bytes: KHR_materials_specular's specularFactor (1 by default)
 }
 
 /// One entry of the emitter table: triangles that emit, with the running CDF of their selection
@@ -121,7 +126,9 @@ pub struct FrameParams {
     pub spp: u32, // 4 bytes
     /// `SAMPLER_*`: how the pairs of random numbers of a pixel's samples are placed.
     pub sampler_mode: u32, // 4 bytes
-    pub pad: [u32; 2],          // 8 bytes
+    /// `RR_*`: how Russian roulette picks survival probabilities.
+    pub rr_mode: u32, // 4 bytes
+    pub pad: u32,               // 4 bytes
 }
 
 /// `FrameParams::sampler_mode`: every number independent.
@@ -129,6 +136,14 @@ pub const SAMPLER_INDEPENDENT: u32 = 0;
 /// `FrameParams::sampler_mode`: the 2-D pairs (pixel jitter, point on a light, BSDF direction) of a
 /// pixel's samples are N-rooks stratified (`sampling::stratify2`).
 pub const SAMPLER_STRATIFIED: u32 = 1;
+
+/// `FrameParams::rr_mode`: survival probability min(1, max throughput component) (the default).
+pub const RR_THROUGHPUT: u32 = 0;
+/// `FrameParams::rr_mode`: survival probability = the surface's estimated scattering albedo, the
+/// lecture's subcritical set-up P = ∫K (`bsdf::bsdf_albedo_estimate`).
+pub const RR_ALBEDO: u32 = 1;
+/// `FrameParams::rr_mode`: no Russian roulette; paths end at `--max-depth` only.
+pub const RR_OFF: u32 = 2;
 
 /// `FrameParams::debug_flags` bit: drop the emitter-sampling (NEE) term while BSDF-sampled hits
 /// on emitters keep their MIS weights. Biased on purpose: only for the test that proves the
@@ -271,7 +286,11 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         base_color,
         flags,
         emission,
-        pad
+        metallic,
+        roughness,
+        ior,
+        transmission,
+        specular
     }),
     struct_layout!(LightEntry {
         cdf,
@@ -300,6 +319,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         mis_beta,
         spp,
         sampler_mode,
+        rr_mode,
         pad
     }),
     struct_layout!(DispatchParams {

@@ -1,5 +1,6 @@
 //! The seed's combined-sampling weightings (lecture "Monte Carlo methods", §Combined sampling):
-//! average, maximum (cutoff), balance and power(β). Each returns the weight of strategy `i`
+//! average, maximum (cutoff), balance and power(β), and the two single-technique estimators
+//! (emitter sampling only, BSDF sampling only). Each returns the weight of strategy `i`
 //! whose pdf at the sample is `pdfs[i]`; for every x the weights over all strategies sum to 1,
 //! which keeps the combined estimate unbiased. Non-finite weights become 0 (Mitsuba's rule).
 //! `mis_weight2` (twin of `shaders/inc/mis.glsl`) is the two-strategy form the integrators use,
@@ -16,6 +17,11 @@ pub enum Heuristic {
     Balance,
     /// w_i = p_i^β / Σ p_j^β (β = 2 in the integrators).
     Power(f32),
+    /// Emitter sampling alone (strategy 0 in the n-strategy form): weight 1 wherever it can
+    /// produce the sample, BSDF sampling only where it cannot (e.g. after a delta bounce).
+    LightOnly,
+    /// BSDF sampling alone (strategy 1 in the n-strategy form): emitter sampling weighs 0.
+    BsdfOnly,
 }
 
 /// Weight of strategy `i` among strategies with pdfs `pdfs` at the same sample.
@@ -38,6 +44,24 @@ pub fn mis_weight(heuristic: Heuristic, i: usize, pdfs: &[f32]) -> f32 {
         Heuristic::Power(beta) => {
             pdfs[i].powf(beta) / pdfs.iter().map(|p| p.powf(beta)).sum::<f32>()
         }
+        Heuristic::LightOnly | Heuristic::BsdfOnly => {
+            // The chosen strategy takes everything it can produce; where its pdf is 0 the
+            // others share by the balance heuristic, so the weights still sum to 1.
+            let chosen = if heuristic == Heuristic::LightOnly {
+                0
+            } else {
+                1
+            };
+            if pdfs.get(chosen).is_some_and(|&p| p > 0.0) {
+                if i == chosen {
+                    1.0
+                } else {
+                    0.0
+                }
+            } else {
+                pdfs[i] / pdfs.iter().sum::<f32>()
+            }
+        }
     };
     if w.is_finite() {
         w
@@ -51,6 +75,8 @@ pub const MIS_POWER: u32 = 0;
 pub const MIS_BALANCE: u32 = 1;
 pub const MIS_MAXIMUM: u32 = 2;
 pub const MIS_AVERAGE: u32 = 3;
+pub const MIS_LIGHT_ONLY: u32 = 4;
+pub const MIS_BSDF_ONLY: u32 = 5;
 
 impl Heuristic {
     pub fn code_and_beta(self) -> (u32, f32) {
@@ -59,6 +85,8 @@ impl Heuristic {
             Heuristic::Balance => (MIS_BALANCE, 1.0),
             Heuristic::Maximum => (MIS_MAXIMUM, 0.0),
             Heuristic::Average => (MIS_AVERAGE, 0.0),
+            Heuristic::LightOnly => (MIS_LIGHT_ONLY, 0.0),
+            Heuristic::BsdfOnly => (MIS_BSDF_ONLY, 0.0),
         }
     }
 }
@@ -66,9 +94,10 @@ impl Heuristic {
 /// Two strategies (emitter sampling and BSDF sampling), as the integrators combine them: the
 /// weight of the one whose pdf at the sample is `a`, against the other's `b` (both solid angle).
 /// A strategy that cannot produce the sample (pdf 0) leaves the other weight 1, which keeps the
-/// weights summing to 1 for average too; `a_wins_ties` gives maximum's ties to one side only.
+/// weights summing to 1 for average too. `a_is_light` says that `a` is emitter sampling's pdf:
+/// it picks the technique of the single-technique modes and gives maximum's ties to that side.
 /// Written with the ratio r = b/a so that no power overflows. Twin of `mis_weight2` in mis.glsl.
-pub fn mis_weight2(heuristic: u32, beta: f32, a: f32, b: f32, a_wins_ties: bool) -> f32 {
+pub fn mis_weight2(heuristic: u32, beta: f32, a: f32, b: f32, a_is_light: bool) -> f32 {
     if b.is_nan() || b <= 0.0 {
         return 1.0;
     }
@@ -79,13 +108,15 @@ pub fn mis_weight2(heuristic: u32, beta: f32, a: f32, b: f32, a_wins_ties: bool)
     let w = match heuristic {
         MIS_BALANCE => 1.0 / (1.0 + r),
         MIS_MAXIMUM => {
-            if a > b || (a == b && a_wins_ties) {
+            if a > b || (a == b && a_is_light) {
                 1.0
             } else {
                 0.0
             }
         }
         MIS_AVERAGE => 0.5,
+        MIS_LIGHT_ONLY => f32::from(u8::from(a_is_light)),
+        MIS_BSDF_ONLY => f32::from(u8::from(!a_is_light)),
         _ => 1.0 / (1.0 + if beta == 2.0 { r * r } else { r.powf(beta) }),
     };
     if w.is_finite() {
@@ -108,6 +139,8 @@ mod tests {
             Heuristic::Balance,
             Heuristic::Power(2.0),
             Heuristic::Power(3.5),
+            Heuristic::LightOnly,
+            Heuristic::BsdfOnly,
         ] {
             for pdfs in cases {
                 let sum: f32 = (0..pdfs.len()).map(|i| mis_weight(h, i, pdfs)).sum();
@@ -124,6 +157,8 @@ mod tests {
             Heuristic::Balance,
             Heuristic::Power(2.0),
             Heuristic::Power(3.5),
+            Heuristic::LightOnly,
+            Heuristic::BsdfOnly,
         ];
         for h in heuristics {
             let (code, beta) = h.code_and_beta();
@@ -171,6 +206,8 @@ mod tests {
             Heuristic::Maximum,
             Heuristic::Balance,
             Heuristic::Power(2.0),
+            Heuristic::LightOnly,
+            Heuristic::BsdfOnly,
         ] {
             let mut total = 0.0f64;
             for k in 0..m {

@@ -4,7 +4,8 @@
 use crate::bvh::{gpu_triangles, Bvh};
 use crate::film::Film;
 use crate::layout::{
-    FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED, SAMPLER_STRATIFIED,
+    FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED, RR_THROUGHPUT,
+    SAMPLER_STRATIFIED,
 };
 use crate::mis::Heuristic;
 use crate::scene::{build_light_table, Camera, Scene};
@@ -21,6 +22,8 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Russian roulette applies to paths with at least this many scattering events.
     pub rr_start_depth: u32,
+    /// `layout::RR_*`: how survival probabilities are chosen (throughput by default).
+    pub rr_mode: u32,
     /// Radiance of rays that leave the scene.
     pub environment: Vec3,
     /// How emitter and BSDF sampling are combined (the power heuristic, β = 2, by default).
@@ -40,6 +43,7 @@ impl Default for RenderSettings {
             max_depth: 8,
             seed: 0,
             rr_start_depth: 3,
+            rr_mode: RR_THROUGHPUT,
             environment: Vec3::ZERO,
             mis: Heuristic::Power(2.0),
             sampler: SAMPLER_STRATIFIED,
@@ -83,7 +87,11 @@ impl PreparedScene {
                     0
                 },
                 emission: m.emission.to_array(),
-                pad: 0,
+                metallic: m.metallic,
+                roughness: m.roughness,
+                ior: m.ior,
+                transmission: m.transmission,
+                specular: m.specular,
             })
             .collect();
         let lights = build_light_table(&mut triangles, &materials);
@@ -120,7 +128,8 @@ impl PreparedScene {
             mis_beta: settings.mis.code_and_beta().1,
             spp: settings.spp,
             sampler_mode: settings.sampler,
-            pad: [0; 2],
+            rr_mode: settings.rr_mode,
+            pad: 0,
         }
     }
 }

@@ -28,8 +28,11 @@ pub fn uint_to_unit_float(x: u32) -> f32 {
 
 /// Four uniform numbers in [0, 1): a pure function of (seed, pixel, sample, dimension block), so
 /// the same path draws the same numbers on every device and in every split of the samples.
+/// Two rounds of pcg4d: with one round, keys that differ in one component only (consecutive
+/// pixels, sample 0) leave structure that a χ² test of GGX visible-normal sampling over 10⁶ keys
+/// detects (p ≈ 10⁻⁴, `bsdf::tests::ggx_visible_normals_match_their_pdf`); two rounds pass it.
 pub fn rng_uniform4(seed: u32, pixel: u32, sample: u32, block: u32) -> Vec4 {
-    let h = pcg4d(UVec4::new(pixel, sample, block, seed));
+    let h = pcg4d(pcg4d(UVec4::new(pixel, sample, block, seed)));
     Vec4::new(
         uint_to_unit_float(h.x),
         uint_to_unit_float(h.y),

@@ -253,6 +253,21 @@ pub fn chi_square_p(chi2: f64, dof: f64) -> f64 {
     incomplete_gamma_q(0.5 * dof, 0.5 * chi2)
 }
 
+/// The z with P(Z > z) = `p` for a standard normal Z (0 < p < 1/2), by bisection on
+/// P(Z > z) = Q(1/2, z²/2) / 2 (the complementary error function as an incomplete gamma).
+pub fn normal_quantile_upper(p: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if 0.5 * incomplete_gamma_q(0.5, 0.5 * mid * mid) > p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// Per-test significance for m independent tests at family-wise level α (Šidák 1967):
 /// 1 − (1 − α)^(1/m), computed as −expm1(ln(1 − α)/m) to keep precision for large m.
 pub fn sidak(alpha: f64, m: usize) -> f64 {

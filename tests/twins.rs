@@ -10,14 +10,18 @@
 mod common;
 
 use glam::{UVec4, Vec2, Vec3, Vec4};
-use wavetrace::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use wavetrace::bsdf::microfacet::*;
+use wavetrace::bsdf::{
+    bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, BsdfFrame, TransportMode,
+};
 use wavetrace::bvh::Ray;
+use wavetrace::layout::GpuMaterial;
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 13;
+const OUTPUTS_PER_CASE: usize = 17;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -48,6 +52,20 @@ fn cases() -> Vec<Case> {
             Case { u, n, wo, key }
         })
         .collect()
+}
+
+/// The material of case `i` (twins.comp, twin_material).
+fn twin_material(i: u32) -> GpuMaterial {
+    let k = (i / 4) % 4;
+    GpuMaterial {
+        base_color: [0.2, 0.5, 0.9],
+        roughness: [0.0, 0.05, 0.3, 0.8][(i % 4) as usize],
+        metallic: [0.0, 1.0, 0.0, 0.5][k as usize],
+        transmission: [0.0, 0.0, 1.0, 0.5][k as usize],
+        ior: 1.5,
+        specular: if (i / 16) % 2 == 0 { 1.0 } else { 0.5 },
+        ..Default::default()
+    }
 }
 
 fn close(a: Vec4, b: Vec4, tol: f32) -> bool {
@@ -87,7 +105,6 @@ fn glsl_functions_equal_their_rust_twins() {
         .unwrap_or_else(|e| panic!("{e:#}"));
     let gpu_out: Vec<Vec4> = bytemuck::pod_collect_to_vec(&result[1]);
 
-    let albedo = Vec3::new(0.2, 0.5, 0.9);
     let mut failures = Vec::new();
     for (i, c) in cases.iter().enumerate() {
         let g = |slot: usize| gpu_out[i * OUTPUTS_PER_CASE + slot];
@@ -134,7 +151,7 @@ fn glsl_functions_equal_their_rust_twins() {
             Vec4::new(
                 back.x,
                 back.y,
-                mis_weight2(i as u32 % 4, 1.5 + (i % 3) as f32, c.u.x, c.u.y, i & 4 != 0),
+                mis_weight2(i as u32 % 6, 1.5 + (i % 3) as f32, c.u.x, c.u.y, i & 4 != 0),
                 uniform_triangle_pdf(c.u.z + 0.5),
             ),
             &|a, b| close(a, b, ULP_TOL * 10.0),
@@ -150,23 +167,83 @@ fn glsl_functions_equal_their_rust_twins() {
         check(6, "offset_ray_origin", p.extend(0.0), &|a, b| {
             close(a, b, ULP_TOL)
         });
-        let s = bsdf_sample(albedo, c.n, c.wo, Vec2::new(c.u.x, c.u.y));
-        check(7, "bsdf_sample (wi, pdf)", s.wi.extend(s.pdf), &|a, b| {
-            close(a, b, ANGLE_TOL)
+        let m = twin_material(i as u32);
+        let wo = if i & 32 != 0 { -c.wo } else { c.wo };
+        let radiance = TransportMode::Radiance;
+        let s = bsdf_sample(&m, c.n, wo, c.u.truncate(), radiance);
+        // The sample: same lobe, direction within the angle tolerance; its pdf and weight
+        // checked against the Rust BSDF at the GPU's direction (a GGX lobe's slope would
+        // magnify the angle tolerance). A lobe choice within rounding of a boundary is skipped.
+        let gs = (g(7), g(8));
+        let near_boundary = BsdfFrame::new(&m, c.n, wo).is_some_and(|f| {
+            let [p0, p1, _] = f.lobe_pmf;
+            (c.u.z - p0).abs() < 1e-5 || (c.u.z - p0 - p1).abs() < 1e-5
         });
-        check(
-            8,
-            "bsdf_sample (f) / bsdf_pdf",
-            s.f.extend(bsdf_pdf(c.n, c.wo, s.wi)),
-            &|a, b| close(a, b, ANGLE_TOL),
-        );
+        match s {
+            Some(s) if gs.1.w != 0.0 => {
+                check(7, "bsdf_sample (wi)", s.wi.extend(0.0), &|a, b| {
+                    close(a.truncate().extend(0.0), b, ANGLE_TOL)
+                });
+                check(
+                    8,
+                    "bsdf_sample (delta)",
+                    Vec4::new(0.0, 0.0, 0.0, if s.delta { 2.0 } else { 1.0 }),
+                    &|a, b| a.w == b.w,
+                );
+                if !s.delta {
+                    // The GPU's world-space wi carries rounding of a few ulp, which a GGX lobe
+                    // of width α magnifies about 1/α-fold near its peak: relative 1e-3 + 2⁻¹²/α.
+                    let tol = 1e-3 + 1.0 / (4096.0 * m.roughness * m.roughness);
+                    let gwi = gs.0.truncate();
+                    let pdf = bsdf_pdf(&m, c.n, wo, gwi);
+                    let weight = bsdf_eval(&m, c.n, wo, gwi, radiance) * gwi.dot(c.n).abs() / pdf;
+                    check(
+                        7,
+                        "bsdf_sample (pdf) vs bsdf_pdf at its wi",
+                        Vec4::new(0.0, 0.0, 0.0, pdf),
+                        &|a, b| (a.w - b.w).abs() <= tol * b.w.abs().max(1.0),
+                    );
+                    check(
+                        8,
+                        "bsdf_sample (weight) vs bsdf_eval at its wi",
+                        weight.extend(g(8).w),
+                        &|a, b| close(a, b, tol),
+                    );
+                } else {
+                    check(
+                        8,
+                        "bsdf_sample (delta weight)",
+                        s.weight.extend(2.0),
+                        &|a, b| close(a, b, ULP_TOL * 10.0),
+                    );
+                }
+            }
+            None if gs.1.w == 0.0 => {}
+            _ if near_boundary => {}
+            _ => check(
+                8,
+                "bsdf_sample (succeeded on one side only)",
+                Vec4::new(
+                    0.0,
+                    0.0,
+                    0.0,
+                    s.map_or(0.0, |s| if s.delta { 2.0 } else { 1.0 }),
+                ),
+                &|a, b| a.w == b.w,
+            ),
+        }
+        let wi_test = (c.u.truncate() - Vec3::splat(0.5)).normalize();
+        let mode = if i & 64 != 0 {
+            TransportMode::Importance
+        } else {
+            radiance
+        };
         check(
             9,
-            "bsdf_eval",
-            bsdf_eval(albedo, c.n, c.wo, -c.wo).extend(0.0),
-            &|a, b| a == b,
+            "bsdf_eval / bsdf_pdf",
+            bsdf_eval(&m, c.n, wo, wi_test, mode).extend(bsdf_pdf(&m, c.n, wo, wi_test)),
+            &|a, b| close(a, b, 1e-4),
         );
-
         let origin = Vec3::new(
             f32::from_bits(c.key.x),
             f32::from_bits(c.key.y),
@@ -223,6 +300,45 @@ fn glsl_functions_equal_their_rust_twins() {
                         ULP_TOL,
                     )
             },
+        );
+        // Microfacet pieces in the local frame: wo = the cosine-sampled w.
+        let alpha = 0.02 + c.u.w;
+        let h = sample_ggx_vndf(w, alpha, Vec2::new(c.u.z, c.u.w));
+        check(13, "sample_ggx_vndf", h.extend(0.0), &|a, b| {
+            close(a.truncate().extend(0.0), b, ANGLE_TOL)
+        });
+        let gh = g(13).truncate();
+        check(
+            13,
+            "ggx_vndf_pdf",
+            Vec4::new(0.0, 0.0, 0.0, ggx_vndf_pdf(w, gh, alpha)),
+            &|a, b| (a.w - b.w).abs() <= 1e-4 * b.w.abs().max(1.0),
+        );
+        let etap = if i & 1 != 0 { 1.5 } else { 1.0 / 1.5 };
+        check(
+            14,
+            "ggx_d / ggx_lambda / ggx_visibility / fresnel_dielectric",
+            Vec4::new(
+                ggx_d(gh, alpha),
+                ggx_lambda(w, alpha),
+                ggx_visibility(w.z, gh.z, alpha),
+                fresnel_dielectric(c.u.x, dielectric_f0(1.5), c.u.y, etap),
+            ),
+            &|a, b| close(a, b, 1e-4),
+        );
+        let refracted = refract_through(w, Vec3::Z, etap);
+        check(
+            15,
+            "refract_through",
+            refracted.map_or(Vec4::ZERO, |r| r.extend(1.0)),
+            &|a, b| close(a, b, ANGLE_TOL),
+        );
+        check(
+            16,
+            "fresnel_conductor / bsdf_albedo_estimate",
+            fresnel_conductor(Vec3::from(m.base_color), c.u.y)
+                .extend(bsdf_albedo_estimate(&m, c.n, wo)),
+            &|a, b| close(a, b, 1e-4),
         );
     }
     assert!(

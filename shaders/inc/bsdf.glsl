@@ -1,28 +1,222 @@
-// The Lambertian BSDF: twin of src/bsdf.rs. Direction convention: wo points towards where the
-// light goes (previous vertex), wi towards where it comes from; both point away from the
-// surface; n is the shading normal flipped to wo's side. bsdf_eval returns f without the cosine.
+// The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission and
+// _specular's factor: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// written down there. Direction convention: wo points towards where the light goes (previous
+// vertex), wi towards where it comes from; both point away from the surface; ng is the
+// front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
+// returns f without the cosine, over the non-delta lobes; bsdf_pdf is their mixture pdf.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
-#include "sampling.glsl"
+#include "microfacet.glsl"
 
-vec3 bsdf_eval(vec3 albedo, vec3 n, vec3 wo, vec3 wi) {
-    return dot(n, wi) > 0.0 ? albedo * INV_PI : vec3(0.0);
+#define TRANSPORT_RADIANCE 0u
+#define TRANSPORT_IMPORTANCE 1u
+
+#define LOBE_DIFFUSE 0u
+#define LOBE_REFLECTION 1u
+#define LOBE_TRANSMISSION 2u
+
+// A material seen from wo: local frame (+Z on wo's side), relative IOR, lobe probabilities.
+struct BsdfFrame {
+    vec3 t;
+    vec3 b;
+    vec3 n;
+    vec3 wo;           // local, z > 0
+    vec3 base;
+    float metallic;
+    float transmission;
+    float alpha;
+    float etap;        // eta on the far side / eta on wo's side
+    float f0;
+    float f90;
+    vec3 lobe_pmf;     // diffuse, reflection, transmission
+    float albedo_estimate;
+};
+
+float average3(vec3 v) {
+    return (v.x + v.y + v.z) / 3.0;
 }
 
-// Pdf of bsdf_sample with respect to solid angle.
-float bsdf_pdf(vec3 n, vec3 wo, vec3 wi) {
-    return cosine_hemisphere_pdf(dot(n, wi));
+// False where wo lies in the surface's plane.
+bool bsdf_frame_new(GpuMaterial m, vec3 ng, vec3 wo, out BsdfFrame f) {
+    float cos_g = dot(ng, wo);
+    f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
+    f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = 0.0; f.f90 = 0.0;
+    f.lobe_pmf = vec3(0.0); f.albedo_estimate = 0.0;
+    if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
+    bool front = cos_g > 0.0;
+    f.n = front ? ng : -ng;
+    build_frame(f.n, f.t, f.b);
+    f.wo = vec3(dot(wo, f.t), dot(wo, f.b), abs(cos_g));
+    f.transmission = m.metallic < 1.0 ? m.transmission : 0.0;
+    float ior = max(m.ior, 1.0);
+    f.etap = (f.transmission > 0.0 && !front) ? 1.0 / ior : ior;
+    f.f0 = dielectric_f0(m.ior) * m.specular;
+    f.f90 = m.specular;
+    f.base = m.base_color;
+    f.metallic = m.metallic;
+    f.alpha = m.roughness * m.roughness;
+    // Lobe albedo estimates at the macro normal (Fresnel at cos theta_o).
+    float fe = fresnel_dielectric(f.wo.z, f.f0, f.f90, f.etap);
+    float fm = average3(fresnel_conductor(f.base, f.wo.z));
+    float dielectric = 1.0 - m.metallic;
+    vec3 w = vec3(dielectric * (1.0 - f.transmission) * (1.0 - fe) * average3(f.base),
+                  dielectric * fe + m.metallic * fm,
+                  dielectric * f.transmission * (1.0 - fe) * average3(f.base));
+    float total = w.x + w.y + w.z;
+    f.lobe_pmf = total > 0.0 ? w / total : vec3(0.0);
+    f.albedo_estimate = total;
+    return true;
 }
 
-// Cosine-weighted sample of wi around n; returns wi, writes f and the solid-angle pdf.
-vec3 bsdf_sample(vec3 albedo, vec3 n, vec3 wo, vec2 u, out vec3 f, out float pdf) {
-    vec3 local = sample_cosine_hemisphere(u);
-    vec3 t, b;
-    build_frame(n, t, b);
-    vec3 wi = normalize(t * local.x + b * local.y + n * local.z);
-    f = bsdf_eval(albedo, n, wo, wi);
-    pdf = bsdf_pdf(n, wo, wi);
-    return wi;
+vec3 bsdf_to_local(BsdfFrame f, vec3 v) {
+    return vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n));
+}
+
+vec3 bsdf_to_world(BsdfFrame f, vec3 v) {
+    return f.t * v.x + f.b * v.y + f.n * v.z;
+}
+
+bool bsdf_is_delta(BsdfFrame f) {
+    return f.alpha < ALPHA_DELTA;
+}
+
+// Generalised half vector of a refraction (Walter et al. 2007, eq. 16) on wo's side.
+bool refraction_half_vector(BsdfFrame f, vec3 wi, out vec3 m) {
+    m = normalize(f.wo + f.etap * wi);
+    if (m.z < 0.0) m = -m;
+    bool finite = !any(isnan(m)) && !any(isinf(m));
+    return finite && dot(f.wo, m) > 0.0 && dot(wi, m) < 0.0;
+}
+
+// f of the non-delta lobes for local wi.
+vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
+    vec3 wo = f.wo;
+    float dielectric = 1.0 - f.metallic;
+    if (wi.z > 0.0) {
+        vec3 h = normalize(wo + wi);
+        float vh = dot(wo, h);
+        float fd = fresnel_dielectric(vh, f.f0, f.f90, f.etap);
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - fd) * INV_PI * f.base;
+        if (!bsdf_is_delta(f)) {
+            float spec = ggx_d(h, f.alpha) * ggx_visibility(wo.z, wi.z, f.alpha);
+            value += (dielectric * fd * vec3(1.0) + f.metallic * fresnel_conductor(f.base, vh)) * spec;
+        }
+        return value;
+    }
+    if (wi.z < 0.0 && f.transmission > 0.0 && !bsdf_is_delta(f)) {
+        vec3 m;
+        if (!refraction_half_vector(f, wi, m)) return vec3(0.0);
+        float om = dot(wo, m);
+        float im = dot(wi, m);
+        float fd = fresnel_dielectric(om, f.f0, f.f90, f.etap);
+        float denom = f.etap * im + om;
+        // Walter et al. 2007, eq. 21, for radiance (the 1/eta^2 of refraction included).
+        float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo.z, wi.z, f.alpha);
+        float ft = ggx_d(m, f.alpha) * g2 * abs(im * om) / (wo.z * abs(wi.z) * denom * denom);
+        if (mode == TRANSPORT_IMPORTANCE) ft *= f.etap * f.etap;
+        return dielectric * f.transmission * (1.0 - fd) * ft * f.base;
+    }
+    return vec3(0.0);
+}
+
+// Solid-angle pdf of the non-delta lobes' mixture at local wi.
+float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
+    vec3 wo = f.wo;
+    if (wi.z > 0.0) {
+        float pdf = f.lobe_pmf.x * cosine_hemisphere_pdf(wi.z);
+        if (!bsdf_is_delta(f) && f.lobe_pmf.y > 0.0) {
+            vec3 h = normalize(wo + wi);
+            pdf += f.lobe_pmf.y * ggx_vndf_pdf(wo, h, f.alpha) / (4.0 * dot(wo, h));
+        }
+        return pdf;
+    }
+    if (wi.z < 0.0 && !bsdf_is_delta(f) && f.lobe_pmf.z > 0.0) {
+        vec3 m;
+        if (!refraction_half_vector(f, wi, m)) return 0.0;
+        float denom = f.etap * dot(wi, m) + dot(wo, m);
+        return f.lobe_pmf.z * ggx_vndf_pdf(wo, m, f.alpha) * f.etap * f.etap * abs(dot(wi, m))
+             / (denom * denom);
+    }
+    return 0.0;
+}
+
+// f.|cos| of delta lobe `lobe` at its one direction (local wi); false if there is none.
+bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 value) {
+    vec3 wo = f.wo;
+    float dielectric = 1.0 - f.metallic;
+    float fd = fresnel_dielectric(wo.z, f.f0, f.f90, f.etap);
+    if (lobe == LOBE_REFLECTION) {
+        wi = vec3(-wo.x, -wo.y, wo.z);
+        value = dielectric * fd * vec3(1.0) + f.metallic * fresnel_conductor(f.base, wo.z);
+        return true;
+    }
+    value = vec3(0.0);
+    if (!refract_through(wo, vec3(0.0, 0.0, 1.0), f.etap, wi)) return false;
+    value = dielectric * f.transmission * (1.0 - fd) * f.base;
+    if (mode == TRANSPORT_RADIANCE) value /= f.etap * f.etap;
+    return true;
+}
+
+// f of the non-delta lobes (without the cosine).
+vec3 bsdf_eval(GpuMaterial m, vec3 ng, vec3 wo, vec3 wi, uint mode) {
+    BsdfFrame f;
+    if (!bsdf_frame_new(m, ng, wo, f)) return vec3(0.0);
+    return bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+}
+
+// Pdf of bsdf_sample with respect to solid angle, over its non-delta lobes.
+float bsdf_pdf(GpuMaterial m, vec3 ng, vec3 wo, vec3 wi) {
+    BsdfFrame f;
+    if (!bsdf_frame_new(m, ng, wo, f)) return 0.0;
+    return bsdf_pdf_local(f, bsdf_to_local(f, wi));
+}
+
+// Samples wi: u.z picks the lobe, u.xy the direction in it. Writes weight = f.|cos|/pdf, the
+// pdf (a delta lobe: its probability) and whether the lobe is a delta; false if no direction.
+bool bsdf_sample(GpuMaterial m, vec3 ng, vec3 wo, vec3 u, uint mode,
+                 out vec3 wi, out vec3 weight, out float pdf, out bool delta) {
+    wi = vec3(0.0);
+    weight = vec3(0.0);
+    pdf = 0.0;
+    delta = false;
+    BsdfFrame f;
+    if (!bsdf_frame_new(m, ng, wo, f)) return false;
+    uint lobe = u.z < f.lobe_pmf.x ? LOBE_DIFFUSE
+              : (u.z < f.lobe_pmf.x + f.lobe_pmf.y ? LOBE_REFLECTION : LOBE_TRANSMISSION);
+    float lobe_p = lobe == LOBE_DIFFUSE ? f.lobe_pmf.x : (lobe == LOBE_REFLECTION ? f.lobe_pmf.y : f.lobe_pmf.z);
+    if (lobe_p <= 0.0) return false;
+    vec3 local;
+    if (lobe != LOBE_DIFFUSE && bsdf_is_delta(f)) {
+        vec3 value;
+        if (!bsdf_delta_lobe(f, lobe, mode, local, value)) return false;
+        wi = bsdf_to_world(f, local);
+        weight = value / lobe_p;
+        pdf = lobe_p;
+        delta = true;
+        return true;
+    }
+    if (lobe == LOBE_DIFFUSE) {
+        local = sample_cosine_hemisphere(u.xy);
+    } else if (lobe == LOBE_REFLECTION) {
+        local = reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy));
+    } else if (!refract_through(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy), f.etap, local)) {
+        return false;
+    }
+    // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
+    bool reflects = lobe != LOBE_TRANSMISSION;
+    if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
+    pdf = bsdf_pdf_local(f, local);
+    if (!(pdf > 0.0) || isinf(pdf)) return false;
+    wi = bsdf_to_world(f, local);
+    weight = bsdf_eval_local(f, local, mode) * (abs(local.z) / pdf);
+    return true;
+}
+
+// Sum of the estimated lobe albedos seen from wo (--rr albedo's survival probability).
+float bsdf_albedo_estimate(GpuMaterial m, vec3 ng, vec3 wo) {
+    BsdfFrame f;
+    if (!bsdf_frame_new(m, ng, wo, f)) return 0.0;
+    return f.albedo_estimate;
 }
 
 #endif

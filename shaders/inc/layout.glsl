@@ -33,12 +33,17 @@ struct GpuTriangle {
 
 #define MATERIAL_DOUBLE_SIDED 1u
 
-// Lambertian reflectance and emitted radiance. Total: 32 bytes.
+// A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance.
+// Total: 48 bytes.
 struct GpuMaterial {
-    vec3 base_color;  // 12 bytes
-    uint flags;       // 4 bytes
-    vec3 emission;    // 12 bytes
-    uint pad;         // 4 bytes
+    vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
+    uint flags;          // 4 bytes
+    vec3 emission;       // 12 bytes: radiance
+    float metallic;      // 4 bytes
+    float roughness;     // 4 bytes: GGX alpha = roughness^2
+    float ior;           // 4 bytes: KHR_materials_ior
+    float transmission;  // 4 bytes: KHR_materials_transmission
+    float specular;      // 4 bytes: KHR_materials_specular's specularFactor
 };
 
 // Emitter table entry, CDF proportional to power. Total: 16 bytes.
@@ -71,10 +76,14 @@ struct FrameParams {
     float mis_beta;         // 4 bytes: beta of the power heuristic
     uint spp;               // 4 bytes: samples per pixel of the whole render
     uint sampler_mode;      // 4 bytes: SAMPLER_*
-    uvec2 pad;              // 8 bytes
+    uint rr_mode;           // 4 bytes: RR_*
+    uint pad;               // 4 bytes
 };
 #define SAMPLER_INDEPENDENT 0u
 #define SAMPLER_STRATIFIED 1u
+#define RR_THROUGHPUT 0u
+#define RR_ALBEDO 1u
+#define RR_OFF 2u
 #define DEBUG_NO_NEE 1u
 
 // Per-dispatch push constants; see src/layout.rs for the batch indexing. Total: 32 bytes.

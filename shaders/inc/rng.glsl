@@ -24,7 +24,8 @@ float uint_to_unit_float(uint x) {
 }
 
 vec4 rng_uniform4(uint seed, uint pixel, uint sample_index, uint block) {
-    uvec4 h = pcg4d(uvec4(pixel, sample_index, block, seed));
+    // Two rounds of pcg4d (src/sampling.rs says why).
+    uvec4 h = pcg4d(pcg4d(uvec4(pixel, sample_index, block, seed)));
     return vec4(uint_to_unit_float(h.x), uint_to_unit_float(h.y), uint_to_unit_float(h.z),
                 uint_to_unit_float(h.w));
 }

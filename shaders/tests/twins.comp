@@ -1,6 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Runs the GLSL twins of src/sampling.rs, src/bsdf.rs, src/mis.rs and src/bvh.rs on inputs the
+// Runs the GLSL twins of src/sampling.rs, src/bsdf/, src/mis.rs and src/bvh.rs on inputs the
 // test chooses, so tests/twins.rs can compare each function with its Rust twin and name the one
 // that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
 #include "layout.glsl"
@@ -18,9 +18,26 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bvh.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 13u
+#define OUTPUTS_PER_CASE 17u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
+
+// The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission and
+// specular factors swept by the case index.
+GpuMaterial twin_material(uint i) {
+    GpuMaterial m;
+    m.base_color = vec3(0.2, 0.5, 0.9);
+    m.flags = 0u;
+    m.emission = vec3(0.0);
+    uint r = i % 4u;
+    m.roughness = r == 0u ? 0.0 : (r == 1u ? 0.05 : (r == 2u ? 0.3 : 0.8));
+    uint k = (i / 4u) % 4u;
+    m.metallic = k == 1u ? 1.0 : (k == 3u ? 0.5 : 0.0);
+    m.transmission = k == 2u ? 1.0 : (k == 3u ? 0.5 : 0.0);
+    m.ior = 1.5;
+    m.specular = (i / 16u) % 2u == 0u ? 1.0 : 0.5;
+    return m;
+}
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -36,20 +53,23 @@ void main() {
     outputs[o + 1u] = vec4(w, cosine_hemisphere_pdf(w.z));
     vec2 b = sample_uniform_triangle(u.zw);
     outputs[o + 2u] = vec4(invert_cosine_hemisphere_sample(w), b);
-    outputs[o + 3u] = vec4(invert_uniform_triangle_sample(b), mis_weight2(i % 4u, 1.5 + float(i % 3u), u.x, u.y, (i & 4u) != 0u), uniform_triangle_pdf(u.z + 0.5));
+    outputs[o + 3u] = vec4(invert_uniform_triangle_sample(b), mis_weight2(i % 6u, 1.5 + float(i % 3u), u.x, u.y, (i & 4u) != 0u), uniform_triangle_pdf(u.z + 0.5));
     vec3 t, bt;
     build_frame(n, t, bt);
     outputs[o + 4u] = vec4(t, 0.0);
     outputs[o + 5u] = vec4(bt, 0.0);
     outputs[o + 6u] = vec4(offset_ray_origin(wo * 10.0 * u.w, n), 0.0);
-    vec3 albedo = vec3(0.2, 0.5, 0.9);
-    vec3 f;
+    GpuMaterial m = twin_material(i);
+    vec3 wo_side = (i & 32u) != 0u ? -wo : wo;
+    vec3 wi, weight;
     float pdf;
-    vec3 wi = bsdf_sample(albedo, n, wo, u.xy, f, pdf);
+    bool delta;
+    bool ok = bsdf_sample(m, n, wo_side, u.xyz, TRANSPORT_RADIANCE, wi, weight, pdf, delta);
     outputs[o + 7u] = vec4(wi, pdf);
-    outputs[o + 8u] = vec4(f, bsdf_pdf(n, wo, wi));
-    outputs[o + 9u] = vec4(bsdf_eval(albedo, n, wo, -wo), 0.0);
-
+    outputs[o + 8u] = vec4(weight, ok ? (delta ? 2.0 : 1.0) : 0.0);
+    vec3 wi_test = normalize(u.xyz - vec3(0.5));
+    uint mode = (i & 64u) != 0u ? TRANSPORT_IMPORTANCE : TRANSPORT_RADIANCE;
+    outputs[o + 9u] = vec4(bsdf_eval(m, n, wo_side, wi_test, mode), bsdf_pdf(m, n, wo_side, wi_test));
     // A ray through the scene: origin from the key's bits, direction -wo.
     vec3 origin = uintBitsToFloat(key.xyz);
     HitRecord hit;
@@ -62,4 +82,15 @@ void main() {
     uint p = permute(i % n_perm, n_perm, key.x);
     vec2 strat = stratify2(key.x, i, i % 64u, 64u, key.y, u.zw);
     outputs[o + 12u] = vec4(uintBitsToFloat(p), strat, 0.0);
+
+    // Microfacet pieces in the local frame, wo = the cosine-sampled w (z >= 0).
+    float alpha = 0.02 + u.w;
+    vec3 h = sample_ggx_vndf(w, alpha, u.zw);
+    outputs[o + 13u] = vec4(h, ggx_vndf_pdf(w, h, alpha));
+    outputs[o + 14u] = vec4(ggx_d(h, alpha), ggx_lambda(w, alpha), ggx_visibility(w.z, h.z, alpha),
+                            fresnel_dielectric(u.x, dielectric_f0(1.5), u.y, (i & 1u) != 0u ? 1.5 : 1.0 / 1.5));
+    vec3 refracted;
+    bool refracts = refract_through(w, vec3(0.0, 0.0, 1.0), (i & 1u) != 0u ? 1.5 : 1.0 / 1.5, refracted);
+    outputs[o + 15u] = vec4(refracted, refracts ? 1.0 : 0.0);
+    outputs[o + 16u] = vec4(fresnel_conductor(m.base_color, u.y), bsdf_albedo_estimate(m, n, wo_side));
 }

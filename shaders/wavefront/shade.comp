@@ -35,7 +35,6 @@ void main() {
     vec3 p = tri.p0 + hit.u * tri.e1 + hit.v * tri.e2;
     vec3 ng = normalize(cross(tri.e1, tri.e2));
     float cos_out = dot(ng, wo);
-    vec3 n = cos_out >= 0.0 ? ng : -ng;  // shading normal on wo's side
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     vec3 le = emitted_radiance(mat, cos_out);
@@ -52,9 +51,11 @@ void main() {
         return;
     }
 
-    // Emitter sampling: one point on one emitting triangle, chosen by power.
+    // Emitter sampling: one point on one emitting triangle, chosen by power. Delta lobes have no
+    // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
     vec4 u_light = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth));
-    if (frame.light_count > 0u && (frame.debug_flags & DEBUG_NO_NEE) == 0u) {
+    if (frame.light_count > 0u && (frame.debug_flags & DEBUG_NO_NEE) == 0u
+        && frame.mis_heuristic != MIS_BSDF_ONLY) {
         LightEntry entry = lights[sample_light(u_light.x)];
         GpuTriangle light = triangles[entry.triangle];
         vec2 b = sample_uniform_triangle(sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz));
@@ -65,14 +66,14 @@ void main() {
         float dist = sqrt(dist2);
         vec3 wi = to_light / dist;
         float cos_light = dot(light_n, -wi);
-        float cos_surface = dot(n, wi);
+        float cos_surface = dot(ng, wi);
         vec3 light_le = emitted_radiance(materials[light.material], cos_light);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);
-        if (cos_surface > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
-            float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_pdf(n, wo, wi), true);
-            vec3 f = bsdf_eval(mat.base_color, n, wo, wi);
-            vec3 origin = offset_ray_origin(p, n);
+        vec3 f = bsdf_eval(mat, ng, wo, wi, TRANSPORT_RADIANCE);
+        if (max_component(f) > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
+            float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_pdf(mat, ng, wo, wi), true);
+            vec3 origin = offset_ray_origin(p, cos_surface > 0.0 ? ng : -ng);
             vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
             vec3 d = target - origin;
             float t_max = length(d);
@@ -81,31 +82,38 @@ void main() {
             shadow.path = ray.path;
             shadow.dir = d / t_max;
             shadow.t_max = t_max;
-            shadow.contribution = state.throughput * f * cos_surface * light_le * (w / light_pdf);
+            shadow.contribution = state.throughput * f * abs(cos_surface) * light_le * (w / light_pdf);
             shadow.pad = 0u;
             shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
         }
     }
 
-    // BSDF sampling of the continuation ray.
+    // BSDF sampling of the continuation ray: u.xy the direction, u.z the lobe.
     vec4 u_bsdf = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth) + 1u);
-    vec3 f;
-    float pdf;
     vec2 u_dir = sample_pair(pixel, sample_index, 4u * (bounce_block(depth) + 1u), u_bsdf.xy);
-    vec3 wi = bsdf_sample(mat.base_color, n, wo, u_dir, f, pdf);
-    float cos_in = dot(n, wi);
-    if (pdf <= 0.0 || cos_in <= 0.0) {
+    vec3 wi;
+    vec3 weight;
+    float pdf;
+    bool delta;
+    if (!bsdf_sample(mat, ng, wo, vec3(u_dir, u_bsdf.z), TRANSPORT_RADIANCE, wi, weight, pdf, delta)) {
         paths[ray.path] = state;
         return;
     }
-    state.throughput *= f * (cos_in / pdf);
+    state.throughput *= weight;
     state.prev_bsdf_pdf = pdf;
-    state.prev_specular = 0u;
+    state.prev_specular = delta ? 1u : 0u;
+    if (max_component(state.throughput) <= 0.0) {
+        paths[ray.path] = state;
+        return;
+    }
 
     // Stopping criterion: Russian roulette keeps the estimate unbiased by dividing survivors by
-    // their survival probability (lecture, "Russian roulette for integral equations").
-    if (depth + 1u >= frame.rr_start_depth) {
-        float survive = min(max_component(state.throughput), 1.0);
+    // their survival probability (lecture, "Russian roulette for integral equations"): by
+    // throughput, or by the surface's albedo (the subcritical set-up P = ∫K).
+    if (depth + 1u >= frame.rr_start_depth && frame.rr_mode != RR_OFF) {
+        float survive = frame.rr_mode == RR_ALBEDO
+            ? min(bsdf_albedo_estimate(mat, ng, wo), 1.0)
+            : min(max_component(state.throughput), 1.0);
         if (u_light.w >= survive) {
             paths[ray.path] = state;
             return;
@@ -115,7 +123,7 @@ void main() {
     paths[ray.path] = state;
 
     QueuedRay next;
-    next.origin = offset_ray_origin(p, n);
+    next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
     next.path = ray.path;
     next.dir = wi;
     next.pad = 0u;

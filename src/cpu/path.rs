@@ -2,13 +2,13 @@
 //! (and of the helpers in `shaders/inc/scene.glsl`), with the same names and the same order of
 //! random numbers, so that a disagreement between the two integrators points at one stage.
 
-use crate::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample};
+use crate::bsdf::{bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, TransportMode};
 use crate::bvh::Ray;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED,
-    SAMPLER_STRATIFIED,
+    dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED, RR_ALBEDO,
+    RR_OFF, SAMPLER_STRATIFIED,
 };
-use crate::mis::mis_weight2;
+use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
 use crate::render::PreparedScene;
 use crate::sampling::{
     offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
@@ -168,7 +168,6 @@ fn shade(
     let p = Vec3::from(tri.p0) + hit.u * e1 + hit.v * e2;
     let ng = e1.cross(e2).normalize();
     let cos_out = ng.dot(wo);
-    let n = if cos_out >= 0.0 { ng } else { -ng };
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     let le = emitted_radiance(mat, cos_out);
@@ -191,10 +190,14 @@ fn shade(
         return (None, None);
     }
 
-    // Emitter sampling: one point on one emitting triangle, chosen by power.
+    // Emitter sampling: one point on one emitting triangle, chosen by power. Delta lobes have no
+    // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
     let u_light = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth));
     let mut shadow = None;
-    if frame.light_count > 0 && frame.debug_flags & DEBUG_NO_NEE == 0 {
+    if frame.light_count > 0
+        && frame.debug_flags & DEBUG_NO_NEE == 0
+        && frame.mis_heuristic != MIS_BSDF_ONLY
+    {
         let entry = &scene.lights[sample_light(&scene.lights, u_light.x)];
         let light = &scene.triangles[entry.triangle as usize];
         let dimension = 4 * dim::bounce_block(depth) + 1;
@@ -213,11 +216,12 @@ fn shade(
         let dist = dist2.sqrt();
         let wi = to_light / dist;
         let cos_light = light_n.dot(-wi);
-        let cos_surface = n.dot(wi);
+        let cos_surface = ng.dot(wi);
         let light_le = emitted_radiance(&scene.materials[light.material as usize], cos_light);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
-        if cos_surface > 0.0
+        let f = bsdf_eval(mat, ng, wo, wi, TransportMode::Radiance);
+        if f.max_element() > 0.0
             && light_le.max_element() > 0.0
             && light_pdf > 0.0
             && light_pdf.is_finite()
@@ -226,11 +230,10 @@ fn shade(
                 frame.mis_heuristic,
                 frame.mis_beta,
                 light_pdf,
-                bsdf_pdf(n, wo, wi),
+                bsdf_pdf(mat, ng, wo, wi),
                 true,
             );
-            let f = bsdf_eval(Vec3::from(mat.base_color), n, wo, wi);
-            let origin = offset_ray_origin(p, n);
+            let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
             let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
             let d = target - origin;
             let t_max = d.length();
@@ -240,36 +243,39 @@ fn shade(
                     dir: d / t_max,
                 },
                 t_max,
-                contribution: throughput * f * cos_surface * light_le * (w / light_pdf),
+                contribution: throughput * f * cos_surface.abs() * light_le * (w / light_pdf),
             });
         }
     }
 
-    // BSDF sampling of the continuation ray.
+    // BSDF sampling of the continuation ray: u.xy the direction, u.z the lobe.
     let u_bsdf = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth) + 1);
-    let s = bsdf_sample(
-        Vec3::from(mat.base_color),
-        n,
-        wo,
-        sample_pair(
-            frame,
-            pixel,
-            sample,
-            4 * (dim::bounce_block(depth) + 1),
-            Vec2::new(u_bsdf.x, u_bsdf.y),
-        ),
+    let u_dir = sample_pair(
+        frame,
+        pixel,
+        sample,
+        4 * (dim::bounce_block(depth) + 1),
+        Vec2::new(u_bsdf.x, u_bsdf.y),
     );
-    let cos_in = n.dot(s.wi);
-    if s.pdf <= 0.0 || cos_in <= 0.0 {
+    let Some(s) = bsdf_sample(mat, ng, wo, u_dir.extend(u_bsdf.z), TransportMode::Radiance) else {
+        return (None, shadow);
+    };
+    throughput *= s.weight;
+    state.prev_bsdf_pdf = s.pdf;
+    state.prev_specular = u32::from(s.delta);
+    if throughput.max_element() <= 0.0 {
         return (None, shadow);
     }
-    throughput *= s.f * (cos_in / s.pdf);
-    state.prev_bsdf_pdf = s.pdf;
-    state.prev_specular = 0;
 
-    // Stopping criterion: Russian roulette, survivors divided by their survival probability.
-    if depth + 1 >= frame.rr_start_depth {
-        let survive = throughput.max_element().min(1.0);
+    // Stopping criterion: Russian roulette, survivors divided by their survival probability
+    // (lecture, "Russian roulette for integral equations"): by throughput, or by the surface's
+    // albedo (the subcritical set-up P = ∫K).
+    if depth + 1 >= frame.rr_start_depth && frame.rr_mode != RR_OFF {
+        let survive = if frame.rr_mode == RR_ALBEDO {
+            bsdf_albedo_estimate(mat, ng, wo).min(1.0)
+        } else {
+            throughput.max_element().min(1.0)
+        };
         if u_light.w >= survive {
             state.throughput = throughput.to_array();
             return (None, shadow);
@@ -279,7 +285,7 @@ fn shade(
     state.throughput = throughput.to_array();
     (
         Some(Ray {
-            origin: offset_ray_origin(p, n),
+            origin: offset_ray_origin(p, if ng.dot(s.wi) > 0.0 { ng } else { -ng }),
             dir: s.wi,
         }),
         shadow,

@@ -87,7 +87,7 @@ mod tests {
             base_color: [0.5; 3],
             flags,
             emission,
-            pad: 0,
+            ..Default::default()
         }
     }
 

@@ -23,7 +23,12 @@ use gltf::Document;
 use std::path::Path;
 
 /// Extensions a file may list in `extensionsRequired`.
-const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_specular",
+];
 
 pub(super) fn load(path: &Path) -> Result<Scene> {
     load_file(path).with_context(|| format!("cannot load scene {}", path.display()))
@@ -103,8 +108,14 @@ fn notes(document: &Document, builder: &Builder) -> Vec<String> {
         .materials()
         .enumerate()
         .filter(|(_, m)| {
-            m.pbr_metallic_roughness().base_color_texture().is_some()
+            let pbr = m.pbr_metallic_roughness();
+            pbr.base_color_texture().is_some()
+                || pbr.metallic_roughness_texture().is_some()
                 || m.emissive_texture().is_some()
+                || m.normal_texture().is_some()
+                || m.transmission()
+                    .is_some_and(|t| t.transmission_texture().is_some())
+                || m.specular().is_some_and(|t| t.specular_texture().is_some())
         })
         .map(|(i, m)| label("material", i, m.name()))
         .collect();
@@ -209,6 +220,33 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
     {
         bail!("{what}: baseColorFactor {base_color} is outside [0, 1] (an albedo above 1 creates energy)");
     }
+    let pbr = material.pbr_metallic_roughness();
+    let unit = |name: &str, v: f32| -> Result<f32> {
+        if (0.0..=1.0 + 1e-4).contains(&v) {
+            Ok(v.min(1.0))
+        } else {
+            bail!("{what}: {name} {v} is outside [0, 1]")
+        }
+    };
+    let metallic = unit("pbrMetallicRoughness.metallicFactor", pbr.metallic_factor())?;
+    let roughness = unit(
+        "pbrMetallicRoughness.roughnessFactor",
+        pbr.roughness_factor(),
+    )?;
+    let transmission = material.transmission().map_or(Ok(0.0), |t| {
+        unit(
+            "KHR_materials_transmission.transmissionFactor",
+            t.transmission_factor(),
+        )
+    })?;
+    let specular = material.specular().map_or(Ok(1.0), |s| {
+        unit("KHR_materials_specular.specularFactor", s.specular_factor())
+    })?;
+    // KHR_materials_ior: ior ≥ 1, or exactly 0 (f0 = 1, a specular-glossiness conversion).
+    let ior = material.ior().unwrap_or(1.5);
+    if !(ior.is_finite() && (ior >= 1.0 || ior == 0.0)) {
+        bail!("{what}: KHR_materials_ior.ior {ior} must be at least 1 (or exactly 0)");
+    }
     let factor = Vec3::from(material.emissive_factor());
     let strength = material.emissive_strength().unwrap_or(1.0);
     let emission = factor * strength;
@@ -224,6 +262,11 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
             .name()
             .map_or_else(|| format!("material {index}"), str::to_owned),
         base_color: base_color.min(Vec3::ONE),
+        metallic,
+        roughness,
+        ior,
+        transmission,
+        specular,
         emission,
         double_sided: material.double_sided(),
     })

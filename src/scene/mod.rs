@@ -63,13 +63,23 @@ impl Triangle {
     }
 }
 
-/// A Lambertian material with emission (glTF `pbrMetallicRoughness.baseColorFactor` and
-/// `emissiveFactor × KHR_materials_emissive_strength`; textures are ignored).
+/// A glTF metallic-roughness material with emission: `pbrMetallicRoughness` factors,
+/// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`'s factor and
+/// `emissiveFactor × KHR_materials_emissive_strength` (textures are not read yet).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
-    /// Linear RGB albedo, each component in [0, 1].
+    /// Linear RGB base colour, each component in [0, 1].
     pub base_color: Vec3,
+    /// metallicFactor, roughnessFactor in [0, 1] (GGX α = roughness²).
+    pub metallic: f32,
+    pub roughness: f32,
+    /// Index of refraction (1.5 unless KHR_materials_ior says otherwise).
+    pub ior: f32,
+    /// KHR_materials_transmission's transmissionFactor in [0, 1].
+    pub transmission: f32,
+    /// KHR_materials_specular's specularFactor in [0, 1] (0: no dielectric specular lobe).
+    pub specular: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
@@ -77,11 +87,17 @@ pub struct Material {
 }
 
 impl Material {
-    /// The material of primitives that name none: white 0.8, no emission, single-sided.
+    /// The material of primitives that name none: glTF's default material, every property at
+    /// its default (base colour 1, metallic 1, roughness 1: a rough white metal), no emission.
     pub fn default_white() -> Material {
         Material {
             name: "default".to_owned(),
-            base_color: Vec3::splat(0.8),
+            base_color: Vec3::ONE,
+            metallic: 1.0,
+            roughness: 1.0,
+            ior: 1.5,
+            transmission: 0.0,
+            specular: 1.0,
             emission: Vec3::ZERO,
             double_sided: false,
         }

@@ -341,3 +341,16 @@ fn film_mean_and_standard_error() {
     // Each pixel: sample variance 2, variance of the mean 1; √2 / 2.
     close(std_err.y, 2f64.sqrt() / 2.0, 1e-12);
 }
+
+#[test]
+fn normal_quantiles() {
+    // Tabulated upper quantiles of the standard normal.
+    for (p, z) in [
+        (0.05, 1.644_853_6),
+        (0.005, 2.575_829_3),
+        (1e-6, 4.753_424_3),
+    ] {
+        let got = normal_quantile_upper(p);
+        assert!((got - z).abs() < 1e-6, "p {p}: {got} vs {z}");
+    }
+}

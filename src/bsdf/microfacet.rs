@@ -1,0 +1,140 @@
+//! The GGX (Trowbridge–Reitz) microfacet model and Schlick's Fresnel, in the local shading frame
+//! (+Z = normal, every direction unit length): twin of `shaders/inc/microfacet.glsl`.
+//!
+//! glTF 2.0 Appendix B: D is GGX with α = roughness², V the height-correlated Smith visibility
+//! G₂ / (4 |n·l| |n·v|), F Schlick's approximation on v·h. Visible normals are sampled after
+//! Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Below this α the specular lobes are perfectly smooth (delta lobes: a mirror and, for
+/// transmission, a refraction). roughness 0 is such a lobe in glTF; α = 10⁻³ (roughness ≈ 0.03)
+/// is where a GGX lobe is already narrower than any pixel footprint and its f32 evaluation
+/// (D ∝ 1/α²) stops being meaningful.
+pub const ALPHA_DELTA: f32 = 1e-3;
+
+/// GGX normal distribution D(m) with respect to solid angle of microfacet normals, m on +Z's
+/// side (Walter et al. 2007, eq. 33; glTF Appendix B "D").
+pub fn ggx_d(m: Vec3, alpha: f32) -> f32 {
+    if m.z <= 0.0 {
+        return 0.0;
+    }
+    // (n·m)²(α² − 1) + 1 written as α²(n·m)² + sin²θm, which keeps its precision for narrow
+    // lobes (the textbook form cancels catastrophically when n·m → 1 and α → 0).
+    let a2 = alpha * alpha;
+    let d = a2 * m.z * m.z + (m.x * m.x + m.y * m.y);
+    a2 / (PI * d * d)
+}
+
+/// Smith's Λ for GGX: (−1 + √(1 + α² tan²θ)) / 2 (Heitz 2014, "Understanding the
+/// Masking-Shadowing Function", eq. 72), for a direction on either side.
+pub fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
+    let c2 = w.z * w.z;
+    if c2 == 0.0 {
+        return f32::MAX; // grazing: fully masked (finite, as the GLSL twin must be)
+    }
+    let t2 = (w.x * w.x + w.y * w.y) / c2;
+    0.5 * (-1.0 + (1.0 + alpha * alpha * t2).sqrt())
+}
+
+/// Smith masking of one direction, G₁ = 1 / (1 + Λ).
+pub fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
+    1.0 / (1.0 + ggx_lambda(w, alpha))
+}
+
+/// Height-correlated Smith visibility V = G₂ / (4 |n·l| |n·v|), written as glTF Appendix B
+/// writes it: 0.5 / (|n·l| √(α² + (1 − α²)(n·v)²) + |n·v| √(α² + (1 − α²)(n·l)²)), which equals
+/// G₂ = 1 / (1 + Λ(v) + Λ(l)) (Heitz 2014, eq. 99) divided by 4 |n·l| |n·v|.
+pub fn ggx_visibility(cos_o: f32, cos_i: f32, alpha: f32) -> f32 {
+    let (co, ci) = (cos_o.abs(), cos_i.abs());
+    let a2 = alpha * alpha;
+    let denom = ci * (a2 + (1.0 - a2) * co * co).sqrt() + co * (a2 + (1.0 - a2) * ci * ci).sqrt();
+    if denom > 0.0 {
+        0.5 / denom
+    } else {
+        0.0
+    }
+}
+
+/// A visible normal of GGX seen from `wo` (wo.z > 0), from two uniform numbers (Heitz 2018,
+/// listing 1): stretch the view to the hemisphere configuration, sample the projected
+/// hemisphere, unstretch.
+pub fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
+    let vh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+    let lensq = vh.x * vh.x + vh.y * vh.y;
+    let t1 = if lensq > 0.0 {
+        Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
+    } else {
+        Vec3::X
+    };
+    let t2 = vh.cross(t1);
+    let r = u.x.sqrt();
+    let phi = 2.0 * PI * u.y;
+    let p1 = r * phi.cos();
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+    let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
+    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize()
+}
+
+/// Pdf of [`sample_ggx_vndf`] with respect to solid angle of microfacet normals:
+/// D_wo(m) = G₁(wo) max(0, wo·m) D(m) / wo.z (Heitz 2018, eq. 1).
+pub fn ggx_vndf_pdf(wo: Vec3, m: Vec3, alpha: f32) -> f32 {
+    if wo.z <= 0.0 {
+        return 0.0;
+    }
+    ggx_g1(wo, alpha) * wo.dot(m).max(0.0) * ggx_d(m, alpha) / wo.z
+}
+
+/// (1 − cos)⁵, Schlick's weight of F90 (clamped so that |cos| ≤ 1 rounding cannot flip it).
+pub fn schlick_weight(cos: f32) -> f32 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let m2 = m * m;
+    m2 * m2 * m
+}
+
+/// glTF's metal Fresnel (Appendix B, conductor_fresnel): baseColor + (1 − baseColor)(1 − |v·h|)⁵.
+pub fn fresnel_conductor(base_color: Vec3, cos: f32) -> Vec3 {
+    base_color + (Vec3::ONE - base_color) * schlick_weight(cos.abs())
+}
+
+/// glTF's dielectric Fresnel F0 + (F90 − F0)(1 − cos)⁵ (Appendix B fresnel_mix, with
+/// KHR_materials_specular's F0 = ((ior − 1)/(ior + 1))² · specular and F90 = specular) for a
+/// direction with cosine `cos_i` to the microfacet normal on the side it arrives from. `etap`
+/// is the ratio η_other side / η_this side: leaving a denser medium (etap < 1) Schlick is taken
+/// on the transmitted angle, and beyond the critical angle every bit reflects (F = 1).
+pub fn fresnel_dielectric(cos_i: f32, f0: f32, f90: f32, etap: f32) -> f32 {
+    let mut c = cos_i.abs().min(1.0);
+    if etap < 1.0 {
+        let sin2_t = (1.0 - c * c) / (etap * etap);
+        if sin2_t >= 1.0 {
+            return 1.0;
+        }
+        c = (1.0 - sin2_t).sqrt();
+    }
+    f0 + (f90 - f0) * schlick_weight(c)
+}
+
+/// F0 of a dielectric of index `ior` against air: ((ior − 1)/(ior + 1))² (KHR_materials_ior).
+pub fn dielectric_f0(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    r * r
+}
+
+/// Mirror of `wo` about the (microfacet) normal `m`.
+pub fn reflect_about(wo: Vec3, m: Vec3) -> Vec3 {
+    2.0 * wo.dot(m) * m - wo
+}
+
+/// Refraction of `wo` (on `m`'s side, wo·m > 0) through the interface with normal `m`, where
+/// `etap` = η_transmitted / η_incident: Snell's law; None on total internal reflection.
+pub fn refract_through(wo: Vec3, m: Vec3, etap: f32) -> Option<Vec3> {
+    let cos_i = wo.dot(m);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (etap * etap);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some(-wo / etap + (cos_i / etap - cos_t) * m)
+}

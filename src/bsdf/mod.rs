@@ -1,0 +1,343 @@
+//! The glTF 2.0 metallic-roughness BSDF (specification, Appendix B) with KHR_materials_ior,
+//! KHR_materials_transmission and KHR_materials_specular's `specularFactor`: evaluation,
+//! sampling and pdf. Twin of `shaders/inc/bsdf.glsl`, same names.
+//!
+//! Direction convention (here and in the GLSL twin, never swapped): `wo` points from the surface
+//! towards where the light goes (the previous vertex, e.g. the camera), `wi` from the surface
+//! towards where it comes from (the next vertex, e.g. a light); both are unit vectors pointing
+//! away from the surface. `ng` is the geometric normal of the front face (counter-clockwise
+//! winding), not flipped: the BSDF shades both faces, and for transmission the front face is the
+//! outside (air, η = 1) and the back face the inside (η = ior). `bsdf_eval` returns f without the
+//! cosine. `mode` says which quantity the path carries: radiance (paths from the camera) or
+//! importance (paths from a light); the two differ only by the η² of refraction (Veach 1997,
+//! §5.2): with radiance, f_t carries 1/η² where η = η_wi / η_wo.
+//!
+//! The model, with c = baseColor, F_d the dielectric Fresnel and F_m the metal one (both on v·h):
+//!   f = (1 − metallic) · [(1 − F_d) · ((1 − transmission) · c/π + transmission · c · btdf)
+//!                         + F_d · D·V]
+//!     + metallic · F_m · D·V
+//! exactly `mix(dielectric_brdf, metal_brdf, metallic)` with `fresnel_mix` of Appendix B; the
+//! transmission lobe is a rough dielectric (Walter et al. 2007, eq. 21) refracting by `ior`,
+//! tinted by c as KHR_materials_transmission says. No energy compensation: at grazing angles
+//! the spec's dielectric mix (1 − F)·diffuse + F·specular reflects a little more than it
+//! receives where the GGX lobe is rough (see `tests::dielectric_mix_gains_energy_at_grazing`).
+//!
+//! Lobes are sampled one at a time, chosen with probabilities proportional to an estimate of each
+//! lobe's albedo; `bsdf_pdf` is the mixture pdf of the non-delta lobes, which is what MIS needs.
+//! With α < [`microfacet::ALPHA_DELTA`] the specular lobes are Dirac deltas: `bsdf_eval` and
+//! `bsdf_pdf` leave them out (they are zero almost everywhere), and `bsdf_sample` returns them
+//! flagged `delta` with the ratio f·|cos|/pdf as `weight`.
+
+pub mod microfacet;
+#[cfg(test)]
+mod tests;
+
+use crate::layout::GpuMaterial;
+use crate::sampling::{build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use glam::{Vec2, Vec3};
+use microfacet::*;
+use std::f32::consts::FRAC_1_PI;
+
+/// Which quantity a path carries (`mode` of every BSDF function).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    /// Paths from the camera: f as the rendering equation for radiance uses it.
+    Radiance,
+    /// Paths from a light: the adjoint BSDF.
+    Importance,
+}
+
+/// A sampled incident direction: `weight` = f·|cos θᵢ|/pdf, `pdf` the solid-angle mixture pdf of
+/// the non-delta lobes (for a delta lobe: the probability of choosing it), `delta` whether it
+/// came from a delta lobe.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    pub weight: Vec3,
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+/// Lobe indices of [`BsdfFrame::lobe_pmf`].
+pub const LOBE_DIFFUSE: usize = 0;
+pub const LOBE_REFLECTION: usize = 1;
+pub const LOBE_TRANSMISSION: usize = 2;
+
+/// A material seen from `wo`: the local frame with +Z on `wo`'s side, the relative index of
+/// refraction and the lobe selection probabilities.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfFrame {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    /// `wo` in the local frame (z > 0).
+    wo: Vec3,
+    base: Vec3,
+    metallic: f32,
+    transmission: f32,
+    alpha: f32,
+    /// η on the far side / η on `wo`'s side (1 for opaque surfaces' geometry).
+    etap: f32,
+    f0: f32,
+    f90: f32,
+    /// Probabilities of choosing the diffuse, reflection and transmission lobes.
+    pub lobe_pmf: [f32; 3],
+    /// Sum of the lobe albedo estimates (before normalising to `lobe_pmf`).
+    pub albedo_estimate: f32,
+}
+
+fn average(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+impl BsdfFrame {
+    /// None where `wo` lies in the surface's plane (no light leaves along it).
+    pub fn new(m: &GpuMaterial, ng: Vec3, wo: Vec3) -> Option<BsdfFrame> {
+        let cos_g = ng.dot(wo);
+        if cos_g == 0.0 || !cos_g.is_finite() {
+            return None;
+        }
+        let front = cos_g > 0.0;
+        let n = if front { ng } else { -ng };
+        let (t, b) = build_frame(n);
+        let wo_local = Vec3::new(wo.dot(t), wo.dot(b), cos_g.abs());
+        let transmission = if m.metallic < 1.0 {
+            m.transmission
+        } else {
+            0.0
+        };
+        let ior = m.ior.max(1.0);
+        let etap = if transmission > 0.0 && !front {
+            1.0 / ior
+        } else {
+            ior
+        };
+        let f0 = dielectric_f0(m.ior) * m.specular;
+        let f90 = m.specular;
+        let base = Vec3::from(m.base_color);
+        // Lobe albedo estimates at the macro normal (Fresnel at cos θo).
+        let fe = fresnel_dielectric(wo_local.z, f0, f90, etap);
+        let fm = average(fresnel_conductor(base, wo_local.z));
+        let dielectric = 1.0 - m.metallic;
+        let w = [
+            dielectric * (1.0 - transmission) * (1.0 - fe) * average(base),
+            dielectric * fe + m.metallic * fm,
+            dielectric * transmission * (1.0 - fe) * average(base),
+        ];
+        let total = w[0] + w[1] + w[2];
+        let lobe_pmf = if total > 0.0 {
+            [w[0] / total, w[1] / total, w[2] / total]
+        } else {
+            [0.0; 3]
+        };
+        Some(BsdfFrame {
+            t,
+            b,
+            n,
+            wo: wo_local,
+            base,
+            metallic: m.metallic,
+            transmission,
+            alpha: m.roughness * m.roughness,
+            etap,
+            f0,
+            f90,
+            lobe_pmf,
+            albedo_estimate: total,
+        })
+    }
+
+    fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+    }
+
+    fn to_world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+
+    fn is_delta(&self) -> bool {
+        self.alpha < ALPHA_DELTA
+    }
+
+    /// The generalised half vector of a refraction (Walter et al. 2007, eq. 16), on `wo`'s side;
+    /// None if wo and wi do not lie on the sides of it that refraction requires.
+    fn refraction_half_vector(&self, wi: Vec3) -> Option<Vec3> {
+        let mut m = (self.wo + self.etap * wi).normalize();
+        if m.z < 0.0 {
+            m = -m;
+        }
+        (m.is_finite() && self.wo.dot(m) > 0.0 && wi.dot(m) < 0.0).then_some(m)
+    }
+
+    /// f of the non-delta lobes for local `wi`.
+    fn eval_local(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
+        let wo = self.wo;
+        let dielectric = 1.0 - self.metallic;
+        if wi.z > 0.0 {
+            let h = (wo + wi).normalize();
+            let vh = wo.dot(h);
+            let fd = fresnel_dielectric(vh, self.f0, self.f90, self.etap);
+            let mut f = dielectric * (1.0 - self.transmission) * (1.0 - fd) * FRAC_1_PI * self.base;
+            if !self.is_delta() {
+                let spec = ggx_d(h, self.alpha) * ggx_visibility(wo.z, wi.z, self.alpha);
+                f += (dielectric * fd * Vec3::ONE
+                    + self.metallic * fresnel_conductor(self.base, vh))
+                    * spec;
+            }
+            f
+        } else if wi.z < 0.0 && self.transmission > 0.0 && !self.is_delta() {
+            let Some(m) = self.refraction_half_vector(wi) else {
+                return Vec3::ZERO;
+            };
+            let (om, im) = (wo.dot(m), wi.dot(m));
+            let fd = fresnel_dielectric(om, self.f0, self.f90, self.etap);
+            let denom = self.etap * im + om;
+            // Walter et al. 2007, eq. 21, for radiance (the 1/η² of refraction included).
+            let g2 = 4.0 * wo.z * wi.z.abs() * ggx_visibility(wo.z, wi.z, self.alpha);
+            let mut ft =
+                ggx_d(m, self.alpha) * g2 * (im * om).abs() / (wo.z * wi.z.abs() * denom * denom);
+            if mode == TransportMode::Importance {
+                ft *= self.etap * self.etap;
+            }
+            dielectric * self.transmission * (1.0 - fd) * ft * self.base
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Solid-angle pdf of the non-delta lobes' mixture at local `wi`.
+    fn pdf_local(&self, wi: Vec3) -> f32 {
+        let wo = self.wo;
+        let [p_diffuse, p_reflection, p_transmission] = self.lobe_pmf;
+        if wi.z > 0.0 {
+            let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
+            if !self.is_delta() && p_reflection > 0.0 {
+                let h = (wo + wi).normalize();
+                // dω_h/dω_i = 1 / (4 |wo·h|) (Walter et al. 2007, eq. 14).
+                pdf += p_reflection * ggx_vndf_pdf(wo, h, self.alpha) / (4.0 * wo.dot(h));
+            }
+            pdf
+        } else if wi.z < 0.0 && !self.is_delta() && p_transmission > 0.0 {
+            let Some(m) = self.refraction_half_vector(wi) else {
+                return 0.0;
+            };
+            let denom = self.etap * wi.dot(m) + wo.dot(m);
+            // dω_m/dω_i = η² |wi·m| / (wo·m + η wi·m)² (Walter et al. 2007, eq. 17).
+            p_transmission
+                * ggx_vndf_pdf(wo, m, self.alpha)
+                * self.etap
+                * self.etap
+                * wi.dot(m).abs()
+                / (denom * denom)
+        } else {
+            0.0
+        }
+    }
+
+    /// f·|cos| of the delta lobe `lobe` at its one direction, and that direction.
+    fn delta_lobe(&self, lobe: usize, mode: TransportMode) -> Option<(Vec3, Vec3)> {
+        let wo = self.wo;
+        let dielectric = 1.0 - self.metallic;
+        let fd = fresnel_dielectric(wo.z, self.f0, self.f90, self.etap);
+        if lobe == LOBE_REFLECTION {
+            let value =
+                dielectric * fd * Vec3::ONE + self.metallic * fresnel_conductor(self.base, wo.z);
+            Some((Vec3::new(-wo.x, -wo.y, wo.z), value))
+        } else {
+            let wi = refract_through(wo, Vec3::Z, self.etap)?;
+            let mut value = dielectric * self.transmission * (1.0 - fd) * self.base;
+            if mode == TransportMode::Radiance {
+                value /= self.etap * self.etap;
+            }
+            Some((wi, value))
+        }
+    }
+
+    /// Samples one lobe with `u.z`, then a direction in it with `u.xy`.
+    fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        let [p_diffuse, p_reflection, _] = self.lobe_pmf;
+        let lobe = if u.z < p_diffuse {
+            LOBE_DIFFUSE
+        } else if u.z < p_diffuse + p_reflection {
+            LOBE_REFLECTION
+        } else {
+            LOBE_TRANSMISSION
+        };
+        if self.lobe_pmf[lobe] <= 0.0 {
+            return None;
+        }
+        if lobe != LOBE_DIFFUSE && self.is_delta() {
+            let (wi, value) = self.delta_lobe(lobe, mode)?;
+            let pdf = self.lobe_pmf[lobe];
+            return Some(BsdfSample {
+                wi: self.to_world(wi),
+                weight: value / pdf,
+                pdf,
+                delta: true,
+            });
+        }
+        let wi = match lobe {
+            LOBE_DIFFUSE => sample_cosine_hemisphere(Vec2::new(u.x, u.y)),
+            LOBE_REFLECTION => reflect_about(
+                self.wo,
+                sample_ggx_vndf(self.wo, self.alpha, Vec2::new(u.x, u.y)),
+            ),
+            _ => refract_through(
+                self.wo,
+                sample_ggx_vndf(self.wo, self.alpha, Vec2::new(u.x, u.y)),
+                self.etap,
+            )?,
+        };
+        // Each lobe keeps to its side: a reflection below or a refraction above the surface is
+        // no sample (the mixture pdf counts each lobe only on its own side).
+        let reflects = lobe != LOBE_TRANSMISSION;
+        if (wi.z > 0.0) != reflects || wi.z == 0.0 {
+            return None;
+        }
+        let pdf = self.pdf_local(wi);
+        if !(pdf > 0.0) || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wi: self.to_world(wi),
+            weight: self.eval_local(wi, mode) * (wi.z.abs() / pdf),
+            pdf,
+            delta: false,
+        })
+    }
+}
+
+/// f(wo, wi) of the non-delta lobes (without the cosine).
+pub fn bsdf_eval(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+    match BsdfFrame::new(m, ng, wo) {
+        Some(frame) => frame.eval_local(frame.to_local(wi), mode),
+        None => Vec3::ZERO,
+    }
+}
+
+/// Pdf of [`bsdf_sample`] with respect to solid angle, over its non-delta lobes.
+pub fn bsdf_pdf(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    match BsdfFrame::new(m, ng, wo) {
+        Some(frame) => frame.pdf_local(frame.to_local(wi)),
+        None => 0.0,
+    }
+}
+
+/// Samples `wi` from three uniform numbers: `u.z` picks the lobe, `u.xy` the direction in it.
+/// None if no direction results (a black material, total internal reflection of the sampled
+/// microfacet, a direction below the surface).
+pub fn bsdf_sample(
+    m: &GpuMaterial,
+    ng: Vec3,
+    wo: Vec3,
+    u: Vec3,
+    mode: TransportMode,
+) -> Option<BsdfSample> {
+    BsdfFrame::new(m, ng, wo)?.sample(u, mode)
+}
+
+/// Sum of the estimated lobe albedos seen from `wo` (the lecture's subcritical survival
+/// probability P = ∫K for `--rr albedo`); 0 where `wo` grazes the surface.
+pub fn bsdf_albedo_estimate(m: &GpuMaterial, ng: Vec3, wo: Vec3) -> f32 {
+    BsdfFrame::new(m, ng, wo).map_or(0.0, |f| f.albedo_estimate)
+}
