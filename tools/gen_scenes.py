@@ -110,8 +110,11 @@ def inside_out(positions, triangles):
 
 
 def surface_area(positions, triangles):
-    return sum(0.5 * math.sqrt(sum(x * x for x in cross(sub(positions[b], positions[a]), sub(positions[c], positions[a]))))
-               for a, b, c in triangles)
+    total = 0.0
+    for a, b, c in triangles:
+        n = cross(sub(positions[b], positions[a]), sub(positions[c], positions[a]))
+        total += 0.5 * math.sqrt(sum(x * x for x in n))
+    return total
 
 
 def sub(p, q):
@@ -303,7 +306,8 @@ def cornell_materials():
         radius = 0.3
         x, z = SHORT_BOX[0][3], SHORT_BOX[2][3]
         y = -1.0 - radius * min(p[1] for p in positions)
-        g.node({"name": "glass sphere", "mesh": g.mesh("glass sphere", g.geometry(positions, triangles), glass),
+        sphere = g.mesh("glass sphere", g.geometry(positions, triangles), glass)
+        g.node({"name": "glass sphere", "mesh": sphere,
                 "matrix": column_major([[radius, 0, 0, x], [0, radius, 0, y], [0, 0, radius, z]])})
     return cornell_room(Gltf(), metal_and_glass)
 
@@ -321,7 +325,8 @@ def furnace():
 VEACH_CAMERA = (0.0, 5.0, 11.0)
 VEACH_LIGHT_ROW = (4.5, -0.5)
 VEACH_LIGHTS = [(-3.6, 0.03), (-1.2, 0.1), (1.2, 0.3), (3.6, 0.9)]
-VEACH_PLATES = [((0.0, 0.0, 4.0), 0.35), ((0.0, 0.6, 2.6), 0.2), ((0.0, 1.2, 1.2), 0.1), ((0.0, 1.8, -0.2), 0.05)]
+VEACH_PLATES = [((0.0, 0.0, 4.0), 0.35), ((0.0, 0.6, 2.6), 0.2), ((0.0, 1.2, 1.2), 0.1),
+                ((0.0, 1.8, -0.2), 0.05)]
 VEACH_PLATE_SIZE = (8.0, 1.0)
 
 
