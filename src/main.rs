@@ -329,6 +329,11 @@ fn compare(args: &CompareArgs) -> Result<bool> {
     let cmp = wavetrace::stats::compare_films(&a, &b, args.tile, args.alpha)
         .with_context(|| format!("comparing {} with {}", args.a.display(), args.b.display()))?;
     println!("{} vs {}: {cmp}", args.a.display(), args.b.display());
+    let error = wavetrace::stats::image_error(&a, &b, wavetrace::stats::RELATIVE_MSE_EPSILON)?;
+    println!(
+        "relative MSE = {:.6e} (mean of (A−B)²/(B² + {}), B the reference); MSE = {:.6e}",
+        error.relative_mse, error.epsilon, error.mse
+    );
     Ok(cmp.passed())
 }
 

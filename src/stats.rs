@@ -368,7 +368,10 @@ pub fn chi_square_gof(observed: &[f64], expected: &[f64]) -> (f64, f64, f64) {
 
 mod compare;
 
-pub use compare::{compare_films, film_mean, Comparison, TileFailure};
+pub use compare::{
+    compare_films, film_mean, image_error, Comparison, ImageError, TileFailure,
+    RELATIVE_MSE_EPSILON,
+};
 
 #[cfg(test)]
 mod tests;

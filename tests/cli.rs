@@ -182,6 +182,14 @@ fn compare_tells_agreeing_renders_from_different_ones() {
         String::from_utf8_lossy(&differ.stdout).contains("tile"),
         "the report names no tile"
     );
+    // Both outcomes also report the error against the second film (tools/gallery reads it).
+    for o in [&same, &differ] {
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            out.contains("relative MSE = ") && out.contains("; MSE = "),
+            "{out}"
+        );
+    }
     let png = temp("x.png");
     std::fs::write(&png, b"not an exr").unwrap();
     let error = wavetrace(&["compare", a.to_str().unwrap(), png.to_str().unwrap()]);

@@ -599,7 +599,8 @@ fn ignored_textures_are_noted() {
     assert!(plain.notes.is_empty(), "{:?}", plain.notes);
 }
 
-/// The committed scenes are exactly what tools/gen_scenes.py writes (skipped without python3).
+/// The committed scenes are exactly what tools/gen_scenes.py writes, no more and no fewer
+/// (skipped without python3).
 #[test]
 fn committed_scenes_match_their_generator() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -614,7 +615,24 @@ fn committed_scenes_match_their_generator() {
         return;
     };
     assert!(status.success(), "tools/gen_scenes.py failed");
-    for name in ["cornell-box.gltf", "furnace.gltf"] {
+    let names = |dir: &Path| -> Vec<String> {
+        gltf_files(dir)
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect()
+    };
+    let generated_names = names(&out);
+    assert_eq!(
+        generated_names,
+        [
+            "cornell-box.gltf",
+            "cornell-materials.gltf",
+            "furnace.gltf",
+            "veach-mis.gltf"
+        ]
+    );
+    assert_eq!(names(&root.join("scenes")), generated_names);
+    for name in &generated_names {
         let generated = std::fs::read(out.join(name)).unwrap();
         let committed = std::fs::read(root.join("scenes").join(name)).unwrap();
         assert!(
@@ -622,4 +640,5 @@ fn committed_scenes_match_their_generator() {
             "scenes/{name} differs from what tools/gen_scenes.py writes; run it and commit"
         );
     }
+    std::fs::remove_dir_all(&out).ok();
 }

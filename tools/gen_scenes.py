@@ -1,19 +1,30 @@
 #!/usr/bin/env python3
 """Writes the committed test scenes as self-contained glTF 2.0 files (base64 data: buffers).
 
-    python3 tools/gen_scenes.py           # writes scenes/cornell-box.gltf and scenes/furnace.gltf
+    python3 tools/gen_scenes.py           # writes every scene into scenes/
     python3 tools/gen_scenes.py OUT_DIR   # writes them into OUT_DIR instead
 
 Output is deterministic (same bytes on every run). Python 3 standard library only.
 
+Lambertian materials are Lambertian in glTF's own terms, not only in wavetrace's: metallicFactor
+0, roughnessFactor 1 and KHR_materials_specular's specularFactor 0, which removes the dielectric
+specular lobe of the metallic-roughness BSDF and leaves only the diffuse term baseColor / pi
+(listed in extensionsUsed, not extensionsRequired: a viewer that ignores it shows a slightly
+glossy version of the same scene). Emitted radiance is emissiveFactor (max component 1) times
+KHR_materials_emissive_strength.
+
 - cornell-box.gltf: the Cornell box of Mitsuba/pbrt test scenes, built from unit primitives
   (rectangle [-1,1]^2 in local XY with normal +Z; cube [-1,1]^3 with outward normals) placed by
-  node matrices. Reflectances are Lambertian (baseColorFactor); the light emits radiance
-  (18.387, 13.9873, 6.75357) from its front face, encoded as emissiveFactor = radiance / max
-  component and KHR_materials_emissive_strength = max component.
+  node matrices. All Lambertian; the light emits radiance (18.387, 13.9873, 6.75357) from its
+  front face.
+- cornell-materials.gltf: the same box and light, the tall box rough copper (metallicFactor 1,
+  roughnessFactor 0.3) and, in place of the short box, a smooth glass sphere (radius 0.3,
+  KHR_materials_transmission 1, KHR_materials_ior 1.5) resting on the floor.
 - furnace.gltf: a closed unit icosphere (subdivision 3, watertight) facing inwards with albedo
   0.5 and emission 0.5, camera at the centre: the exact radiance everywhere is
   Le / (1 - a) = 1.
+- veach-mis.gltf: the multiple importance sampling test of Veach & Guibas 1995 (Veach's thesis,
+  fig. 9.2), see veach_mis().
 """
 
 import base64
@@ -60,7 +71,7 @@ def cube():
 
 
 def icosphere(subdivisions):
-    """Unit icosphere with shared vertices, every triangle counter-clockwise seen from inside."""
+    """Unit icosphere with shared vertices, every triangle counter-clockwise seen from outside."""
     t = (1 + math.sqrt(5)) / 2
     positions = [normalize(p) for p in [
         (-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0),
@@ -88,9 +99,30 @@ def icosphere(subdivisions):
             refined += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
         faces = refined
     check_winding(positions, faces, lambda centroid: centroid)
-    inward = [(a, c, b) for a, b, c in faces]
-    check_winding(positions, inward, lambda centroid: tuple(-x for x in centroid))
-    return positions, inward
+    return positions, faces
+
+
+def inside_out(positions, triangles):
+    """The same surface, star-shaped about the origin, facing the other way (windings reversed)."""
+    flipped = [(a, c, b) for a, b, c in triangles]
+    check_winding(positions, flipped, lambda centroid: tuple(-x for x in centroid))
+    return positions, flipped
+
+
+def surface_area(positions, triangles):
+    total = 0.0
+    for a, b, c in triangles:
+        n = cross(sub(positions[b], positions[a]), sub(positions[c], positions[a]))
+        total += 0.5 * math.sqrt(sum(x * x for x in n))
+    return total
+
+
+def sub(p, q):
+    return tuple(p[k] - q[k] for k in range(3))
+
+
+def cross(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
 
 
 def normalize(p):
@@ -102,9 +134,7 @@ def check_winding(positions, triangles, outward_of):
     """Asserts that every geometric normal points along outward_of(centroid)."""
     for tri in triangles:
         p0, p1, p2 = (positions[i] for i in tri)
-        e1 = [p1[k] - p0[k] for k in range(3)]
-        e2 = [p2[k] - p0[k] for k in range(3)]
-        n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+        n = cross(sub(p1, p0), sub(p2, p0))
         centroid = tuple(sum(positions[i][k] for i in tri) / 3 for k in range(3))
         direction = outward_of(centroid)
         assert sum(n[k] * direction[k] for k in range(3)) > 0, tri
@@ -150,20 +180,32 @@ class Gltf:
         n = len(self.doc["accessors"])
         return {"attributes": {"POSITION": n - 2}, "indices": n - 1}
 
-    def material(self, name, base_color, emissive=None, strength=None):
+    def material(self, name, base_color, emissive=None, strength=None, metallic=0.0, roughness=1.0,
+                 extensions=None):
+        """Adds a material; `extensions` maps extension names to their objects."""
         material = {
             "name": name,
             "pbrMetallicRoughness": {
-                "baseColorFactor": list(base_color) + [1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+                "baseColorFactor": list(base_color) + [1.0], "metallicFactor": float(metallic),
+                "roughnessFactor": float(roughness)},
             "doubleSided": False,
         }
         if emissive is not None:
             material["emissiveFactor"] = list(emissive)
+        extensions = dict(extensions or {})
         if strength is not None:
-            material["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": strength}}
-            self.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+            extensions["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
+        if extensions:
+            material["extensions"] = dict(sorted(extensions.items()))
+            used = set(self.doc.get("extensionsUsed", [])) | set(extensions)
+            self.doc["extensionsUsed"] = sorted(used)
         self.doc["materials"].append(material)
         return len(self.doc["materials"]) - 1
+
+    def lambertian(self, name, base_color, emissive=None, strength=None):
+        """A purely diffuse material in glTF's terms: no metal, no dielectric specular lobe."""
+        return self.material(name, base_color, emissive, strength,
+                             extensions={"KHR_materials_specular": {"specularFactor": 0.0}})
 
     def mesh(self, name, geometry, material):
         self.doc["meshes"].append({"name": name, "primitives": [dict(geometry, material=material)]})
@@ -173,10 +215,13 @@ class Gltf:
         self.doc["nodes"].append(node)
         self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]) - 1)
 
-    def camera(self, name, yfov, translation):
+    def camera(self, name, yfov, translation, aspect_ratio=1.0, pitch=0.0):
+        """A perspective camera looking down -Z, turned up by `pitch` radians about +X."""
         self.doc["cameras"].append({"name": name, "type": "perspective", "perspective": {
-            "yfov": yfov, "aspectRatio": 1.0, "znear": 0.01}})
+            "yfov": yfov, "aspectRatio": aspect_ratio, "znear": 0.01}})
         node = {"name": name, "camera": len(self.doc["cameras"]) - 1}
+        if pitch:
+            node["rotation"] = [math.sin(pitch / 2), 0.0, 0.0, math.cos(pitch / 2)]
         if translation is not None:
             node["translation"] = list(translation)
         self.node(node)
@@ -203,22 +248,26 @@ def column_major(rows):
 # ---------------------------------------------------------------------------------------------
 # Scenes
 
-def cornell_box():
-    g = Gltf()
-    white = g.material("white", (0.885809, 0.698859, 0.666422))
-    red = g.material("red", (0.570068, 0.0430135, 0.0443706))
-    green = g.material("green", (0.105421, 0.37798, 0.076425))
+# The Cornell box's boxes as [R | t] rows placing the unit cube.
+TALL_BOX = [[0.28491, 0, 0.0939491, -0.33], [0, 0.61, 0, -0.4], [-0.0939491, 0, 0.28491, -0.28]]
+SHORT_BOX = [[0.286891, 0, -0.0877115, 0.335], [0, 0.3, 0, -0.7], [0.0877115, 0, 0.286891, 0.38]]
+
+
+def cornell_room(g, add_contents):
+    """The Cornell box's walls and light, `add_contents(g, white)` in between, then the camera."""
+    white = g.lambertian("white", (0.885809, 0.698859, 0.666422))
+    red = g.lambertian("red", (0.570068, 0.0430135, 0.0443706))
+    green = g.lambertian("green", (0.105421, 0.37798, 0.076425))
     radiance = (18.387, 13.9873, 6.75357)
     peak = max(radiance)
-    light = g.material("light", (0.885809, 0.698859, 0.666422), [c / peak for c in radiance], peak)
+    light = g.lambertian("light", (0.885809, 0.698859, 0.666422), [c / peak for c in radiance], peak)
 
-    rect, box = g.geometry(*rectangle()), g.geometry(*cube())
+    rect = g.geometry(*rectangle())
     meshes = {
         "white rectangle": g.mesh("white rectangle", rect, white),
         "red rectangle": g.mesh("red rectangle", rect, red),
         "green rectangle": g.mesh("green rectangle", rect, green),
         "light rectangle": g.mesh("light rectangle", rect, light),
-        "white cube": g.mesh("white cube", box, white),
     }
     shapes = [
         ("floor", "white rectangle", [[1, 0, 0, 0], [0, 0, 1, -1], [0, -1, 0, 0]]),
@@ -227,32 +276,117 @@ def cornell_box():
         ("green wall", "green rectangle", [[0, 0, -1, 1], [0, 1, 0, 0], [1, 0, 0, 0]]),
         ("red wall", "red rectangle", [[0, 0, 1, -1], [0, 1, 0, 0], [-1, 0, 0, 0]]),
         ("light", "light rectangle", [[0.23, 0, 0, 0], [0, 0, -0.19, 0.99], [0, 0.19, 0, 0.01]]),
-        ("tall box", "white cube",
-         [[0.28491, 0, 0.0939491, -0.33], [0, 0.61, 0, -0.4], [-0.0939491, 0, 0.28491, -0.28]]),
-        ("short box", "white cube",
-         [[0.286891, 0, -0.0877115, 0.335], [0, 0.3, 0, -0.7], [0.0877115, 0, 0.286891, 0.38]]),
     ]
     for name, mesh, rows in shapes:
         g.node({"name": name, "mesh": meshes[mesh], "matrix": column_major(rows)})
+    add_contents(g, white)
     g.camera("camera", math.radians(39.3077), (0.0, 0.0, 3.9))
     return g
 
 
+def cornell_box():
+    def boxes(g, white):
+        cube_mesh = g.mesh("white cube", g.geometry(*cube()), white)
+        for name, rows in (("tall box", TALL_BOX), ("short box", SHORT_BOX)):
+            g.node({"name": name, "mesh": cube_mesh, "matrix": column_major(rows)})
+    return cornell_room(Gltf(), boxes)
+
+
+def cornell_materials():
+    def metal_and_glass(g, _white):
+        # Copper's F0 (linear sRGB) as base colour; alpha = roughness^2 = 0.09 in glTF's GGX.
+        copper = g.material("rough copper", (0.95, 0.64, 0.54), metallic=1.0, roughness=0.3)
+        g.node({"name": "tall box", "mesh": g.mesh("copper cube", g.geometry(*cube()), copper),
+                "matrix": column_major(TALL_BOX)})
+        glass = g.material("glass", (1.0, 1.0, 1.0), metallic=0.0, roughness=0.0, extensions={
+            "KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_ior": {"ior": 1.5}})
+        positions, triangles = icosphere(3)
+        # Centred over the short box's footprint, its lowest vertex on the floor (y = -1).
+        radius = 0.3
+        x, z = SHORT_BOX[0][3], SHORT_BOX[2][3]
+        y = -1.0 - radius * min(p[1] for p in positions)
+        sphere = g.mesh("glass sphere", g.geometry(positions, triangles), glass)
+        g.node({"name": "glass sphere", "mesh": sphere,
+                "matrix": column_major([[radius, 0, 0, x], [0, radius, 0, y], [0, 0, radius, z]])})
+    return cornell_room(Gltf(), metal_and_glass)
+
+
 def furnace():
     g = Gltf()
-    material = g.material("furnace", (0.5, 0.5, 0.5), (0.5, 0.5, 0.5))
-    sphere = g.mesh("sphere", g.geometry(*icosphere(3)), material)
+    material = g.lambertian("furnace", (0.5, 0.5, 0.5), (0.5, 0.5, 0.5))
+    sphere = g.mesh("sphere", g.geometry(*inside_out(*icosphere(3))), material)
     g.node({"name": "sphere", "mesh": sphere})
     g.camera("camera", math.radians(60.0), None)
     return g
 
 
+# Veach's MIS scene: camera, light row and plates (plate 0 nearest the camera and lowest).
+VEACH_CAMERA = (0.0, 5.0, 11.0)
+VEACH_LIGHT_ROW = (4.5, -0.5)
+VEACH_LIGHTS = [(-3.6, 0.03), (-1.2, 0.1), (1.2, 0.3), (3.6, 0.9)]
+VEACH_PLATES = [((0.0, 0.0, 4.0), 0.35), ((0.0, 0.6, 2.6), 0.2), ((0.0, 1.2, 1.2), 0.1),
+                ((0.0, 1.8, -0.2), 0.05)]
+VEACH_PLATE_SIZE = (8.0, 1.0)
+
+
+def veach_mis():
+    """The glossy plates of Veach & Guibas 1995 (Veach's thesis, fig. 9.2), rebuilt from the text.
+
+    Four spherical lights in a row (x = -3.6 .. 3.6, y = 4.5, z = -0.5) with radii 0.03, 0.1, 0.3
+    and 0.9 and equal power: a sphere of radiance L and radius r emits 4 pi^2 r^2 L, so
+    L = 1 / r^2 gives each 4 pi^2 W (corrected for the area of the triangulated sphere, 1-3 %
+    below 4 pi r^2). The lights are black and purely diffuse: they reflect nothing.
+
+    Four 8 x 1 plates of glossy metal (metallicFactor 1, base colour 0.7) stand like steps in
+    front of them, roughness 0.35, 0.2, 0.1 and 0.05 (GGX alpha = roughness^2) from the nearest,
+    lowest plate to the farthest, highest one, as in the original, where the top plate is the
+    most mirror-like. Each plate's normal is the half vector between the directions from its
+    centre to the camera and to the middle of the light row, so the camera sees every light
+    mirrored near the plate's middle line, at x = x_light * d_camera / (d_camera + d_light)
+    (|x| < 3 here, inside the plate); the steps are spaced so that no plate blocks another's
+    mirror paths. No backdrop: the background is black unless --environment says otherwise.
+    """
+    g = Gltf()
+    rect = g.geometry(*rectangle())
+    for i, (centre, roughness) in enumerate(VEACH_PLATES):
+        metal = g.material("plate %d roughness %g" % (i, roughness), (0.7, 0.7, 0.7),
+                           metallic=1.0, roughness=roughness)
+        to_camera = normalize(tuple(VEACH_CAMERA[k] - centre[k] for k in range(3)))
+        to_lights = normalize((0.0, VEACH_LIGHT_ROW[0] - centre[1], VEACH_LIGHT_ROW[1] - centre[2]))
+        n = normalize(tuple(to_camera[k] + to_lights[k] for k in range(3)))
+        # Local X stays world X (the plate's length); local Y goes to t = n x X, so local +Z
+        # (the rectangle's front) goes to n with a proper rotation.
+        t = (0.0, n[2], -n[1])
+        half_length, half_depth = VEACH_PLATE_SIZE[0] / 2, VEACH_PLATE_SIZE[1] / 2
+        rows = [[half_length * (r == 0), half_depth * t[r], n[r], centre[r]] for r in range(3)]
+        g.node({"name": "plate %d" % i, "mesh": g.mesh("plate %d" % i, rect, metal),
+                "matrix": column_major(rows)})
+    spheres = {n: icosphere(n) for n in (2, 3)}
+    geometries = {n: g.geometry(*sphere) for n, sphere in spheres.items()}
+    for i, (x, radius) in enumerate(VEACH_LIGHTS):
+        # Subdivision 3 (1280 triangles) where the sphere is large enough to show facets.
+        n = 3 if radius >= 0.3 else 2
+        # Radiance 4 pi / (mesh area): every triangulated light emits exactly 4 pi^2 W.
+        strength = float("%.9g" % (4 * math.pi / (surface_area(*spheres[n]) * radius ** 2)))
+        light = g.lambertian("light %d radius %g" % (i, radius), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), strength)
+        y, z = VEACH_LIGHT_ROW
+        g.node({"name": "light %d" % i, "mesh": g.mesh("light %d" % i, geometries[n], light),
+                "matrix": column_major([[radius, 0, 0, x], [0, radius, 0, y], [0, 0, radius, z]])})
+    g.camera("camera", math.radians(44.0), VEACH_CAMERA, aspect_ratio=1.6, pitch=math.radians(-17.5))
+    return g
+
+
+SCENES = [("cornell-box.gltf", cornell_box), ("cornell-materials.gltf", cornell_materials),
+          ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis)]
+
+
 def main():
     root = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenes")
     os.makedirs(root, exist_ok=True)
-    for name, scene in (("cornell-box.gltf", cornell_box()), ("furnace.gltf", furnace())):
+    for name, build in SCENES:
         path = os.path.normpath(os.path.join(root, name))
-        scene.write(path)
+        build().write(path)
         print("wrote", path)
 
 

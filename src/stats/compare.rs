@@ -237,3 +237,42 @@ pub fn film_mean(film: &Film) -> (DVec3, DVec3) {
     let count = film.len().max(1) as f64;
     (mean / count, var.map(f64::sqrt) / count)
 }
+
+/// The ε of the relative MSE: Rousselle, Knaus & Zwicker's 10⁻², which keeps near-black
+/// reference pixels from dominating the mean.
+pub const RELATIVE_MSE_EPSILON: f64 = 1e-2;
+
+/// Error of film `a` against the reference `b`, over pixels and channels of the pixel means.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageError {
+    /// Mean of (a − b)².
+    pub mse: f64,
+    /// Mean of (a − b)² / (b² + ε).
+    pub relative_mse: f64,
+    pub epsilon: f64,
+}
+
+/// Plain and relative mean squared error of `a` against the reference `b` (equal sizes).
+pub fn image_error(a: &Film, b: &Film, epsilon: f64) -> anyhow::Result<ImageError> {
+    anyhow::ensure!(
+        (a.width, a.height) == (b.width, b.height) && !a.is_empty(),
+        "cannot measure the error of a {}×{} film against a {}×{} one",
+        a.width,
+        a.height,
+        b.width,
+        b.height
+    );
+    let (mut squared, mut relative) = (0.0, 0.0);
+    for p in 0..a.len() {
+        for (x, y) in a.mean_f64(p).into_iter().zip(b.mean_f64(p)) {
+            squared += (x - y) * (x - y);
+            relative += (x - y) * (x - y) / (y * y + epsilon);
+        }
+    }
+    let count = 3.0 * a.len() as f64;
+    Ok(ImageError {
+        mse: squared / count,
+        relative_mse: relative / count,
+        epsilon,
+    })
+}

@@ -353,4 +353,21 @@ fn normal_quantiles() {
         let got = normal_quantile_upper(p);
         assert!((got - z).abs() < 1e-6, "p {p}: {got} vs {z}");
     }
+
+fn image_error_of_known_films() {
+    // a = (1, 2) and b = (0, 1) in every channel: squared errors 1 and 1; relative
+    // 1 / (0 + ε) and 1 / (1 + ε).
+    let (mut a, mut b) = (Film::new(2, 1), Film::new(2, 1));
+    for (p, (x, y)) in [(1.0, 0.0), (2.0, 1.0)].into_iter().enumerate() {
+        a.add_sample(p, Vec3::splat(x));
+        b.add_sample(p, Vec3::splat(y));
+    }
+    let e = image_error(&a, &b, 0.5).unwrap();
+    close(e.mse, 1.0, 1e-15);
+    close(e.relative_mse, (1.0 / 0.5 + 1.0 / 1.5) / 2.0, 1e-15);
+    // Not symmetric: b against a.
+    let e = image_error(&b, &a, 0.5).unwrap();
+    close(e.relative_mse, (1.0 / 1.5 + 1.0 / 4.5) / 2.0, 1e-15);
+    assert_eq!(image_error(&a, &a, 0.5).unwrap().relative_mse, 0.0);
+    assert!(image_error(&a, &Film::new(1, 2), 0.5).is_err());
 }
