@@ -353,7 +353,9 @@ fn normal_quantiles() {
         let got = normal_quantile_upper(p);
         assert!((got - z).abs() < 1e-6, "p {p}: {got} vs {z}");
     }
+}
 
+#[test]
 fn image_error_of_known_films() {
     // a = (1, 2) and b = (0, 1) in every channel: squared errors 1 and 1; relative
     // 1 / (0 + ε) and 1 / (1 + ε).
