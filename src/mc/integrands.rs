@@ -122,6 +122,24 @@ fn x_sin_pi_x_control(x: f64) -> f64 {
     12.0 / PI * x * x * (1.0 - x)
 }
 
+/// A peak that neither uniform nor 2x sampling fits, and a wider one as its control function.
+const OFF_PEAK: Lorentzian = Lorentzian {
+    centre: 0.8,
+    width: 0.01,
+};
+const OFF_PEAK_CONTROL: Lorentzian = Lorentzian {
+    centre: 0.8,
+    width: 0.015,
+};
+
+fn off_peak(x: f64) -> f64 {
+    OFF_PEAK.pdf(x)
+}
+
+fn off_peak_control(x: f64) -> f64 {
+    OFF_PEAK_CONTROL.pdf(x)
+}
+
 fn ramp_and_peak(x: f64) -> f64 {
     2.0 * (1.0 - x) + PEAK.pdf(x)
 }
@@ -134,8 +152,11 @@ fn peak(x: f64) -> f64 {
 /// - 3x² (I = 1), importance-sampled with p = 2x by analytic P⁻¹(u) = √u;
 /// - x sin πx (I = 1/π), importance-sampled with a 32-bin table of itself (CDF inverted by
 ///   binary search), which fits it well;
-/// - 2(1 − x) + a narrow Lorentzian peak (I = 2), sampled with the peak's own density: neither
-///   uniform nor peak sampling alone handles both parts, combined sampling does.
+/// - 2(1 − x) + a narrow Lorentzian peak at 0.3 (I = 2), sampled with the peak's own density: neither
+///   uniform nor peak sampling alone handles both parts, combined sampling does;
+/// - a narrow peak at 0.8 (I = 1) sampled by uniform and 2x, neither of which fits it: balance
+///   is then poor in absolute terms, σ²_bal > (1 − 1/n) I², and the lecture's bound on the
+///   other weightings is positive, a real constraint.
 pub fn integrands() -> Result<Vec<Integrand>> {
     let table = Distribution1D::from_function(x_sin_pi_x, TABLE_BINS, "x sin πx")?;
     // The peak density equals the uniform one where w / (Z (w² + d²)) = 1.
@@ -167,7 +188,7 @@ pub fn integrands() -> Result<Vec<Integrand>> {
                 .collect(),
         },
         Integrand {
-            name: "2(1 − x) + peak",
+            name: "2(1 − x) + peak at 0.3",
             f: ramp_and_peak,
             exact: 2.0,
             exact_text: "2",
@@ -176,6 +197,17 @@ pub fn integrands() -> Result<Vec<Integrand>> {
             control_text: "the peak",
             control_integral: 1.0,
             breaks: vec![PEAK.centre - d, PEAK.centre + d],
+        },
+        Integrand {
+            name: "peak at 0.8",
+            f: off_peak,
+            exact: 1.0,
+            exact_text: "1",
+            importance: Box::new(LinearRamp),
+            control: off_peak_control,
+            control_text: "a wider peak (w = 0.015)",
+            control_integral: 1.0,
+            breaks: vec![0.5],
         },
     ])
 }

@@ -89,7 +89,9 @@ pub fn lecture_variance(i: &Integrand, e: Estimator, n: usize) -> f64 {
 
 /// The balance heuristic's variance as the lecture writes it, σ²_bal = ∫ f² / Σ_j p_j −
 /// Σ_i [∫ p_i f / Σ_j p_j]², and its bound for any weighting, σ²_comb ≥ σ²_bal − (1 − 1/n) I²
-/// (lecture, "Balance heuristics"; Veach 1997, Theorem 9.2). Returns (σ²_bal, bound).
+/// (lecture, "Balance heuristics"; Veach 1997, Theorem 9.2). Returns (σ²_bal, bound). The
+/// bound needs f ≥ 0: its proof uses Σ_i (∫ w_i f)² ≤ I², which fails for a signed f (for
+/// sin 2πx, I = 0, the maximum heuristic beats balance).
 pub fn balance_bound(i: &Integrand) -> (f64, f64) {
     let s = strategies(i);
     let f = i.f;
