@@ -204,9 +204,11 @@ fn row(i: &Integrand, e: Estimator, values: &[f64], n: usize, alpha_each: f64) -
     };
     let (mean, measured) = mean_and_variance(values);
     let count = values.len();
-    // Mean: z = (mean − I) / √(σ²/T) with the predicted σ², two-sided normal p-value.
-    let z = (mean - i.exact) / (predicted / count as f64).sqrt();
-    let mean_p = student_t_two_sided_p(z, f64::INFINITY);
+    // Mean: t = (mean − I) / SE with the measured standard error, so that this tests bias
+    // alone (a wrong variance is the next test's business); Student's t, T − 1 df, two-sided.
+    let standard_error = (measured / count as f64).sqrt();
+    let t = (mean - i.exact) / standard_error;
+    let mean_p = student_t_two_sided_p(t, (count - 1) as f64);
     // Variance: d s²/σ² ~ χ²(d), two-sided.
     let dof = variance_dof(count, kurtosis);
     let x = dof * measured / predicted;
@@ -220,7 +222,7 @@ fn row(i: &Integrand, e: Estimator, values: &[f64], n: usize, alpha_each: f64) -
         estimator: e,
         count,
         mean,
-        standard_error: (measured / count as f64).sqrt(),
+        standard_error,
         measured_variance: measured,
         predicted_variance: predicted,
         dof,
@@ -346,7 +348,7 @@ impl std::fmt::Display for Report {
         writeln!(out, "Gauss–Legendre quadrature; ratio = measured / predicted. Checks at α = {} over {} checks", s.alpha, self.checks)?;
         writeln!(
             out,
-            "(Šidák: {:.2e} each): mean within z·SE of I; ratio inside the χ² interval of a sample",
+            "(Šidák: {:.2e} each): mean within t·SE of I; ratio inside the χ² interval of a sample",
             self.alpha_each
         )?;
         writeln!(out, "variance, d·s²/σ² ~ χ²(d), d = T − 1 for normal estimates, lowered for their kurtosis γ₂:")?;

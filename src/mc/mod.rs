@@ -15,8 +15,9 @@
 //! - `experiment`: T independent estimates per estimator, their measured mean and variance
 //!   against the prediction, and the lecture's variance relations (`wavetrace estimators`).
 //!
-//! The renderer uses [`roulette_f32`] for its stopping criterion (the path tracer's Russian
-//! roulette is the single-integral form applied at every bounce).
+//! [`roulette_f32`] is the form the path tracer's stopping criterion takes (the single-integral
+//! roulette applied at every bounce, lecture "Russian roulette for integral equations"), for
+//! `src/cpu/path.rs` and its GLSL twin to call.
 
 mod distribution;
 mod estimators;
