@@ -135,12 +135,27 @@ fn variance_dof(count: usize, excess_kurtosis: f64) -> f64 {
     2.0 / (2.0 / (t - 1.0) + excess_kurtosis / t)
 }
 
-/// Mean and sample variance.
-fn mean_and_variance(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let ss: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
-    (mean, ss / (n - 1.0))
+/// Count, mean and sum of squared deviations of a stream of values (Welford's update, Knuth
+/// TAOCP vol. 2, §4.2.2), so that T·N single samples need no storage.
+#[derive(Clone, Copy, Debug, Default)]
+struct Running {
+    count: usize,
+    mean: f64,
+    squares: f64,
+}
+
+impl Running {
+    fn push(&mut self, v: f64) {
+        self.count += 1;
+        let delta = v - self.mean;
+        self.mean += delta / self.count as f64;
+        self.squares += delta * (v - self.mean);
+    }
+
+    /// The sample variance (n − 1 in the denominator).
+    fn variance(&self) -> f64 {
+        self.squares / (self.count as f64 - 1.0)
+    }
 }
 
 /// The label of an estimator's row.
@@ -157,14 +172,15 @@ fn label(i: &Integrand, e: Estimator) -> String {
     }
 }
 
-/// T estimates of estimator `e` (`Primary` is not run on its own: it is the single samples of
-/// `Secondary`, returned as the second list).
-fn run_estimator(i: &Integrand, index: u32, e: Estimator, s: &Settings) -> (Vec<f64>, Vec<f64>) {
+/// The statistics of T estimates of estimator `e`, and of the single samples of `Secondary` (the
+/// `Primary` row is not run on its own).
+fn run_estimator(i: &Integrand, index: u32, e: Estimator, s: &Settings) -> (Running, Running) {
     let n = s.samples;
     let block = index * 16 + ESTIMATORS.iter().position(|x| *x == e).unwrap_or(0) as u32;
-    let mut singles = Vec::new();
-    let estimates = (0..s.trials)
-        .map(|t| {
+    let mut singles = Running::default();
+    let mut estimates = Running::default();
+    for t in 0..s.trials {
+        let estimate = {
             let mut u = KeyedUniforms::new(s.seed, t as u32, block);
             let f = i.f;
             match e {
@@ -185,13 +201,14 @@ fn run_estimator(i: &Integrand, index: u32, e: Estimator, s: &Settings) -> (Vec<
                 }
                 Estimator::Roulette(p) => secondary_of(n, || russian_roulette(f, p, &mut u)),
             }
-        })
-        .collect();
+        };
+        estimates.push(estimate);
+    }
     (estimates, singles)
 }
 
 /// A row from its estimates: measured against I and the predicted variance of one estimate.
-fn row(i: &Integrand, e: Estimator, values: &[f64], n: usize, alpha_each: f64) -> Row {
+fn row(i: &Integrand, e: Estimator, values: Running, n: usize, alpha_each: f64) -> Row {
     // Per-estimate prediction: primary and stratified as they are, the rest means of N.
     let per_sample = lecture_variance(i, e, n);
     let (predicted, kurtosis) = match e {
@@ -202,8 +219,7 @@ fn row(i: &Integrand, e: Estimator, values: &[f64], n: usize, alpha_each: f64) -
             cumulants(i, e, n).mean_of(n).excess_kurtosis(),
         ),
     };
-    let (mean, measured) = mean_and_variance(values);
-    let count = values.len();
+    let (mean, measured, count) = (values.mean, values.variance(), values.count);
     // Mean: t = (mean − I) / SE with the measured standard error, so that this tests bias
     // alone (a wrong variance is the next test's business); Student's t, T − 1 df, two-sided.
     let standard_error = (measured / count as f64).sqrt();
@@ -312,9 +328,9 @@ pub fn run(settings: Settings) -> Result<Report> {
             for e in ESTIMATORS.iter().skip(1) {
                 let (estimates, singles) = run_estimator(i, index as u32, *e, &settings);
                 if *e == Estimator::Secondary {
-                    rows.push(row(i, Estimator::Primary, &singles, n, alpha_each));
+                    rows.push(row(i, Estimator::Primary, singles, n, alpha_each));
                 }
-                rows.push(row(i, *e, &estimates, n, alpha_each));
+                rows.push(row(i, *e, estimates, n, alpha_each));
             }
             let relations = relations(i, &rows, n, alpha_each);
             Section {
@@ -362,14 +378,14 @@ impl std::fmt::Display for Report {
             )?;
             writeln!(
                 out,
-                "  {:<50} {:>22} {:>11} {:>11} {:>7} {:>17}",
+                "  {:<46} {:>22} {:>11} {:>11} {:>7} {:>17}",
                 "estimator", "mean ± SE", "var meas.", "var pred.", "ratio", "accepted ratio"
             )?;
             for r in &section.rows {
                 let ok = r.mean_p >= self.alpha_each && r.variance_p >= self.alpha_each;
                 writeln!(
                     out,
-                    "  {:<50} {:>11.6} ± {:<8.2e} {:>11.4e} {:>11.4e} {:>7.4} [{:.3}, {:.3}] {}",
+                    "  {:<46} {:>11.6} ± {:<8.2e} {:>11.4e} {:>11.4e} {:>7.4} [{:.3}, {:.3}] {}",
                     r.label,
                     r.mean,
                     r.standard_error,
