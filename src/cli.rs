@@ -1,4 +1,5 @@
-//! The command line: `wavetrace render`, `wavetrace devices`, `wavetrace bench`.
+//! The command line: `wavetrace render`, `wavetrace devices`, `wavetrace bench`,
+//! `wavetrace compare`, `wavetrace estimators`.
 //! Scripts depend on these names; keep them.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -27,6 +28,10 @@ pub enum Command {
     /// Test whether two EXR renders by wavetrace have the same expectation (per-tile Welch
     /// tests); exit status 0 if they agree, 1 if they differ, 2 on errors, like diff(1).
     Compare(CompareArgs),
+    /// The lecture's Monte Carlo estimators on 1-D integrals with known values: each one's mean,
+    /// measured variance and the variance the lecture's formulas predict; exit status 1 if a
+    /// check fails.
+    Estimators(EstimatorsArgs),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -206,4 +211,20 @@ fn parse_alpha(text: &str) -> Result<f64, String> {
     } else {
         Err("α must lie strictly between 0 and 1".into())
     }
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct EstimatorsArgs {
+    /// N: samples per estimate (per strategy for combined sampling, strata for stratified).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65_536))]
+    pub samples: u32,
+    /// T: independent estimates per estimator, whose variance is measured.
+    #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+    pub trials: u32,
+    /// Random seed of the keyed random numbers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Family-wise significance level of all checks, Šidák-corrected.
+    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
+    pub alpha: f64,
 }

@@ -4,7 +4,7 @@ mod cli;
 
 use anyhow::{bail, Context as _, Result};
 use clap::Parser;
-use cli::{BenchArgs, Cli, Command, CompareArgs, DeviceKind, RenderArgs};
+use cli::{BenchArgs, Cli, Command, CompareArgs, DeviceKind, EstimatorsArgs, RenderArgs};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -44,6 +44,16 @@ fn main() -> ExitCode {
         Command::Render(args) => render(&args),
         Command::Devices => devices(),
         Command::Bench(args) => bench(&args),
+        Command::Estimators(args) => {
+            return match estimators(&args) {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => ExitCode::from(1),
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    ExitCode::from(2)
+                }
+            };
+        }
         Command::Compare(args) => {
             return match compare(&args) {
                 Ok(true) => ExitCode::SUCCESS,
@@ -335,6 +345,18 @@ fn compare(args: &CompareArgs) -> Result<bool> {
         error.relative_mse, error.epsilon, error.mse
     );
     Ok(cmp.passed())
+}
+
+/// `wavetrace estimators`: prints the tables; true if every check passed.
+fn estimators(args: &EstimatorsArgs) -> Result<bool> {
+    let report = wavetrace::mc::run(wavetrace::mc::Settings {
+        samples: args.samples as usize,
+        trials: args.trials as usize,
+        seed: args.seed,
+        alpha: args.alpha,
+    })?;
+    print!("{report}");
+    Ok(report.failures() == 0)
 }
 
 #[cfg(test)]
