@@ -71,6 +71,11 @@ pub enum MisArg {
     Maximum,
     /// w = 1/2 each.
     Average,
+    /// Emitter sampling alone (BSDF sampling only where emitter sampling cannot reach, e.g.
+    /// after a mirror).
+    LightOnly,
+    /// BSDF sampling alone: no shadow rays.
+    BsdfOnly,
 }
 
 impl MisArg {
@@ -80,6 +85,29 @@ impl MisArg {
             MisArg::Balance => Heuristic::Balance,
             MisArg::Maximum => Heuristic::Maximum,
             MisArg::Average => Heuristic::Average,
+            MisArg::LightOnly => Heuristic::LightOnly,
+            MisArg::BsdfOnly => Heuristic::BsdfOnly,
+        }
+    }
+}
+
+/// How Russian roulette chooses survival probabilities.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RrArg {
+    /// min(1, largest throughput component).
+    Throughput,
+    /// The surface's estimated scattering albedo (the lecture's subcritical set-up).
+    Albedo,
+    /// No roulette: paths end at --max-depth.
+    Off,
+}
+
+impl RrArg {
+    pub fn code(self) -> u32 {
+        match self {
+            RrArg::Throughput => wavetrace::layout::RR_THROUGHPUT,
+            RrArg::Albedo => wavetrace::layout::RR_ALBEDO,
+            RrArg::Off => wavetrace::layout::RR_OFF,
         }
     }
 }
@@ -121,6 +149,12 @@ pub struct RenderArgs {
     /// β of the power heuristic (2 is Veach's recommendation; 1 is the balance heuristic).
     #[arg(long, default_value_t = 2.0, value_parser = parse_beta)]
     pub mis_beta: f32,
+    /// Russian roulette: survival by path throughput, by surface albedo, or none.
+    #[arg(long, value_enum, default_value_t = RrArg::Throughput)]
+    pub rr: RrArg,
+    /// Scattering events before Russian roulette starts.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub rr_depth: u32,
     /// How each pixel's samples place their random pairs (pixel position, point on a light,
     /// BSDF direction): N-rooks stratified, or independent.
     #[arg(long, value_enum, default_value_t = SamplerArg::Stratified)]

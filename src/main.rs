@@ -157,6 +157,8 @@ fn render(args: &RenderArgs) -> Result<()> {
         environment: args.environment,
         mis: args.mis.heuristic(args.mis_beta),
         sampler: args.sampler.code(),
+        rr_mode: args.rr.code(),
+        rr_start_depth: args.rr_depth,
         ..RenderSettings::default()
     };
     for note in &scene.notes {

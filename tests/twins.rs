@@ -21,7 +21,7 @@ use wavetrace::sampling::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 17;
+const OUTPUTS_PER_CASE: usize = 18;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -339,6 +339,13 @@ fn glsl_functions_equal_their_rust_twins() {
             fresnel_conductor(Vec3::from(m.base_color), c.u.y)
                 .extend(bsdf_albedo_estimate(&m, c.n, wo)),
             &|a, b| close(a, b, 1e-4),
+        );
+        let rr = wavetrace::mc::roulette_f32(c.u.x, c.u.y * 1.2);
+        check(
+            17,
+            "roulette",
+            Vec4::new(rr.map_or(0.0, |_| 1.0), rr.unwrap_or(1.0), 0.0, 0.0),
+            &|a, b| close(a, b, ULP_TOL),
         );
     }
     assert!(

@@ -40,6 +40,18 @@ vec2 invert_uniform_triangle_sample(vec2 b) {
     return vec2(su * su, su > 0.0 ? b.x / su : 0.0);
 }
 
+// Russian roulette for a single integral (lecture): survive with probability p, weight 1/p;
+// p >= 1 always survives with weight 1. Twin of mc::roulette_f32.
+bool roulette(float u, float p, out float weight) {
+    weight = 1.0;
+    if (p >= 1.0) return true;
+    if (u < p) {
+        weight = 1.0 / p;
+        return true;
+    }
+    return false;
+}
+
 // Orthonormal basis around unit n (Duff et al., JCGT 2017, Listing 3).
 void build_frame(vec3 n, out vec3 t, out vec3 b) {
     float sign_z = n.z >= 0.0 ? 1.0 : -1.0;

@@ -18,7 +18,7 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bvh.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 17u
+#define OUTPUTS_PER_CASE 18u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -93,4 +93,7 @@ void main() {
     bool refracts = refract_through(w, vec3(0.0, 0.0, 1.0), (i & 1u) != 0u ? 1.5 : 1.0 / 1.5, refracted);
     outputs[o + 15u] = vec4(refracted, refracts ? 1.0 : 0.0);
     outputs[o + 16u] = vec4(fresnel_conductor(m.base_color, u.y), bsdf_albedo_estimate(m, n, wo_side));
+    float rr_weight;
+    bool survives = roulette(u.x, u.y * 1.2, rr_weight);
+    outputs[o + 17u] = vec4(survives ? 1.0 : 0.0, rr_weight, 0.0, 0.0);
 }

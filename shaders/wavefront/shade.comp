@@ -114,11 +114,12 @@ void main() {
         float survive = frame.rr_mode == RR_ALBEDO
             ? min(bsdf_albedo_estimate(mat, ng, wo), 1.0)
             : min(max_component(state.throughput), 1.0);
-        if (u_light.w >= survive) {
+        float weight;
+        if (!roulette(u_light.w, survive, weight)) {
             paths[ray.path] = state;
             return;
         }
-        state.throughput /= survive;
+        state.throughput *= weight;
     }
     paths[ray.path] = state;
 

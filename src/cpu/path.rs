@@ -8,6 +8,7 @@ use crate::layout::{
     dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED, RR_ALBEDO,
     RR_OFF, SAMPLER_STRATIFIED,
 };
+use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
 use crate::render::PreparedScene;
 use crate::sampling::{
@@ -276,11 +277,13 @@ fn shade(
         } else {
             throughput.max_element().min(1.0)
         };
-        if u_light.w >= survive {
-            state.throughput = throughput.to_array();
-            return (None, shadow);
+        match roulette_f32(u_light.w, survive) {
+            Some(weight) => throughput *= weight,
+            None => {
+                state.throughput = throughput.to_array();
+                return (None, shadow);
+            }
         }
-        throughput /= survive;
     }
     state.throughput = throughput.to_array();
     (
