@@ -44,6 +44,8 @@ pub enum SamplerArg {
     Stratified,
     /// Every number independent.
     Independent,
+    /// Owen-scrambled, shuffled Sobol (0,2)-sequence over the pixel's samples for every 2-D pair.
+    Sobol,
 }
 
 impl SamplerArg {
@@ -51,6 +53,7 @@ impl SamplerArg {
         match self {
             SamplerArg::Stratified => wavetrace::layout::SAMPLER_STRATIFIED,
             SamplerArg::Independent => wavetrace::layout::SAMPLER_INDEPENDENT,
+            SamplerArg::Sobol => wavetrace::layout::SAMPLER_SOBOL,
         }
     }
 }
@@ -117,7 +120,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 2.0, value_parser = parse_beta)]
     pub mis_beta: f32,
     /// How each pixel's samples place their random pairs (pixel position, point on a light,
-    /// BSDF direction): N-rooks stratified, or independent.
+    /// BSDF direction): N-rooks stratified, independent, or Owen-scrambled Sobol.
     #[arg(long, value_enum, default_value_t = SamplerArg::Stratified)]
     pub sampler: SamplerArg,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.

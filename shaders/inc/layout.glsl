@@ -75,6 +75,7 @@ struct FrameParams {
 };
 #define SAMPLER_INDEPENDENT 0u
 #define SAMPLER_STRATIFIED 1u
+#define SAMPLER_SOBOL 2u
 #define DEBUG_NO_NEE 1u
 
 // Per-dispatch push constants; see src/layout.rs for the batch indexing. Total: 32 bytes.

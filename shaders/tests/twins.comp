@@ -1,6 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Runs the GLSL twins of src/sampling.rs, src/bsdf.rs, src/mis.rs and src/bvh.rs on inputs the
+// Runs the GLSL twins of src/sampling.rs, src/sobol.rs, src/bsdf.rs, src/mis.rs and src/bvh.rs on inputs the
 // test chooses, so tests/twins.rs can compare each function with its Rust twin and name the one
 // that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
 #include "layout.glsl"
@@ -18,7 +18,7 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bvh.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 13u
+#define OUTPUTS_PER_CASE 16u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -62,4 +62,12 @@ void main() {
     uint p = permute(i % n_perm, n_perm, key.x);
     vec2 strat = stratify2(key.x, i, i % 64u, 64u, key.y, u.zw);
     outputs[o + 12u] = vec4(uintBitsToFloat(p), strat, 0.0);
+
+    // Sobol points: a key's bits and the case number as indices, then keyed pairs.
+    outputs[o + 13u] = uintBitsToFloat(uvec4(sobol2(key.x), sobol2(i)));
+    uvec4 keys = sobol_keys(key.x, i, key.y);
+    outputs[o + 14u] = uintBitsToFloat(uvec4(laine_karras_permutation(key.y, key.z),
+                                             nested_uniform_scramble(key.z, key.x),
+                                             shuffled_scrambled_sobol2(i % 256u, keys)));
+    outputs[o + 15u] = vec4(sobol_pair(key.x, i, i % 64u, key.y), uintBitsToFloat(keys.xw));
 }
