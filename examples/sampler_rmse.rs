@@ -49,7 +49,9 @@ fn parse_options() -> Result<Options> {
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut number = |name: &str| -> Result<u32> {
-            let v = args.next().with_context(|| format!("{name} needs a value"))?;
+            let v = args
+                .next()
+                .with_context(|| format!("{name} needs a value"))?;
             let n: u32 = v.parse().with_context(|| format!("{name} {v}"))?;
             if n == 0 {
                 bail!("{name} must be positive");
@@ -84,7 +86,15 @@ struct Reference {
 /// (the chunk means' sample variance over `chunks`).
 fn reference(scene: &PreparedScene, o: &Options) -> Reference {
     let films: Vec<Film> = (0..o.chunks)
-        .map(|c| render(scene, o, SAMPLER_INDEPENDENT, o.chunk_spp, REFERENCE_SEED + c))
+        .map(|c| {
+            render(
+                scene,
+                o,
+                SAMPLER_INDEPENDENT,
+                o.chunk_spp,
+                REFERENCE_SEED + c,
+            )
+        })
         .collect();
     let n = o.chunks as f64;
     let pixels = films[0].len();
@@ -119,9 +129,8 @@ fn render(scene: &PreparedScene, o: &Options, sampler: u32, spp: u32, seed: u32)
 fn mse(film: &Film, r: &Reference) -> f64 {
     let mut total = 0.0;
     for p in 0..film.len() {
-        let m = film.mean_f64(p);
-        for c in 0..3 {
-            total += (m[c] - r.mean[p][c]).powi(2) - r.variance[p][c];
+        for (c, m) in film.mean_f64(p).iter().enumerate() {
+            total += (m - r.mean[p][c]).powi(2) - r.variance[p][c];
         }
     }
     total / (3 * film.len()) as f64

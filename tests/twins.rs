@@ -235,9 +235,7 @@ fn glsl_functions_equal_their_rust_twins() {
                 f32::from_bits(v.w),
             )
         };
-        let same_bits = |a: Vec4, b: Vec4| {
-            (0..4).all(|k| a[k].to_bits() == b[k].to_bits())
-        };
+        let same_bits = |a: Vec4, b: Vec4| (0..4).all(|k| a[k].to_bits() == b[k].to_bits());
         let (s_key, s_case) = (sobol2(c.key.x), sobol2(i as u32));
         check(
             13,

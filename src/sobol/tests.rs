@@ -92,7 +92,11 @@ fn scrambling_is_nested() {
             for j in 0..32 {
                 let t = nested_uniform_scramble(x ^ (1 << j), keys.y);
                 let above = !((2u64 << j) - 1) as u32;
-                assert_eq!(s & above, t & above, "x = {x:#x}, bit {j}: upper bits moved");
+                assert_eq!(
+                    s & above,
+                    t & above,
+                    "x = {x:#x}, bit {j}: upper bits moved"
+                );
                 assert_ne!(s, t, "x = {x:#x}, bit {j}: not a bijection");
             }
         }
@@ -119,7 +123,8 @@ fn scrambled_pairs_are_nets() {
         let mut seen = [false; 256];
         for u in &points {
             assert!((0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y));
-            let cell = ((u.y * (1 << (8 - a)) as f32) as usize) << a | (u.x * (1 << a) as f32) as usize;
+            let cell =
+                ((u.y * (1 << (8 - a)) as f32) as usize) << a | (u.x * (1 << a) as f32) as usize;
             assert!(!seen[cell], "sobol_pair: split {a}");
             seen[cell] = true;
         }
