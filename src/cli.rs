@@ -49,6 +49,8 @@ pub enum SamplerArg {
     Stratified,
     /// Every number independent.
     Independent,
+    /// Owen-scrambled, shuffled Sobol (0,2)-sequence over the pixel's samples for every 2-D pair.
+    Sobol,
 }
 
 impl SamplerArg {
@@ -56,6 +58,7 @@ impl SamplerArg {
         match self {
             SamplerArg::Stratified => wavetrace::layout::SAMPLER_STRATIFIED,
             SamplerArg::Independent => wavetrace::layout::SAMPLER_INDEPENDENT,
+            SamplerArg::Sobol => wavetrace::layout::SAMPLER_SOBOL,
         }
     }
 }
@@ -156,8 +159,8 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=1024))]
     pub rr_depth: u32,
     /// How each pixel's samples place their random pairs (pixel position, point on a light,
-    /// BSDF direction): N-rooks stratified, or independent.
-    #[arg(long, value_enum, default_value_t = SamplerArg::Stratified)]
+    /// BSDF direction): N-rooks stratified, independent, or Owen-scrambled Sobol.
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     pub sampler: SamplerArg,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]

@@ -136,6 +136,9 @@ pub const SAMPLER_INDEPENDENT: u32 = 0;
 /// `FrameParams::sampler_mode`: the 2-D pairs (pixel jitter, point on a light, BSDF direction) of a
 /// pixel's samples are N-rooks stratified (`sampling::stratify2`).
 pub const SAMPLER_STRATIFIED: u32 = 1;
+/// `FrameParams::sampler_mode`: each 2-D pair of each pixel is an Owen-scrambled, shuffled Sobol
+/// (0,2)-sequence over the pixel's samples (`sobol::sobol_pair`).
+pub const SAMPLER_SOBOL: u32 = 2;
 
 /// `FrameParams::rr_mode`: survival probability min(1, max throughput component) (the default).
 pub const RR_THROUGHPUT: u32 = 0;

@@ -13,6 +13,7 @@ pub mod mis;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod sobol;
 pub mod stats;
 
 /// The SPIR-V of every wavefront kernel, compiled from `shaders/` by build.rs.

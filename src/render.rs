@@ -5,7 +5,7 @@ use crate::bvh::{gpu_triangles, Bvh};
 use crate::film::Film;
 use crate::layout::{
     FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED, RR_THROUGHPUT,
-    SAMPLER_STRATIFIED,
+    SAMPLER_SOBOL,
 };
 use crate::mis::Heuristic;
 use crate::scene::{build_light_table, Camera, Scene};
@@ -28,7 +28,7 @@ pub struct RenderSettings {
     pub environment: Vec3,
     /// How emitter and BSDF sampling are combined (the power heuristic, β = 2, by default).
     pub mis: Heuristic,
-    /// `layout::SAMPLER_*`: stratified by default.
+    /// `layout::SAMPLER_*`: Owen-scrambled Sobol by default.
     pub sampler: u32,
     /// `layout::DEBUG_*` bits; 0 except in tests.
     pub debug_flags: u32,
@@ -46,7 +46,7 @@ impl Default for RenderSettings {
             rr_mode: RR_THROUGHPUT,
             environment: Vec3::ZERO,
             mis: Heuristic::Power(2.0),
-            sampler: SAMPLER_STRATIFIED,
+            sampler: SAMPLER_SOBOL,
             debug_flags: 0,
         }
     }

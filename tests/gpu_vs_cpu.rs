@@ -7,7 +7,7 @@ mod common;
 
 use common::{prepared, render_cpu, render_gpu, render_gpu_banded};
 use wavetrace::film::Film;
-use wavetrace::layout::{DEBUG_NO_NEE, SAMPLER_INDEPENDENT};
+use wavetrace::layout::{DEBUG_NO_NEE, SAMPLER_INDEPENDENT, SAMPLER_SOBOL};
 use wavetrace::mis::Heuristic;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::scene::Scene;
@@ -215,6 +215,22 @@ fn independent_and_stratified_samplers_agree() {
         &independent,
         &small(12),
         "independent (GPU) and stratified (CPU) samplers disagree",
+    );
+}
+
+/// The Sobol sampler on the GPU against the (default) stratified one on the CPU: same expectation.
+#[test]
+fn sobol_and_stratified_samplers_agree() {
+    let scene = prepared("cornell-box.gltf");
+    let sobol = RenderSettings {
+        sampler: SAMPLER_SOBOL,
+        ..small(16)
+    };
+    gpu_agrees_with_cpu(
+        &scene,
+        &sobol,
+        &small(17),
+        "Sobol (GPU) and stratified (CPU) samplers disagree",
     );
 }
 

@@ -273,7 +273,13 @@ fn quad_loads_with_framing_camera_and_default_material() {
         .iter()
         .all(|t| approx(unit_normal(t), Vec3::Z, 1e-6)));
     assert_eq!(scene.materials.len(), 1);
-    assert_eq!(scene.materials[0].base_color, Vec3::splat(0.8));
+    // glTF's default material: every property at its default.
+    let m = &scene.materials[0];
+    assert_eq!(m.base_color, Vec3::ONE);
+    assert_eq!(
+        (m.metallic, m.roughness, m.ior, m.specular),
+        (1.0, 1.0, 1.5, 1.0)
+    );
     assert!(scene.triangles.iter().all(|t| t.material == 0));
     let cam = scene.camera;
     assert_eq!((cam.forward, cam.up), (Vec3::NEG_Z, Vec3::Y));

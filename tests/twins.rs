@@ -18,10 +18,11 @@ use wavetrace::bvh::Ray;
 use wavetrace::layout::GpuMaterial;
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
+use wavetrace::sobol::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 18;
+const OUTPUTS_PER_CASE: usize = 21;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -346,6 +347,49 @@ fn glsl_functions_equal_their_rust_twins() {
             "roulette",
             Vec4::new(rr.map_or(0.0, |_| 1.0), rr.unwrap_or(1.0), 0.0, 0.0),
             &|a, b| close(a, b, ULP_TOL),
+        );
+
+        // Sobol points are integer arithmetic: bit for bit.
+        let bits = |v: UVec4| {
+            Vec4::new(
+                f32::from_bits(v.x),
+                f32::from_bits(v.y),
+                f32::from_bits(v.z),
+                f32::from_bits(v.w),
+            )
+        };
+        let same_bits = |a: Vec4, b: Vec4| (0..4).all(|k| a[k].to_bits() == b[k].to_bits());
+        let (s_key, s_case) = (sobol2(c.key.x), sobol2(i as u32));
+        check(
+            18,
+            "sobol2",
+            bits(UVec4::new(s_key.x, s_key.y, s_case.x, s_case.y)),
+            &same_bits,
+        );
+        let keys = sobol_keys(c.key.x, i as u32, c.key.y);
+        let shuffled = shuffled_scrambled_sobol2(i as u32 % 256, keys);
+        check(
+            19,
+            "laine_karras_permutation / nested_uniform_scramble / shuffled_scrambled_sobol2",
+            bits(UVec4::new(
+                laine_karras_permutation(c.key.y, c.key.z),
+                nested_uniform_scramble(c.key.z, c.key.x),
+                shuffled.x,
+                shuffled.y,
+            )),
+            &same_bits,
+        );
+        let pair = sobol_pair(c.key.x, i as u32, i as u32 % 64, c.key.y);
+        check(
+            20,
+            "sobol_pair / sobol_keys",
+            Vec4::new(
+                pair.x,
+                pair.y,
+                f32::from_bits(keys.x),
+                f32::from_bits(keys.w),
+            ),
+            &same_bits,
         );
     }
     assert!(

@@ -81,6 +81,7 @@ struct FrameParams {
 };
 #define SAMPLER_INDEPENDENT 0u
 #define SAMPLER_STRATIFIED 1u
+#define SAMPLER_SOBOL 2u
 #define RR_THROUGHPUT 0u
 #define RR_ALBEDO 1u
 #define RR_OFF 2u

@@ -67,4 +67,7 @@ vec2 stratify2(uint seed, uint pixel, uint sample_index, uint spp, uint dimensio
     return min((vec2(sx, sy) + jitter) * inv, vec2(ONE_MINUS_EPSILON));
 }
 
+// The Sobol sampler, built on pcg4d and uint_to_unit_float above.
+#include "sobol.glsl"
+
 #endif

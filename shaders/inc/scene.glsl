@@ -10,10 +10,15 @@ void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
 }
 
 // The pair (u.x, u.y) of dimension `dimension` (block * 4 + first component) of a path's sample,
-// stratified over the pixel's samples when the frame asks for it (src/cpu/path.rs, sample_pair).
+// as the frame's sampler places it: N-rooks, Owen-scrambled Sobol or u itself (src/cpu/path.rs).
 vec2 sample_pair(uint pixel, uint sample_index, uint dimension, vec2 u) {
-    if (frame.sampler_mode != SAMPLER_STRATIFIED) return u;
-    return stratify2(frame.seed, pixel, sample_index, frame.spp, dimension, u);
+    if (frame.sampler_mode == SAMPLER_STRATIFIED) {
+        return stratify2(frame.seed, pixel, sample_index, frame.spp, dimension, u);
+    }
+    if (frame.sampler_mode == SAMPLER_SOBOL) {
+        return sobol_pair(frame.seed, pixel, sample_index, dimension);
+    }
+    return u;
 }
 
 // Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.

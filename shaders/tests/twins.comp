@@ -1,8 +1,8 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Runs the GLSL twins of src/sampling.rs, src/bsdf/, src/mis.rs and src/bvh.rs on inputs the
-// test chooses, so tests/twins.rs can compare each function with its Rust twin and name the one
-// that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
+// Runs the GLSL twins of src/sampling.rs, src/sobol.rs, src/bsdf/, src/mis.rs and src/bvh.rs on
+// inputs the test chooses, so tests/twins.rs can compare each function with its Rust twin and
+// name the one that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
 #include "layout.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Inputs { vec4 inputs[]; };
@@ -18,7 +18,7 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bvh.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 18u
+#define OUTPUTS_PER_CASE 21u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -96,4 +96,11 @@ void main() {
     float rr_weight;
     bool survives = roulette(u.x, u.y * 1.2, rr_weight);
     outputs[o + 17u] = vec4(survives ? 1.0 : 0.0, rr_weight, 0.0, 0.0);
+    // Sobol points: a key's bits and the case number as indices, then keyed pairs.
+    outputs[o + 18u] = uintBitsToFloat(uvec4(sobol2(key.x), sobol2(i)));
+    uvec4 keys = sobol_keys(key.x, i, key.y);
+    outputs[o + 19u] = uintBitsToFloat(uvec4(laine_karras_permutation(key.y, key.z),
+                                             nested_uniform_scramble(key.z, key.x),
+                                             shuffled_scrambled_sobol2(i % 256u, keys)));
+    outputs[o + 20u] = vec4(sobol_pair(key.x, i, i % 64u, key.y), uintBitsToFloat(keys.xw));
 }

@@ -47,12 +47,16 @@ pub fn path_pixel_sample(
 }
 
 /// The pair (u.x, u.y) of dimension `dimension` (block · 4 + first component) of a path's
-/// sample, stratified over the pixel's samples when the frame asks for it (scene.glsl).
+/// sample, as the frame's sampler places it over the pixel's samples: N-rooks stratified,
+/// Owen-scrambled Sobol, or `u` itself (independent) (scene.glsl).
 pub fn sample_pair(frame: &FrameParams, pixel: u32, sample: u32, dimension: u32, u: Vec2) -> Vec2 {
-    if frame.sampler_mode != SAMPLER_STRATIFIED {
-        return u;
+    match frame.sampler_mode {
+        SAMPLER_STRATIFIED => stratify2(frame.seed, pixel, sample, frame.spp, dimension, u),
+        crate::layout::SAMPLER_SOBOL => {
+            crate::sobol::sobol_pair(frame.seed, pixel, sample, dimension)
+        }
+        _ => u,
     }
-    stratify2(frame.seed, pixel, sample, frame.spp, dimension, u)
 }
 
 /// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
