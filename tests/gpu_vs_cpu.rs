@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::{prepared, render_cpu, render_gpu, render_gpu_banded};
+use common::{
+    assert_agree, gpu_agrees_with_cpu, prepared, render_cpu, render_gpu, render_gpu_banded,
+};
 use wavetrace::film::Film;
 use wavetrace::layout::{DEBUG_NO_NEE, SAMPLER_INDEPENDENT, SAMPLER_SOBOL};
 use wavetrace::mis::Heuristic;
@@ -31,33 +33,6 @@ fn small(seed: u32) -> RenderSettings {
         spp: 128,
         ..settings(seed)
     }
-}
-
-/// Renders `gpu_settings` on the GPU and `cpu_settings` on the CPU (their seeds must differ, so
-/// the films are independent samples), checks that neither dropped a sample and that they agree;
-/// returns the CPU film, or `None` without a GPU.
-fn gpu_agrees_with_cpu(
-    scene: &PreparedScene,
-    gpu_settings: &RenderSettings,
-    cpu_settings: &RenderSettings,
-    what: &str,
-) -> Option<Film> {
-    assert_ne!(
-        gpu_settings.seed, cpu_settings.seed,
-        "the two sides need different seeds"
-    );
-    let gpu = render_gpu(scene, gpu_settings, None)?;
-    let cpu = render_cpu(scene, cpu_settings);
-    assert_eq!(gpu.film.dropped, 0, "GPU dropped NaN/Inf samples");
-    assert_eq!(cpu.film.dropped, 0, "CPU dropped NaN/Inf samples");
-    assert_agree(&gpu.film, &cpu.film, what);
-    Some(cpu.film)
-}
-
-/// Fails with the comparison's report (which tiles, which channels) unless the films agree.
-fn assert_agree(gpu: &Film, cpu: &Film, what: &str) {
-    let cmp = compare(gpu, cpu);
-    assert!(cmp.passed(), "{what}:\n{cmp}");
 }
 
 /// The acceptance render: `--width 64 --height 64 --spp 512 --max-depth 7`.

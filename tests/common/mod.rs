@@ -5,9 +5,11 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
+use wavetrace::film::Film;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings};
 use wavetrace::scene::Scene;
+use wavetrace::stats::compare_films;
 
 pub fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -78,4 +80,38 @@ pub fn render_gpu_banded(
 
 pub fn render_cpu(scene: &PreparedScene, settings: &RenderSettings) -> RenderOutput {
     wavetrace::cpu::render(scene, settings)
+}
+
+/// Renders `gpu_settings` on the GPU and `cpu_settings` on the CPU (their seeds must differ, so
+/// the films are independent samples), checks that neither dropped a sample and that they agree;
+/// returns the CPU film, or `None` without a GPU.
+pub fn gpu_agrees_with_cpu(
+    scene: &PreparedScene,
+    gpu_settings: &RenderSettings,
+    cpu_settings: &RenderSettings,
+    what: &str,
+) -> Option<Film> {
+    assert_ne!(
+        gpu_settings.seed, cpu_settings.seed,
+        "the two sides need different seeds"
+    );
+    let gpu = render_gpu(scene, gpu_settings, None)?;
+    let cpu = render_cpu(scene, cpu_settings);
+    assert_eq!(gpu.film.dropped, 0, "GPU dropped NaN/Inf samples");
+    assert_eq!(cpu.film.dropped, 0, "CPU dropped NaN/Inf samples");
+    assert_agree(&gpu.film, &cpu.film, what);
+    Some(cpu.film)
+}
+
+/// Fails with the comparison's report (which tiles, which channels) unless the films agree.
+pub fn assert_agree(gpu: &Film, cpu: &Film, what: &str) {
+    assert_agree_at(gpu, cpu, 0.01, what);
+}
+
+/// [`assert_agree`] at family-wise level `alpha` over the tiles × channels of this comparison
+/// (a test making several comparisons passes α Šidák-corrected over them).
+pub fn assert_agree_at(gpu: &Film, cpu: &Film, alpha: f64, what: &str) {
+    let cmp = compare_films(gpu, cpu, 8, alpha).unwrap();
+    println!("{what}: {cmp}");
+    assert!(cmp.passed(), "{what}:\n{cmp}");
 }
