@@ -379,3 +379,59 @@ fn material_scenes_agree_between_gpu_and_cpu_and_across_modes() {
         }
     }
 }
+
+#[test]
+fn khronos_material_samples_render_alike_on_gpu_and_cpu() {
+    // Factor-only glTF files from ../shared/gltf-samples (skipped where that folder is absent):
+    // their metallic, roughness and transmission factors are read, and the GPU render of each
+    // under a white environment agrees with the CPU reference.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid");
+    if !dir.is_dir() {
+        eprintln!("skipping: ../shared/gltf-samples not found");
+        return;
+    }
+    let metal = Scene::load(&dir.join("MetalRoughSpheresNoTextures.glb")).unwrap();
+    let values = |f: &dyn Fn(&Material) -> f32| {
+        let mut v: Vec<f32> = metal.materials.iter().map(f).collect();
+        v.sort_by(f32::total_cmp);
+        v.dedup();
+        v
+    };
+    assert!(
+        values(&|m| m.metallic).len() >= 5,
+        "metallic factors: {:?}",
+        values(&|m| m.metallic)
+    );
+    assert!(
+        values(&|m| m.roughness).len() >= 5,
+        "roughness factors: {:?}",
+        values(&|m| m.roughness)
+    );
+    let glass = Scene::load(&dir.join("TransmissionTest.glb")).unwrap();
+    assert!(glass.materials.iter().any(|m| m.transmission > 0.0));
+    let settings = |seed| RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 64,
+        seed,
+        environment: Vec3::ONE,
+        ..RenderSettings::default()
+    };
+    for (name, scene) in [
+        ("MetalRoughSpheresNoTextures", metal),
+        ("TransmissionTest", glass),
+    ] {
+        let prepared = PreparedScene::new(&scene);
+        let cpu = render_cpu(&prepared, &settings(2)).film;
+        assert_eq!(cpu.dropped, 0, "{name}: CPU dropped samples");
+        if let Some(gpu) = render_gpu(&prepared, &settings(1), None) {
+            assert_eq!(gpu.film.dropped, 0, "{name}: GPU dropped samples");
+            assert_agree_at(
+                &gpu.film,
+                &cpu,
+                sidak(0.01, 2),
+                &format!("{name}: GPU against CPU"),
+            );
+        }
+    }
+}
