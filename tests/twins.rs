@@ -64,7 +64,7 @@ fn twin_material(i: u32) -> GpuMaterial {
         metallic: [0.0, 1.0, 0.0, 0.5][k as usize],
         transmission: [0.0, 0.0, 1.0, 0.5][k as usize],
         ior: 1.5,
-        specular: if (i / 16) % 2 == 0 { 1.0 } else { 0.5 },
+        specular: if (i / 16).is_multiple_of(2) { 1.0 } else { 0.5 },
         ..Default::default()
     }
 }

@@ -147,11 +147,11 @@ impl BsdfFrame {
         })
     }
 
-    fn to_local(&self, v: Vec3) -> Vec3 {
+    fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
-    fn to_world(&self, v: Vec3) -> Vec3 {
+    fn to_world(self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
 
@@ -295,7 +295,7 @@ impl BsdfFrame {
             return None;
         }
         let pdf = self.pdf_local(wi);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
         Some(BsdfSample {
