@@ -8,6 +8,7 @@ mod common;
 use common::{assert_agree_at, prepared, render_cpu, render_gpu};
 use glam::Vec3;
 use std::f32::consts::PI;
+use wavetrace::bsdf::microfacet::{dielectric_f0, fresnel_conductor, fresnel_dielectric};
 use wavetrace::bsdf::{bsdf_eval, TransportMode};
 use wavetrace::film::Film;
 use wavetrace::layout::{GpuMaterial, RR_ALBEDO, RR_OFF, SAMPLER_INDEPENDENT, SAMPLER_STRATIFIED};
@@ -156,6 +157,8 @@ fn plane_under_white_environment_shows_the_directional_albedo() {
         material(Vec3::splat(0.8), 0.0, 0.5, 0.0), // rough plastic
         material(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.4, 0.0), // rough copper-like metal
         material(Vec3::new(0.2, 0.5, 0.9), 0.5, 0.7, 0.0), // half metal
+        material(Vec3::splat(0.8), 0.0, 0.0, 0.0), // smooth plastic: delta + diffuse
+        material(Vec3::new(0.9, 0.6, 0.3), 0.5, 0.0, 0.0), // smooth half metal
     ] {
         let prepared = scene(plane.clone(), m.clone(), camera);
         let settings = RenderSettings {
@@ -174,7 +177,16 @@ fn plane_under_white_environment_shows_the_directional_albedo() {
         let expected: Vec<Vec3> = (0..36)
             .map(|i| {
                 let d = wavetrace::cpu::camera_ray_direction(&frame, i, glam::Vec2::splat(0.5));
-                directional_albedo(&gm, -d)
+                // The delta mirror lobe (roughness 0) adds its Fresnel weight at cos θo exactly.
+                let cos = -d.z;
+                let mirror = if gm.roughness == 0.0 {
+                    (1.0 - gm.metallic)
+                        * fresnel_dielectric(cos, dielectric_f0(gm.ior), 1.0, gm.ior)
+                        + gm.metallic * fresnel_conductor(Vec3::from(gm.base_color), cos)
+                } else {
+                    Vec3::ZERO
+                };
+                directional_albedo(&gm, -d) + mirror
             })
             .collect();
         let who = format!(
