@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
 use wavetrace::layout::{BvhNode, GpuTriangle, LightEntry};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
-use wavetrace::scene::{Budget, LoadOptions, Scene, Triangle};
+use wavetrace::scene::{Budget, LoadOptions, Scene};
 
 /// Largest image the film may hold (pixels), far above any real render.
 const MAX_PIXELS: u64 = 1 << 26;
@@ -76,15 +76,6 @@ fn scenes_dir() -> PathBuf {
     }
 }
 
-/// Memory one triangle takes while the scene is prepared for rendering: its corners and
-/// material, the BVH builder's bounds reference (two boxes' corners and an id), up to two
-/// BVH nodes, the intersector's triangle, a light-table entry and the BVH order.
-const PREPARE_BYTES_PER_TRIANGLE: u64 = (size_of::<Triangle>()
-    + 28
-    + 2 * size_of::<BvhNode>()
-    + size_of::<GpuTriangle>()
-    + size_of::<LightEntry>()
-    + 4) as u64;
 /// Memory per triangle of the GPU uploads: staging and device copies of the BVH nodes,
 /// triangles and light table (on a CPU Vulkan device both live in host memory).
 const GPU_BYTES_PER_TRIANGLE: u64 =
@@ -97,16 +88,9 @@ fn load(path: &Path) -> Result<(Scene, PreparedScene)> {
     load_with(path, &LoadOptions::default())
 }
 
-/// Loads a scene and prepares it (BVH), reserving the preparation's memory in the budget first.
+/// Loads a scene and prepares it (BVH); the loader reserved the preparation's memory.
 fn load_with(path: &Path, options: &LoadOptions) -> Result<(Scene, PreparedScene)> {
     let scene = Scene::load_with(path, options)?;
-    options
-        .budget
-        .reserve(
-            &format!("the BVH of {} triangles", scene.triangles.len()),
-            scene.triangles.len() as u64 * PREPARE_BYTES_PER_TRIANGLE,
-        )
-        .with_context(|| format!("cannot render {}", path.display()))?;
     let prepared = PreparedScene::new(&scene);
     Ok((scene, prepared))
 }

@@ -1,12 +1,25 @@
 //! What a scene file may make wavetrace do: the folders it may read from and the memory it may
 //! take. A glTF file is untrusted input (README, "Running on untrusted files").
 
+use super::Triangle;
+use crate::layout::{BvhNode, GpuTriangle, LightEntry};
 use anyhow::{bail, Result};
+use std::mem::size_of;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The share of the machine's physical memory that the default budget allows.
 pub const DEFAULT_MEMORY_FRACTION: f64 = 0.5;
+
+/// Memory one triangle takes while the scene is prepared for rendering (`PreparedScene`): its
+/// corners and material, the BVH builder's bounds reference (two corners and an id), up to
+/// two BVH nodes, the intersector's triangle, a light-table entry and the BVH order.
+pub const PREPARE_BYTES_PER_TRIANGLE: u64 = (size_of::<Triangle>()
+    + 28
+    + 2 * size_of::<BvhNode>()
+    + size_of::<GpuTriangle>()
+    + size_of::<LightEntry>()
+    + 4) as u64;
 
 /// The budget when the machine's memory cannot be determined.
 const FALLBACK_MEMORY: u64 = 4 << 30;

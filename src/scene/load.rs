@@ -21,7 +21,7 @@
 use super::accessors::{element_bytes, read_indices, read_positions, triangle_corners};
 use super::buffers::{check_image_uris, load_buffers};
 use super::json::{parse_value, split_container, typed_root, validation_message};
-use super::limits::{format_bytes, Budget, LoadOptions};
+use super::limits::{format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_TRIANGLE};
 use super::validate::check_document;
 use super::{bounds_of, Camera, Material, Scene, Triangle};
 use anyhow::{anyhow, bail, Context, Result};
@@ -82,7 +82,7 @@ fn read_scene_file(path: &Path, budget: &Budget) -> Result<Vec<u8>> {
 fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
     let bytes = read_scene_file(path, &options.budget)?;
     if bytes.is_empty() {
-        bail!("the file is empty (expected glTF JSON or binary glTF)");
+        bail!("the top level: the file is empty, expected glTF JSON or binary glTF");
     }
     let container = split_container(&bytes)?;
     let text = &bytes[container.json.clone()];
@@ -156,6 +156,15 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
             builder.skipped_primitives
         );
     }
+    // Reserved here rather than by the renderer so that every caller of the loader is bounded.
+    options.budget.reserve(
+        &format!(
+            "{}: the BVH and render data of {} triangles",
+            label("scene", scene.index(), scene.name()),
+            builder.triangles.len()
+        ),
+        builder.triangles.len() as u64 * PREPARE_BYTES_PER_TRIANGLE,
+    )?;
     let notes = notes(&document, &builder);
     let camera = builder
         .camera
