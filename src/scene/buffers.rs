@@ -64,11 +64,15 @@ pub(super) fn load_buffers(
 }
 
 /// The URI for a message: data URIs can be megabytes long.
+/// Other URIs are quoted with control characters escaped and cut after 200 characters.
 fn describe_uri(uri: &str) -> String {
     if uri.starts_with("data:") {
         format!("its data: URI ({} characters)", uri.len())
+    } else if uri.chars().count() > 200 {
+        let head: String = uri.chars().take(200).collect();
+        format!("{head:?}… ({} characters)", uri.chars().count())
     } else {
-        format!("\"{uri}\"")
+        format!("{uri:?}")
     }
 }
 
@@ -86,7 +90,7 @@ pub(super) fn check_image_uris(
         if uri.starts_with("data:") {
             continue;
         }
-        let refuse = |e: anyhow::Error| anyhow!("images[{i}].uri: \"{uri}\": {e:#}");
+        let refuse = |e: anyhow::Error| anyhow!("images[{i}].uri: {}: {e:#}", describe_uri(uri));
         let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy();
         // A missing texture inside the folder is no error: it would not be shown anyway.
         let relative = Path::new(decoded.as_ref());

@@ -148,7 +148,7 @@ pub(super) fn typed_root(value: Value) -> Result<gltf::json::Root> {
         anyhow!(
             "{}: {}",
             path_name(&e.path().to_string()),
-            plain_message(&e.inner().to_string())
+            printable(&plain_message(&e.inner().to_string()))
         )
     })
 }
@@ -169,20 +169,44 @@ pub(super) fn validation_message(error: gltf::Error) -> anyhow::Error {
                 E::Oversize => "the size exceeds what this machine can address",
                 E::Unsupported => "an unsupported extension",
             };
-            format!("{path}: {problem}")
+            format!("{}: {problem}", printable(&path.to_string()))
         })
         .collect();
-    anyhow!("{}", problems.join("; "))
+    let more = problems.len().saturating_sub(MAX_LISTED_PROBLEMS);
+    let mut message = problems[..problems.len().min(MAX_LISTED_PROBLEMS)].join("; ");
+    if more > 0 {
+        message += &format!("; and {more} more problems");
+    }
+    anyhow!("{message}")
 }
 
 /// "the top level" for the root, the path otherwise.
+/// Validation problems listed in one message; the rest are counted.
+const MAX_LISTED_PROBLEMS: usize = 8;
+
+/// Text from the file as it may appear in a message: control characters (terminal escapes
+/// included) escaped.
+pub(super) fn printable(text: &str) -> String {
+    text.chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            escaped
+        })
+        .collect()
+}
+
 /// Paths deeper than this many characters are cut in messages (a hostile file can nest 128
 /// arrays).
 const MAX_PATH_CHARS: usize = 160;
 
 pub(super) fn path_name(path: &str) -> String {
     // serde_path_to_error writes `?` for a member whose key was not read yet.
-    let path = path.trim_end_matches(".?").trim_end_matches('?');
+    let path = printable(path.trim_end_matches(".?").trim_end_matches('?'));
+    let path = path.as_str();
     if path.is_empty() || path == "." {
         "the top level".to_owned()
     } else if path.len() > MAX_PATH_CHARS {

@@ -101,7 +101,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
     for ext in &root.extensions_required {
         if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
             bail!(
-                "extensionsRequired: the file requires the glTF extension {ext}, which wavetrace \
+                "extensionsRequired: the file requires the glTF extension {ext:?}, which wavetrace \
                  does not support (supported: {})",
                 SUPPORTED_EXTENSIONS.join(", ")
             );

@@ -3,7 +3,7 @@
 //! accessors unwrap (a camera whose `type` names an absent projection object panics).
 //! Every index is checked here as a 64-bit integer against the array it refers to.
 
-use super::json::kind;
+use super::json::{kind, printable};
 use anyhow::{bail, Result};
 use serde_json::Value;
 
@@ -76,9 +76,9 @@ fn visit(value: &Value, segments: &[&str], path: String, f: &mut dyn FnMut(Strin
     };
     let join = |key: &str| {
         if path.is_empty() {
-            key.to_owned()
+            printable(key)
         } else {
-            format!("{path}.{key}")
+            format!("{path}.{}", printable(key))
         }
     };
     if let Some(key) = first.strip_suffix("[]") {
