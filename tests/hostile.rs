@@ -139,3 +139,27 @@ fn a_named_pipe_is_refused_without_blocking() {
         run.stderr
     );
 }
+
+/// A valid scene under a budget too small for it is refused with what it would have needed.
+#[test]
+fn a_small_budget_refuses_with_the_memory_needed() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
+    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(["render", "--device", "cpu", "--spp", "1", "--width", "1", "--height", "1"])
+        .args(["--max-memory", "20K", "-o", "/nonexistent/never-written.png"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("would need") && stderr.contains("20.00 KiB (--max-memory)"),
+        "{stderr}"
+    );
+    let bad = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(["render", "--max-memory", "lots"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+}
