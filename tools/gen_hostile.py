@@ -142,6 +142,8 @@ def cases():
     # 3. Memory.
     yield "memory_instancing.gltf", instancing_bomb(400, 60000), 1, \
         ["meshes[0].primitives[0]", "memory budget", "triangles"], []
+    # Just inside the budget: it renders, and the process stays within budget + footprint.
+    yield "memory_instancing_fits.gltf", instancing_bomb(12, 60000), 0, [], []
     yield "memory_zero_accessor.gltf", edit(q, lambda d: (
         d["accessors"][0].pop("bufferView"),
         d["accessors"][0].update(count=1 << 26, sparse={
