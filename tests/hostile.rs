@@ -116,7 +116,7 @@ fn every_hostile_file_gives_its_expected_outcome_within_the_memory_budget() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// A named pipe next to the scene is refused without blocking on it (the corpus cannot hold
+/// A named pipe, as the scene or next to it, is refused without blocking on it (the corpus cannot hold
 /// one: git stores no pipes).
 #[test]
 fn a_named_pipe_is_refused_without_blocking() {
@@ -131,7 +131,14 @@ fn a_named_pipe_is_refused_without_blocking() {
         .replace("link-out.bin", "pipe.bin");
     std::fs::write(dir.join("pipe.gltf"), scene).unwrap();
     let run = render(&dir.join("pipe.gltf"), &[], "fifo");
+    let as_scene = render(&fifo, &[], "fifo-scene");
     std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(as_scene.status.code(), Some(1), "{}", as_scene.stderr);
+    assert!(
+        as_scene.stderr.contains("not a regular file"),
+        "{}",
+        as_scene.stderr
+    );
     assert_eq!(run.status.code(), Some(1), "{}", run.stderr);
     assert!(
         run.stderr.contains("buffers[0].uri") && run.stderr.contains("not a regular file"),
@@ -145,8 +152,15 @@ fn a_named_pipe_is_refused_without_blocking() {
 fn a_small_budget_refuses_with_the_memory_needed() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
     let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-        .args(["render", "--device", "cpu", "--spp", "1", "--width", "1", "--height", "1"])
-        .args(["--max-memory", "20K", "-o", "/nonexistent/never-written.png"])
+        .args([
+            "render", "--device", "cpu", "--spp", "1", "--width", "1", "--height", "1",
+        ])
+        .args([
+            "--max-memory",
+            "20K",
+            "-o",
+            "/nonexistent/never-written.png",
+        ])
         .arg(&scene)
         .output()
         .unwrap();

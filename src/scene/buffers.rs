@@ -193,9 +193,9 @@ fn escapes(relative: &Path) -> bool {
     false
 }
 
-/// At most `length` bytes of a regular file (devices, pipes and folders are refused, and the
-/// file is opened without blocking so that a pipe cannot stall the load).
-fn read_regular_file(path: &Path, length: usize) -> Result<Vec<u8>> {
+/// A file opened for reading if it is a regular file (devices, pipes and folders are refused,
+/// and it is opened without blocking so that a pipe cannot stall the load), with its size.
+pub(super) fn open_regular(path: &Path) -> Result<(std::fs::File, u64)> {
     let mut open = std::fs::OpenOptions::new();
     open.read(true);
     #[cfg(unix)]
@@ -203,15 +203,22 @@ fn read_regular_file(path: &Path, length: usize) -> Result<Vec<u8>> {
     let file = open
         .open(path)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    let metadata = file.metadata()?;
+    let metadata = file
+        .metadata()
+        .with_context(|| format!("cannot read {}", path.display()))?;
     if !metadata.is_file() {
         bail!("{} is not a regular file, expected one", path.display());
     }
-    if metadata.len() < length as u64 {
+    Ok((file, metadata.len()))
+}
+
+/// At most `length` bytes of a regular file.
+fn read_regular_file(path: &Path, length: usize) -> Result<Vec<u8>> {
+    let (file, size) = open_regular(path)?;
+    if size < length as u64 {
         bail!(
-            "{} has {} bytes, fewer than the declared byteLength {length}",
-            path.display(),
-            metadata.len()
+            "{} has {size} bytes, fewer than the declared byteLength {length}",
+            path.display()
         );
     }
     let mut data = Vec::with_capacity(length);

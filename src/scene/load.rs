@@ -19,7 +19,7 @@
 //! ignored, quantized positions are an error).
 
 use super::accessors::{element_bytes, read_indices, read_positions, triangle_corners};
-use super::buffers::{check_image_uris, load_buffers};
+use super::buffers::{check_image_uris, load_buffers, open_regular};
 use super::json::{parse_value, split_container, typed_root, validation_message};
 use super::limits::{format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_TRIANGLE};
 use super::validate::check_document;
@@ -63,17 +63,10 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
 
 /// The scene file's bytes: a regular file, no larger than the memory budget allows.
 fn read_scene_file(path: &Path, budget: &Budget) -> Result<Vec<u8>> {
-    let file = std::fs::File::open(path).context("cannot read the file")?;
-    let metadata = file.metadata().context("cannot read the file")?;
-    if !metadata.is_file() {
-        bail!("it is not a regular file, expected a .gltf or .glb file");
-    }
-    budget.reserve(
-        &format!("the file ({})", format_bytes(metadata.len())),
-        metadata.len(),
-    )?;
-    let mut bytes = Vec::with_capacity(metadata.len() as usize);
-    file.take(metadata.len())
+    let (file, size) = open_regular(path)?;
+    budget.reserve(&format!("the file ({})", format_bytes(size)), size)?;
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(size)
         .read_to_end(&mut bytes)
         .context("cannot read the file")?;
     Ok(bytes)
