@@ -177,3 +177,37 @@ fn a_small_budget_refuses_with_the_memory_needed() {
         .unwrap();
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// The corpus is exactly what tools/gen_hostile.py writes (skipped without python3).
+#[test]
+fn the_corpus_matches_its_generator() {
+    let out = std::env::temp_dir().join(format!("wavetrace-gen-hostile-{}", std::process::id()));
+    let status = Command::new("python3")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/gen_hostile.py"))
+        .arg(&out)
+        .status();
+    let Ok(status) = status else {
+        eprintln!("skipping: python3 is not installed");
+        return;
+    };
+    assert!(status.success(), "tools/gen_hostile.py failed");
+    let expect: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("expect.json")).unwrap()).unwrap();
+    let mut names: Vec<String> = vec!["expect.json".into(), "quad.bin".into()];
+    names.extend(
+        expect
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["file"].as_str().unwrap().to_owned()),
+    );
+    for name in names {
+        let generated = std::fs::read(out.join(&name)).unwrap();
+        let committed = std::fs::read(corpus().join(&name)).unwrap();
+        assert!(
+            generated == committed,
+            "tests/hostile/{name} differs from what tools/gen_hostile.py writes; run it and commit"
+        );
+    }
+    std::fs::remove_dir_all(&out).ok();
+}
