@@ -174,6 +174,14 @@ pub struct RenderArgs {
     /// Run with the Vulkan validation layer (when installed); its errors fail the render.
     #[arg(long)]
     pub validate: bool,
+    /// A folder besides the scene's own that buffer and image URIs may read from (repeatable).
+    /// Without it, wavetrace reads only files inside the scene file's folder.
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_paths: Vec<PathBuf>,
+    /// Memory the scene may take: file, buffers, triangles, BVH, film and GPU uploads, e.g.
+    /// 512M or 4G (default: half the machine's physical memory).
+    #[arg(long, value_parser = wavetrace::scene::parse_size, value_name = "SIZE")]
+    pub max_memory: Option<u64>,
 }
 
 #[derive(Args, Debug, Clone)]

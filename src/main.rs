@@ -6,11 +6,13 @@ use anyhow::{bail, Context as _, Result};
 use clap::Parser;
 use cli::{BenchArgs, Cli, Command, CompareArgs, DeviceKind, EstimatorsArgs, RenderArgs};
 use indicatif::{ProgressBar, ProgressStyle};
+use std::mem::size_of;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
+use wavetrace::layout::{BvhNode, GpuTriangle, LightEntry};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
-use wavetrace::scene::Scene;
+use wavetrace::scene::{Budget, LoadOptions, Scene};
 
 /// Largest image the film may hold (pixels), far above any real render.
 const MAX_PIXELS: u64 = 1 << 26;
@@ -84,10 +86,44 @@ fn scenes_dir() -> PathBuf {
     }
 }
 
+/// Memory per triangle of the GPU uploads: staging and device copies of the BVH nodes,
+/// triangles and light table (on a CPU Vulkan device both live in host memory).
+const GPU_BYTES_PER_TRIANGLE: u64 =
+    2 * (2 * size_of::<BvhNode>() + size_of::<GpuTriangle>() + size_of::<LightEntry>()) as u64;
+/// Film memory per pixel: mean and variance accumulators and the sample count, on the host and
+/// (for GPU renders) on the device.
+const FILM_BYTES_PER_PIXEL: u64 = 32;
+
 fn load(path: &Path) -> Result<(Scene, PreparedScene)> {
-    let scene = Scene::load(path)?;
+    load_with(path, &LoadOptions::default())
+}
+
+/// Loads a scene and prepares it (BVH); the loader reserved the preparation's memory.
+fn load_with(path: &Path, options: &LoadOptions) -> Result<(Scene, PreparedScene)> {
+    let scene = Scene::load_with(path, options)?;
     let prepared = PreparedScene::new(&scene);
     Ok((scene, prepared))
+}
+
+/// Reserves the film and, on the GPU, the scene's uploads.
+fn reserve_render_memory(
+    budget: &Budget,
+    triangles: usize,
+    pixels: u64,
+    device: DeviceKind,
+) -> Result<()> {
+    let copies = if device == DeviceKind::Gpu { 2 } else { 1 };
+    budget.reserve(
+        &format!("the film of {pixels} pixels"),
+        pixels * FILM_BYTES_PER_PIXEL * copies,
+    )?;
+    if device == DeviceKind::Gpu {
+        budget.reserve(
+            &format!("the GPU uploads of {triangles} triangles"),
+            triangles as u64 * GPU_BYTES_PER_TRIANGLE,
+        )?;
+    }
+    Ok(())
 }
 
 fn print_stats(stats: &RenderStats, per_kernel: bool) {
@@ -128,7 +164,14 @@ fn render(args: &RenderArgs) -> Result<()> {
         .scene
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
-    let (scene, prepared) = load(&path)?;
+    let options = LoadOptions {
+        allow_paths: args.allow_paths.clone(),
+        budget: Budget::new(
+            args.max_memory
+                .unwrap_or_else(wavetrace::scene::default_memory_budget),
+        ),
+    };
+    let (scene, prepared) = load_with(&path, &options)?;
     let (width, height) = image_size(args.width, args.height, scene.camera.aspect_ratio);
     if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
         bail!(
@@ -136,6 +179,12 @@ fn render(args: &RenderArgs) -> Result<()> {
              render a smaller image"
         );
     }
+    reserve_render_memory(
+        &options.budget,
+        prepared.triangles.len(),
+        width as u64 * height as u64,
+        args.device,
+    )?;
     let output = args.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
             "{}.png",

@@ -361,7 +361,7 @@ fn malformed_inputs_name_the_object_and_problem() {
             r#""nodes": [{"mesh": 0 }]"#,
             r#""nodes": [{"mesh": 0, "children": [1]}, {"children": [0]}]"#,
         ),
-        &["node loop", "node 0"],
+        &["node loop", "nodes[0]"],
     );
     expect_error(
         "two-parents",
@@ -369,7 +369,7 @@ fn malformed_inputs_name_the_object_and_problem() {
             r#""scenes": [{"nodes": [0]}]"#,
             r#""scenes": [{"nodes": [0, 0]}]"#,
         ),
-        &["node 0", "reached"],
+        &["nodes[0]", "reached"],
     );
     expect_error(
         "required-ext",
@@ -387,7 +387,7 @@ fn malformed_inputs_name_the_object_and_problem() {
             "",
             "",
         ),
-        &["non-finite", "mesh 0 \"quad\""],
+        &["non-finite", "meshes[0].primitives[0]", "mesh \"quad\""],
     );
     let mut nan = quad_buffer();
     nan[12..16].copy_from_slice(&f32::NAN.to_le_bytes());
@@ -402,15 +402,15 @@ fn malformed_inputs_name_the_object_and_problem() {
             &index_base64(&[0, 1, 2, 0, 2, 3]),
             &index_base64(&[0, 1, 2, 0, 2, 9]),
         ),
-        &["index 9", "out of range", "accessor 1"],
+        &["index 9", "out of range", "accessors[1]"],
     );
     // gltf-json 1.4 itself would panic on this one.
     expect_error(
         "dangling-position",
         &quad.replace(r#""POSITION": 0"#, r#""POSITION": 7"#),
         &[
-            "mesh 0 \"quad\", primitive 0",
-            "POSITION refers to accessor 7",
+            "meshes[0].primitives[0].attributes.POSITION",
+            "index 7 is out of range",
         ],
     );
     expect_error(
@@ -425,7 +425,7 @@ fn malformed_inputs_name_the_object_and_problem() {
             "",
             r#""cameras": [{"type": "perspective", "perspective": {"yfov": 3.5, "znear": 0.1}}],"#,
         ),
-        &["camera 0", "yfov"],
+        &["cameras[0]", "yfov"],
     );
     expect_error(
         "empty-scene",
@@ -441,12 +441,12 @@ fn malformed_inputs_name_the_object_and_problem() {
             r#""byteOffset": 48, "byteLength": 12"#,
             r#""byteOffset": 48, "byteLength": 10"#,
         ),
-        &["bufferView 1"],
+        &["bufferViews[1]"],
     );
     expect_error(
         "bad-base64",
         &quad.replace("base64,", "base64,*"),
-        &["buffer 0", "base64"],
+        &["buffers[0]", "base64"],
     );
     expect_error(
         "missing-bin",

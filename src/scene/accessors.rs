@@ -2,6 +2,7 @@
 //! checked (sparse substitutions included), and triangle lists, strips and fans turned into
 //! vertex triples.
 
+use super::limits::Budget;
 use super::load::label;
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
@@ -17,14 +18,28 @@ const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 26;
 fn read_accessor<T: Copy + Default>(
     accessor: &Accessor,
     buffers: &[Vec<u8>],
+    budget: &Budget,
     size: usize,
     decode: impl Fn(&[u8]) -> T,
 ) -> Result<Vec<T>> {
     let count = accessor.count();
     let mut out = match accessor.view() {
-        Some(view) => read_view(&view, accessor.offset(), count, size, buffers, &decode)?,
-        None if count <= MAX_ZERO_ACCESSOR_COUNT => vec![T::default(); count],
-        None => bail!("count {count} without a bufferView is implausibly large"),
+        Some(view) => read_view(
+            &view,
+            accessor.offset(),
+            count,
+            size,
+            buffers,
+            budget,
+            &decode,
+        )?,
+        None if count <= MAX_ZERO_ACCESSOR_COUNT => {
+            reserve::<T>(budget, "an accessor without a bufferView", count)?;
+            vec![T::default(); count]
+        }
+        None => {
+            bail!("count: {count} without a bufferView, expected at most {MAX_ZERO_ACCESSOR_COUNT}")
+        }
     };
     if let Some(sparse) = accessor.sparse() {
         let n = sparse.count();
@@ -35,6 +50,7 @@ fn read_accessor<T: Copy + Default>(
             n,
             indices.index_type().size(),
             buffers,
+            budget,
             &|b| match indices.index_type() {
                 IndexType::U8 => b[0] as usize,
                 IndexType::U16 => u16::from_le_bytes([b[0], b[1]]) as usize,
@@ -43,14 +59,25 @@ fn read_accessor<T: Copy + Default>(
         )
         .context("sparse indices")?;
         let values = sparse.values();
-        let values = read_view(&values.view(), values.offset(), n, size, buffers, &decode)
-            .context("sparse values")?;
+        let values = read_view(
+            &values.view(),
+            values.offset(),
+            n,
+            size,
+            buffers,
+            budget,
+            &decode,
+        )
+        .context("sparse values")?;
+        let temporary = slots.len() as u64 * std::mem::size_of::<usize>() as u64
+            + values.len() as u64 * std::mem::size_of::<T>() as u64;
         for (k, (slot, value)) in slots.into_iter().zip(values).enumerate() {
             let Some(element) = out.get_mut(slot) else {
                 bail!("sparse index {slot} (entry {k}) is out of range: the accessor has {count} elements");
             };
             *element = value;
         }
+        budget.release(temporary);
     }
     Ok(out)
 }
@@ -62,6 +89,7 @@ fn read_view<T>(
     count: usize,
     size: usize,
     buffers: &[Vec<u8>],
+    budget: &Budget,
     decode: &dyn Fn(&[u8]) -> T,
 ) -> Result<Vec<T>> {
     let what = label("bufferView", view.index(), view.name());
@@ -95,12 +123,31 @@ fn read_view<T>(
              in {what} of {length} bytes"
         );
     }
+    reserve::<T>(
+        budget,
+        &format!("{count} elements read through {what}"),
+        count,
+    )?;
     Ok((0..count)
         .map(|i| decode(&data[offset + i * stride..][..size]))
         .collect())
 }
 
-pub(super) fn read_positions(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vec3>> {
+/// Reserves the memory of `count` elements of `T` for `what`.
+fn reserve<T>(budget: &Budget, what: &str, count: usize) -> Result<()> {
+    budget.reserve(what, count as u64 * std::mem::size_of::<T>() as u64)
+}
+
+/// The bytes `read_positions` or `read_indices` reserved for `count` elements, to release.
+pub(super) fn element_bytes<T>(elements: &[T]) -> u64 {
+    std::mem::size_of_val(elements) as u64
+}
+
+pub(super) fn read_positions(
+    accessor: &Accessor,
+    buffers: &[Vec<u8>],
+    budget: &Budget,
+) -> Result<Vec<Vec3>> {
     if accessor.dimensions() != Dimensions::Vec3
         || accessor.data_type() != DataType::F32
         || accessor.normalized()
@@ -113,21 +160,25 @@ pub(super) fn read_positions(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result
         );
     }
     let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-    read_accessor(accessor, buffers, 12, |b| {
+    read_accessor(accessor, buffers, budget, 12, |b| {
         Vec3::new(f(&b[0..4]), f(&b[4..8]), f(&b[8..12]))
     })
 }
 
-pub(super) fn read_indices(accessor: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>> {
+pub(super) fn read_indices(
+    accessor: &Accessor,
+    buffers: &[Vec<u8>],
+    budget: &Budget,
+) -> Result<Vec<u32>> {
     if accessor.dimensions() != Dimensions::Scalar {
         bail!("indices must be SCALAR, found {:?}", accessor.dimensions());
     }
     match accessor.data_type() {
-        DataType::U8 => read_accessor(accessor, buffers, 1, |b| b[0] as u32),
-        DataType::U16 => read_accessor(accessor, buffers, 2, |b| {
+        DataType::U8 => read_accessor(accessor, buffers, budget, 1, |b| b[0] as u32),
+        DataType::U16 => read_accessor(accessor, buffers, budget, 2, |b| {
             u16::from_le_bytes([b[0], b[1]]) as u32
         }),
-        DataType::U32 => read_accessor(accessor, buffers, 4, |b| {
+        DataType::U32 => read_accessor(accessor, buffers, budget, 4, |b| {
             u32::from_le_bytes([b[0], b[1], b[2], b[3]])
         }),
         other => {

@@ -1,11 +1,16 @@
-//! glTF 2.0 (`.gltf` / `.glb`) → [`Scene`].
+//! glTF 2.0 (`.gltf` / `.glb`) → [`Scene`]. The file is untrusted input (README, "Running on
+//! untrusted files"):
 //!
-//! The `gltf` crate parses and validates the JSON (unresolved references, out-of-range enums);
-//! everything after that is done here, without `gltf::import`: buffers are resolved relative to
-//! the file (base64 `data:` URIs, relative paths, the GLB binary chunk), images are never
-//! decoded (textures are ignored), and accessors are read with every offset, stride and index
-//! checked, so that bad input becomes an error that names the file, the object and the
-//! problem instead of a panic.
+//! 1. the GLB container and the JSON are parsed here (`json.rs`), errors naming the chunk and
+//!    byte offset or the JSON path;
+//! 2. indices are checked in 64 bits and cameras' projections for presence (`validate.rs`),
+//!    where the `gltf` crate would wrap or panic; then the crate builds its typed model and
+//!    validates references, and a panic it still raises becomes an error;
+//! 3. buffers are read without `gltf::import` (`buffers.rs`): base64 `data:` URIs, files inside
+//!    the scene's folder (or `--allow-path` folders), the GLB binary chunk for `buffers[0]`
+//!    only; images are never decoded (textures are ignored), but their URIs obey the same
+//!    rules; accessors are read with every offset, stride and index checked (`accessors.rs`);
+//! 4. every large allocation is reserved in the memory budget first (`limits.rs`).
 //!
 //! Supported: every node of the default scene (scene 0 if none is default), TRS or matrix
 //! transforms, triangle lists, strips and fans, u8/u16/u32 or no indices, sparse accessors.
@@ -13,13 +18,18 @@
 //! morph targets, textures and KHR_mesh_quantization are not supported (the first two are
 //! ignored, quantized positions are an error).
 
-use super::accessors::{read_indices, read_positions, triangle_corners};
-use super::buffers::load_buffers;
+use super::accessors::{element_bytes, read_indices, read_positions, triangle_corners};
+use super::buffers::{check_image_uris, load_buffers, open_regular};
+use super::json::{parse_value, split_container, typed_root, validation_message};
+use super::limits::{format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_TRIANGLE};
+use super::validate::check_document;
 use super::{bounds_of, Camera, Material, Scene, Triangle};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat3, Mat4, Vec3};
 use gltf::mesh::{Mode, Primitive};
 use gltf::Document;
+use std::io::Read;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
 /// Extensions a file may list in `extensionsRequired`.
@@ -30,33 +40,88 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
 ];
 
-pub(super) fn load(path: &Path) -> Result<Scene> {
-    load_file(path).with_context(|| format!("cannot load scene {}", path.display()))
+/// Memory a parsed JSON value may take per structural character (`,` `:` `[` `{`) of its text:
+/// a `serde_json::Value` is 32 bytes, a map entry about twice that, and the `gltf` crate's
+/// typed model is built from it while it lives.
+const JSON_BYTES_PER_TOKEN: u64 = 96;
+
+pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    // The last guard: a panic inside the `gltf` crate that the checks below did not foresee
+    // becomes an error (the release profile keeps panic = "unwind" for this).
+    let reserved_before = options.budget.used();
+    let result =
+        catch_unwind(AssertUnwindSafe(|| load_file(path, options))).unwrap_or_else(|panic| {
+            let message = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(anyhow!("the glTF library failed on this file: {message}"))
+        });
+    // Transient reservations of a failed load are given back; a loaded scene keeps its own.
+    if result.is_err() {
+        let now = options.budget.used();
+        options.budget.release(now.saturating_sub(reserved_before));
+    }
+    result.with_context(|| format!("cannot load scene {}", path.display()))
 }
 
-fn load_file(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).context("cannot read the file")?;
+/// The scene file's bytes: a regular file, no larger than the memory budget allows.
+fn read_scene_file(path: &Path, budget: &Budget) -> Result<Vec<u8>> {
+    let (file, size) = open_regular(path)?;
+    budget.reserve(&format!("the file ({})", format_bytes(size)), size)?;
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(size)
+        .read_to_end(&mut bytes)
+        .context("cannot read the file")?;
+    Ok(bytes)
+}
+
+fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    let bytes = read_scene_file(path, &options.budget)?;
     if bytes.is_empty() {
-        bail!("the file is empty (expected glTF JSON or binary glTF)");
+        bail!("the top level: the file is empty, expected glTF JSON or binary glTF");
     }
-    check_glb_header(&bytes)?;
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes)
-        .map_err(|e| anyhow!("not a glTF 2.0 document: {e}"))?;
+    let container = split_container(&bytes)?;
+    let text = &bytes[container.json.clone()];
+    let tokens = text
+        .iter()
+        .filter(|b| matches!(b, b',' | b':' | b'[' | b'{'))
+        .count() as u64;
+    options.budget.reserve(
+        "the parsed JSON",
+        (tokens + 1) * JSON_BYTES_PER_TOKEN + 2 * text.len() as u64,
+    )?;
+    let value = parse_value(text, container.json.start)?;
+    check_document(&value)?;
+    let root = typed_root(value)?;
     // Checked before validation, which would reject them with a less helpful message.
-    for ext in document.extensions_required() {
-        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+    for ext in &root.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
             bail!(
-                "the file requires the glTF extension {ext}, which wavetrace does not support \
-                 (supported: {})",
+                "extensionsRequired: the file requires the glTF extension {ext:?}, which wavetrace \
+                 does not support (supported: {})",
                 SUPPORTED_EXTENSIONS.join(", ")
             );
         }
     }
-    check_position_indices(document.as_json())?;
-    let document = Document::from_json(document.into_json()).map_err(|e| anyhow!("{e}"))?;
+    let document = Document::from_json(root).map_err(validation_message)?;
 
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = load_buffers(&document, blob.as_deref(), base)?;
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
+    check_image_uris(&document, base, options)?;
+    let bin = container.bin.clone().map(|range| {
+        // The binary chunk is moved out of the file's bytes, not copied.
+        let mut bytes = bytes;
+        bytes.truncate(range.end);
+        bytes.drain(..range.start);
+        bytes
+    });
+    let buffers = load_buffers(&document, bin, container.is_glb(), base, options)?;
     let materials = document
         .materials()
         .enumerate()
@@ -65,10 +130,13 @@ fn load_file(path: &Path) -> Result<Scene> {
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
-        .ok_or_else(|| anyhow!("the file contains no scene, so there is nothing to render"))?;
+        .ok_or_else(|| {
+            anyhow!("scenes: the file contains no scene, so there is nothing to render")
+        })?;
 
     let mut builder = Builder {
         buffers: &buffers,
+        budget: &options.budget,
         triangles: Vec::new(),
         materials,
         default_material: None,
@@ -86,6 +154,15 @@ fn load_file(path: &Path) -> Result<Scene> {
             builder.skipped_primitives
         );
     }
+    // Reserved here rather than by the renderer so that every caller of the loader is bounded.
+    options.budget.reserve(
+        &format!(
+            "{}: the BVH and render data of {} triangles",
+            label("scene", scene.index(), scene.name()),
+            builder.triangles.len()
+        ),
+        builder.triangles.len() as u64 * PREPARE_BYTES_PER_TRIANGLE,
+    )?;
     let notes = notes(&document, &builder);
     let camera = builder
         .camera
@@ -155,55 +232,23 @@ fn notes(document: &Document, builder: &Builder) -> Vec<String> {
     notes
 }
 
-/// `kind index "name"`, e.g. `mesh 3 "Chair"`, or `kind index` for unnamed objects.
+/// The JSON path of a top-level object, e.g. `meshes[3]`.
+pub(super) fn json_path(kind: &str, index: usize) -> String {
+    let array = match kind {
+        "mesh" => "meshes".to_owned(),
+        "accessor" | "buffer" | "bufferView" | "camera" | "image" | "material" | "node"
+        | "scene" | "skin" | "texture" => format!("{kind}s"),
+        other => other.to_owned(),
+    };
+    format!("{array}[{index}]")
+}
+
+/// The JSON path of a top-level object and its name, e.g. `meshes[3] ("Chair")`.
 pub(super) fn label(kind: &str, index: usize, name: Option<&str>) -> String {
     match name {
-        Some(name) if !name.is_empty() => format!("{kind} {index} \"{name}\""),
-        _ => format!("{kind} {index}"),
+        Some(name) if !name.is_empty() => format!("{} ({name:?})", json_path(kind, index)),
+        _ => json_path(kind, index),
     }
-}
-
-/// gltf-json 1.4's validation indexes each primitive's POSITION accessor without a bounds check
-/// (a panic on a dangling index), so check that first.
-fn check_position_indices(root: &gltf::json::Root) -> Result<()> {
-    use gltf::json::validation::Checked;
-    for (m, mesh) in root.meshes.iter().enumerate() {
-        for (p, primitive) in mesh.primitives.iter().enumerate() {
-            let position = primitive
-                .attributes
-                .get(&Checked::Valid(gltf::Semantic::Positions));
-            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
-                bail!(
-                    "{}, primitive {p}: POSITION refers to accessor {}, but the file has {} accessors",
-                    label("mesh", m, mesh.name.as_deref()),
-                    index.value(),
-                    root.accessors.len()
-                );
-            }
-        }
-    }
-    Ok(())
-}
-
-/// The GLB header's total length must lie within the file (the `gltf` crate assumes ≥ 12).
-fn check_glb_header(bytes: &[u8]) -> Result<()> {
-    if !bytes.starts_with(b"glTF") {
-        return Ok(());
-    }
-    let Some(length) = bytes.get(8..12) else {
-        bail!(
-            "binary glTF: the file ends inside the 12-byte header ({} bytes)",
-            bytes.len()
-        );
-    };
-    let length = u32::from_le_bytes(length.try_into().unwrap()) as usize;
-    if length < 12 || length > bytes.len() {
-        bail!(
-            "binary glTF: the header declares {length} bytes but the file has {}",
-            bytes.len()
-        );
-    }
-    Ok(())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -277,6 +322,7 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
 
 struct Builder<'a> {
     buffers: &'a [Vec<u8>],
+    budget: &'a Budget,
     triangles: Vec<Triangle>,
     materials: Vec<Material>,
     default_material: Option<u32>,
@@ -345,9 +391,11 @@ impl Builder<'_> {
                 for primitive in mesh.primitives() {
                     self.add_primitive(&primitive, &world).with_context(|| {
                         format!(
-                            "{}, primitive {} (instanced by {what})",
-                            label("mesh", mesh.index(), mesh.name()),
-                            primitive.index()
+                            "{}.primitives[{}] ({}instanced by {what})",
+                            json_path("mesh", mesh.index()),
+                            primitive.index(),
+                            mesh.name()
+                                .map_or_else(String::new, |n| format!("mesh {n:?}, "))
                         )
                     })?;
                 }
@@ -355,6 +403,24 @@ impl Builder<'_> {
             let children: Vec<_> = node.children().collect();
             stack.extend(children.into_iter().rev().map(|c| (c, world, Some(i))));
         }
+        Ok(())
+    }
+
+    /// Reserves (in the budget and the vector) room for `more` triangles, growing the vector
+    /// geometrically as `Vec` would.
+    fn reserve_triangles(&mut self, more: usize) -> Result<()> {
+        let size = std::mem::size_of::<Triangle>() as u64;
+        let needed = self.triangles.len().saturating_add(more);
+        let capacity = self.triangles.capacity();
+        if needed <= capacity {
+            return Ok(());
+        }
+        let grown = needed.max(capacity.saturating_mul(2));
+        self.budget.reserve(
+            &format!("{needed} world-space triangles"),
+            (grown - capacity) as u64 * size,
+        )?;
+        self.triangles.reserve_exact(grown - self.triangles.len());
         Ok(())
     }
 
@@ -367,21 +433,22 @@ impl Builder<'_> {
             return Ok(());
         }
         let Some(accessor) = primitive.get(&gltf::Semantic::Positions) else {
-            bail!("it has no POSITION attribute");
+            bail!("attributes.POSITION: missing, expected an accessor index");
         };
-        let positions = read_positions(&accessor, self.buffers).with_context(|| {
-            format!(
-                "POSITION {}",
-                label("accessor", accessor.index(), accessor.name())
-            )
-        })?;
+        let position_what = format!(
+            "attributes.POSITION = {}",
+            label("accessor", accessor.index(), accessor.name())
+        );
+        let positions =
+            read_positions(&accessor, self.buffers, self.budget).context(position_what.clone())?;
         let vertices: Vec<u32> = match primitive.indices() {
             Some(accessor) => {
                 let what = format!(
-                    "indices {}",
+                    "indices = {}",
                     label("accessor", accessor.index(), accessor.name())
                 );
-                let indices = read_indices(&accessor, self.buffers).context(what.clone())?;
+                let indices =
+                    read_indices(&accessor, self.buffers, self.budget).context(what.clone())?;
                 if let Some((k, v)) = indices
                     .iter()
                     .enumerate()
@@ -394,9 +461,26 @@ impl Builder<'_> {
                 }
                 indices
             }
-            None => (0..positions.len() as u32).collect(),
+            None => {
+                if positions.len() > u32::MAX as usize {
+                    bail!(
+                        "{position_what}: {} vertices without indices, expected at most 2³²",
+                        positions.len()
+                    );
+                }
+                self.budget
+                    .reserve("the implicit indices", element_bytes(&positions) / 3)?;
+                (0..positions.len() as u32).collect()
+            }
         };
+        let corner_count = match primitive.mode() {
+            Mode::Triangles => vertices.len() / 3,
+            _ => vertices.len().saturating_sub(2),
+        };
+        let corner_bytes = corner_count as u64 * 12;
+        self.budget.reserve("the triangle corners", corner_bytes)?;
         let corners = triangle_corners(primitive.mode(), &vertices)?;
+        self.reserve_triangles(corners.len())?;
         let material = self.material_index(primitive.material().index());
         // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
         let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;
@@ -420,6 +504,10 @@ impl Builder<'_> {
             }
             self.triangles.push(triangle);
         }
+        // The decoded accessors and corners are freed on return.
+        self.budget.release(
+            element_bytes(&positions) + element_bytes(&vertices) + element_bytes(&corners),
+        );
         Ok(())
     }
 

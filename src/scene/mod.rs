@@ -14,11 +14,15 @@
 mod accessors;
 mod buffers;
 mod camera;
+mod json;
 mod lights;
+mod limits;
 mod load;
+mod validate;
 
 pub use camera::Camera;
 pub use lights::{build_light_table, emitted_power, luminance};
+pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -114,7 +118,14 @@ impl Scene {
     /// Errors name the file, the glTF object (node, mesh, primitive, accessor, buffer…) and the
     /// problem; print them with `{:#}` (or `{:?}`) to see the whole chain.
     pub fn load(path: &Path) -> anyhow::Result<Scene> {
-        load::load(path)
+        load::load(path, &LoadOptions::default())
+    }
+
+    /// [`load`](Scene::load) with explicit limits: the folders URIs may name and the memory
+    /// budget, which the loader's allocations are reserved in (and stay reserved while the
+    /// scene lives, so the render can keep accounting in the same budget).
+    pub fn load_with(path: &Path, options: &LoadOptions) -> anyhow::Result<Scene> {
+        load::load(path, options)
     }
 
     /// Axis-aligned bounds (min, max) of all triangles; (0, 0) for a scene without triangles.

@@ -1,0 +1,220 @@
+#!/usr/bin/env python3
+"""Writes the hostile-file corpus of tests/hostile.rs: glTF files that attack the loader (panics
+in the gltf crate, indices that wrap to 32 bits, reads outside the scene's folder, unbounded
+memory, errors without a JSON path), and tests/hostile/expect.json, what each must do.
+
+    python3 tools/gen_hostile.py            # writes tests/hostile/
+    python3 tools/gen_hostile.py OUT_DIR    # writes into OUT_DIR instead
+
+Every expectation names the exit status, the strings the error must contain (the JSON path
+first) and the extra command-line arguments. Output is deterministic. Python 3 stdlib only.
+The corpus also seeds tools/fuzz_gltf.py.
+"""
+
+import base64
+import copy
+import json
+import os
+import struct
+import sys
+
+FLOAT, UNSIGNED_BYTE, UNSIGNED_SHORT = 5126, 5121, 5123
+TWO_32 = 2**32
+
+
+def quad_bytes():
+    """The unit square [-1,1]^2 at z = 0 (counter-clockwise from +Z): 4 VEC3 + 6 u16 indices."""
+    positions = [-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0]
+    return struct.pack("<12f", *positions) + struct.pack("<6H", 0, 1, 2, 0, 2, 3)
+
+
+def data_uri(data):
+    return "data:application/octet-stream;base64," + base64.b64encode(data).decode()
+
+
+def quad(uri=None):
+    """A valid one-quad document; `uri` replaces the data: URI of its buffer."""
+    data = quad_bytes()
+    return {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": FLOAT, "count": 4, "type": "VEC3",
+             "min": [-1, -1, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": UNSIGNED_SHORT, "count": 6, "type": "SCALAR"},
+        ],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+        "buffers": [{"byteLength": len(data), "uri": uri if uri is not None else data_uri(data)}],
+    }
+
+
+def edit(doc, change):
+    doc = copy.deepcopy(doc)
+    change(doc)
+    return doc
+
+
+def glb(doc, bin_chunk, buffers_without_uri=1):
+    """A GLB of `doc` whose first `buffers_without_uri` buffers refer to the BIN chunk."""
+    doc = copy.deepcopy(doc)
+    for b in doc["buffers"][:buffers_without_uri]:
+        b.pop("uri", None)
+    text = json.dumps(doc, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    bin_chunk += b"\0" * (-len(bin_chunk) % 4)
+    chunks = struct.pack("<II", len(text), 0x4E4F534A) + text
+    chunks += struct.pack("<II", len(bin_chunk), 0x004E4942) + bin_chunk
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks
+
+
+def instancing_bomb(nodes, strip):
+    """One triangle strip of `strip` u8 indices over a quad, instanced by `nodes` nodes: a
+    small file that asks for nodes × (strip − 2) world-space triangles."""
+    positions = struct.pack("<12f", -1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0)
+    indices = bytes(i % 4 for i in range(strip))
+    data = positions + indices
+    return {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": list(range(nodes))}],
+        "nodes": [{"mesh": 0} for _ in range(nodes)],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": 5}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": FLOAT, "count": 4, "type": "VEC3",
+             "min": [-1, -1, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": UNSIGNED_BYTE, "count": strip, "type": "SCALAR"},
+        ],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 48, "byteLength": strip}],
+        "buffers": [{"byteLength": len(data), "uri": data_uri(data)}],
+    }
+
+
+def cases():
+    """(file name, bytes or JSON document, exit status, needles, extra arguments)."""
+    q = quad()
+    qb = quad_bytes()
+    set_ = lambda path, value: edit(q, lambda d: set_path(d, path, value))
+    yield "valid_quad.gltf", q, 0, [], []
+    # 1. Panics in the gltf crate.
+    yield "camera_projection_absent.gltf", edit(q, lambda d: (
+        d["nodes"][0].update(camera=0),
+        d.update(cameras=[{"type": "perspective", "orthographic": {
+            "xmag": 1, "ymag": 1, "zfar": 10, "znear": 0.1}}]))), 1, ["cameras[0].perspective", "missing"], []
+    yield "camera_orthographic_absent.gltf", edit(q, lambda d: d.update(
+        cameras=[{"type": "orthographic"}])), 1, ["cameras[0].orthographic"], []
+    yield "position_dangling.gltf", set_("meshes.0.primitives.0.attributes.POSITION", 7), 1, \
+        ["meshes[0].primitives[0].attributes.POSITION", "out of range"], []
+    # 1. Indices of 2^32 and more must not wrap.
+    yield "index_2pow32_mesh.gltf", set_("nodes.0.mesh", TWO_32), 1, \
+        ["nodes[0].mesh", "4294967296", "out of range"], []
+    yield "index_2pow32_plus1_position.gltf", set_("meshes.0.primitives.0.attributes.POSITION", TWO_32 + 1), 1, \
+        ["meshes[0].primitives[0].attributes.POSITION", "4294967297"], []
+    yield "index_2pow32_buffer.gltf", set_("bufferViews.1.buffer", TWO_32), 1, \
+        ["bufferViews[1].buffer", "4294967296"], []
+    yield "index_2pow64.gltf", set_("scenes.0.nodes.0", 2**64), 1, \
+        ["scenes[0].nodes[0]", "expected an index"], []
+    yield "index_negative.gltf", set_("meshes.0.primitives.0.indices", -1), 1, \
+        ["meshes[0].primitives[0].indices", "-1", "expected an index"], []
+    yield "index_fraction.gltf", set_("accessors.0.bufferView", 0.5), 1, \
+        ["accessors[0].bufferView", "0.5"], []
+    yield "index_string.gltf", set_("scene", "0"), 1, ["scene", "expected an index"], []
+    # 2. File access outside the scene's folder.
+    yield "uri_absolute.gltf", quad("/etc/passwd"), 1, ["buffers[0].uri", "absolute path is refused"], []
+    yield "uri_dev_zero.gltf", quad("/dev/zero"), 1, ["buffers[0].uri", "refused"], []
+    yield "uri_dev_zero_allowed.gltf", quad("/dev/zero"), 1, \
+        ["buffers[0].uri", "not a regular file"], ["--allow-path", "/dev"]
+    yield "uri_parent.gltf", quad("../hostile.rs"), 1, ["buffers[0].uri", "leaves the folder"], []
+    yield "uri_parent_escaped.gltf", quad("%2E%2E/hostile.rs"), 1, ["buffers[0].uri", "leaves the folder"], []
+    yield "uri_file_scheme.gltf", quad("file:///etc/passwd"), 1, ["buffers[0].uri", "\"file:\" is refused"], []
+    yield "uri_symlink.gltf", quad("link-out.bin"), 1, ["buffers[0].uri", "symbolic link"], []
+    yield "uri_folder.gltf", quad("sub"), 1, ["buffers[0].uri", "not a regular file"], []
+    yield "image_uri_parent.gltf", edit(q, lambda d: d.update(images=[{"uri": "../hostile.rs"}])), 1, \
+        ["images[0].uri", "leaves the folder"], []
+    yield "image_uri_absolute.gltf", edit(q, lambda d: d.update(images=[{"uri": "/etc/passwd"}])), 1, \
+        ["images[0].uri", "absolute path is refused"], []
+    yield "sub/allowed_parent.gltf", quad("../quad.bin"), 1, ["buffers[0].uri", "leaves the folder"], []
+    yield "sub/allowed_parent_ok.gltf", quad("../quad.bin"), 0, [], ["--allow-path", "{dir}"]
+    yield "uri_short_file.gltf", edit(quad("quad.bin"), lambda d: d["buffers"][0].update(byteLength=1000)), 1, \
+        ["buffers[0].uri", "fewer than the declared byteLength"], []
+    # 3. Memory.
+    yield "memory_instancing.gltf", instancing_bomb(400, 60000), 1, \
+        ["meshes[0].primitives[0]", "memory budget", "triangles"], []
+    # Just inside the budget: it renders, and the process stays within budget + footprint.
+    yield "memory_instancing_fits.gltf", instancing_bomb(12, 60000), 0, [], []
+    yield "memory_zero_accessor.gltf", edit(q, lambda d: (
+        d["accessors"][0].pop("bufferView"),
+        d["accessors"][0].update(count=1 << 26, sparse={
+            "count": 1, "indices": {"bufferView": 1, "componentType": UNSIGNED_SHORT},
+            "values": {"bufferView": 0}}))), 1, \
+        ["meshes[0].primitives[0]", "accessors[0]", "memory budget"], []
+    yield "memory_count_beyond_view.gltf", set_("accessors.1.count", 1 << 40), 1, \
+        ["accessors[1]", "bufferViews[1]", "do not fit"], []
+    yield "memory_bytelength_huge.gltf", set_("buffers.0.byteLength", 1 << 50), 1, \
+        ["buffers[0]", "memory budget"], []
+    yield "glb_every_buffer_bin.glb", glb(edit(q, lambda d: d["buffers"].extend(
+        [{"byteLength": 60}] * 3)), qb, buffers_without_uri=4), 1, \
+        ["buffers[1]", "only buffers[0] of a GLB"], []
+    yield "glb_valid.glb", glb(q, qb), 0, [], []
+    # 4. Container and parser errors in glTF's words.
+    g = glb(q, qb)
+    yield "glb_truncated.glb", g[:len(g) - 40], 1, ["GLB header, byte 8", "total length"], []
+    yield "glb_chunk_past_end.glb", g[:12] + struct.pack("<I", 1 << 30) + g[16:], 1, \
+        ["GLB chunk 0", "at byte 12", "runs past"], []
+    yield "glb_first_chunk_bin.glb", g[:16] + struct.pack("<I", 0x004E4942) + g[20:], 1, \
+        ["GLB chunk 0", "expected JSON"], []
+    yield "glb_version_1.glb", g[:4] + struct.pack("<I", 1) + g[8:], 1, ["GLB header, byte 4", "version 1"], []
+    bad = g.replace(b'"asset":{', b'"asset":[', 1)
+    yield "glb_json_syntax.glb", bad, 1, ["asset", "invalid JSON", "byte"], []
+    yield "null_pbr.gltf", edit(q, lambda d: d.update(materials=[{"pbrMetallicRoughness": None}])), 1, \
+        ["materials[0].pbrMetallicRoughness", "found null, expected a JSON object"], []
+    yield "long_color.gltf", edit(q, lambda d: d.update(materials=[{"pbrMetallicRoughness": {
+        "baseColorFactor": [1, 1, 1, 1, 1]}}])), 1, \
+        ["materials[0].pbrMetallicRoughness.baseColorFactor", "found 5 elements", "too long"], []
+    yield "string_bytelength.gltf", set_("buffers.0.byteLength", "60"), 1, \
+        ["buffers[0].byteLength", "found the string"], []
+    yield "syntax_truncated.gltf", json.dumps(q, indent=1)[:300].encode(), 1, ["accessors[0]", "invalid JSON", "line"], []
+    yield "syntax_trailing.gltf", (json.dumps(q) + "]").encode(), 1, ["the top level", "after the end"], []
+    yield "deep_nesting.gltf", b'{"asset":{"version":"2.0"},"extras":' + b"[" * 100000, 1, \
+        ["extras", "recursion limit"], []
+    yield "not_json.gltf", bytes(range(256)) * 4, 1, ["the top level", "invalid JSON"], []
+    yield "root_array.gltf", b"[1, 2, 3]", 1, ["the top level", "expected a JSON object"], []
+    yield "missing_asset.gltf", edit(q, lambda d: d.pop("asset")), 1, ["the top level", "\"asset\" is missing"], []
+    yield "mode_invalid.gltf", set_("meshes.0.primitives.0.mode", 99), 1, ["meshes[0].primitives[0].mode"], []
+    yield "node_loop.gltf", edit(q, lambda d: d["nodes"].append({"children": [0]}) or d["nodes"][0].update(children=[1])), 1, \
+        ["nodes[0]", "loop"], []
+
+
+def set_path(doc, path, value):
+    keys = [int(k) if k.isdigit() else k for k in path.split(".")]
+    for k in keys[:-1]:
+        doc = doc[k]
+    doc[keys[-1]] = value
+
+
+def main():
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "tests", "hostile")
+    os.makedirs(os.path.join(out, "sub"), exist_ok=True)
+    with open(os.path.join(out, "quad.bin"), "wb") as f:
+        f.write(quad_bytes())
+    link = os.path.join(out, "link-out.bin")
+    if os.path.lexists(link):
+        os.remove(link)
+    os.symlink("../hostile.rs", link)
+    expect = []
+    for name, content, status, needles, args in cases():
+        if isinstance(content, dict):
+            content = (json.dumps(content, indent=1) + "\n").encode()
+        with open(os.path.join(out, name), "wb") as f:
+            f.write(content)
+        expect.append({"file": name, "exit": status, "needles": needles, "args": args})
+    with open(os.path.join(out, "expect.json"), "w") as f:
+        json.dump(expect, f, indent=1)
+        f.write("\n")
+
+
+if __name__ == "__main__":
+    main()
