@@ -25,7 +25,7 @@ pub struct Settings {
 }
 
 /// The estimators of each table, in order.
-const ESTIMATORS: [Estimator; 10] = [
+pub(crate) const ESTIMATORS: [Estimator; 10] = [
     Estimator::Primary,
     Estimator::Secondary,
     Estimator::Stratified,

@@ -85,22 +85,21 @@ impl Uniform for KeyedUniforms {
 /// that keeps the estimate unbiased; otherwise the estimate is 0 (`None`). p ≥ 1 always
 /// survives with weight 1; p ≤ 0 or NaN never survives.
 pub fn roulette(u: f64, p: f64) -> Option<f64> {
-    if p >= 1.0 {
-        Some(1.0)
-    } else if u < p {
-        Some(1.0 / p)
-    } else {
-        None
-    }
+    roulette_in(u, p, 1.0)
 }
 
 /// [`roulette`] in f32, for the path tracer: `throughput *= w` for `Some(w)`, the path ends on
 /// `None`.
 pub fn roulette_f32(u: f32, p: f32) -> Option<f32> {
-    if p >= 1.0 {
-        Some(1.0)
+    roulette_in(u, p, 1.0)
+}
+
+/// The case split of [`roulette`] for either precision (`one` is 1 in it).
+fn roulette_in<T: Copy + PartialOrd + std::ops::Div<Output = T>>(u: T, p: T, one: T) -> Option<T> {
+    if p >= one {
+        Some(one)
     } else if u < p {
-        Some(1.0 / p)
+        Some(one / p)
     } else {
         None
     }
