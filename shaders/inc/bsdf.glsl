@@ -157,30 +157,39 @@ bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 va
     return true;
 }
 
+// f(wo, wi) of the non-delta lobes for world-space wi (BsdfFrame::eval).
+vec3 bsdf_frame_eval(BsdfFrame f, vec3 wi, uint mode) {
+    return bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+}
+
+// The mixture pdf at world-space wi (BsdfFrame::pdf).
+float bsdf_frame_pdf(BsdfFrame f, vec3 wi) {
+    return bsdf_pdf_local(f, bsdf_to_local(f, wi));
+}
+
 // f of the non-delta lobes (without the cosine).
 vec3 bsdf_eval(GpuMaterial m, vec3 ng, vec3 wo, vec3 wi, uint mode) {
     BsdfFrame f;
     if (!bsdf_frame_new(m, ng, wo, f)) return vec3(0.0);
-    return bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+    return bsdf_frame_eval(f, wi, mode);
 }
 
 // Pdf of bsdf_sample with respect to solid angle, over its non-delta lobes.
 float bsdf_pdf(GpuMaterial m, vec3 ng, vec3 wo, vec3 wi) {
     BsdfFrame f;
     if (!bsdf_frame_new(m, ng, wo, f)) return 0.0;
-    return bsdf_pdf_local(f, bsdf_to_local(f, wi));
+    return bsdf_frame_pdf(f, wi);
 }
 
-// Samples wi: u.z picks the lobe, u.xy the direction in it. Writes weight = f.|cos|/pdf, the
-// pdf (a delta lobe: its probability) and whether the lobe is a delta; false if no direction.
-bool bsdf_sample(GpuMaterial m, vec3 ng, vec3 wo, vec3 u, uint mode,
-                 out vec3 wi, out vec3 weight, out float pdf, out bool delta) {
+// Samples wi from a frame (BsdfFrame::sample): u.z picks the lobe, u.xy the direction in it.
+// Writes weight = f.|cos|/pdf, the pdf (a delta lobe: its probability) and whether the lobe is
+// a delta; false if no direction.
+bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
+                       out vec3 wi, out vec3 weight, out float pdf, out bool delta) {
     wi = vec3(0.0);
     weight = vec3(0.0);
     pdf = 0.0;
     delta = false;
-    BsdfFrame f;
-    if (!bsdf_frame_new(m, ng, wo, f)) return false;
     uint lobe = u.z < f.lobe_pmf.x ? LOBE_DIFFUSE
               : (u.z < f.lobe_pmf.x + f.lobe_pmf.y ? LOBE_REFLECTION : LOBE_TRANSMISSION);
     float lobe_p = lobe == LOBE_DIFFUSE ? f.lobe_pmf.x : (lobe == LOBE_REFLECTION ? f.lobe_pmf.y : f.lobe_pmf.z);
@@ -210,6 +219,20 @@ bool bsdf_sample(GpuMaterial m, vec3 ng, vec3 wo, vec3 u, uint mode,
     wi = bsdf_to_world(f, local);
     weight = bsdf_eval_local(f, local, mode) * (abs(local.z) / pdf);
     return true;
+}
+
+// bsdf_frame_sample for material m seen from wo.
+bool bsdf_sample(GpuMaterial m, vec3 ng, vec3 wo, vec3 u, uint mode,
+                 out vec3 wi, out vec3 weight, out float pdf, out bool delta) {
+    BsdfFrame f;
+    if (!bsdf_frame_new(m, ng, wo, f)) {
+        wi = vec3(0.0);
+        weight = vec3(0.0);
+        pdf = 0.0;
+        delta = false;
+        return false;
+    }
+    return bsdf_frame_sample(f, u, mode, wi, weight, pdf, delta);
 }
 
 // Sum of the estimated lobe albedos seen from wo (--rr albedo's survival probability).

@@ -46,7 +46,10 @@ void main() {
         }
         state.radiance += state.throughput * w * le;
     }
-    if (depth >= frame.max_depth) {
+    // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
+    // the surface exactly (nothing scatters along it).
+    BsdfFrame bsdf;
+    if (depth >= frame.max_depth || !bsdf_frame_new(mat, ng, wo, bsdf)) {
         paths[ray.path] = state;
         return;
     }
@@ -70,9 +73,9 @@ void main() {
         vec3 light_le = emitted_radiance(materials[light.material], cos_light);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);
-        vec3 f = bsdf_eval(mat, ng, wo, wi, TRANSPORT_RADIANCE);
+        vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
         if (max_component(f) > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
-            float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_pdf(mat, ng, wo, wi), true);
+            float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_frame_pdf(bsdf, wi), true);
             vec3 origin = offset_ray_origin(p, cos_surface > 0.0 ? ng : -ng);
             vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
             vec3 d = target - origin;
@@ -95,7 +98,7 @@ void main() {
     vec3 weight;
     float pdf;
     bool delta;
-    if (!bsdf_sample(mat, ng, wo, vec3(u_dir, u_bsdf.z), TRANSPORT_RADIANCE, wi, weight, pdf, delta)) {
+    if (!bsdf_frame_sample(bsdf, vec3(u_dir, u_bsdf.z), TRANSPORT_RADIANCE, wi, weight, pdf, delta)) {
         paths[ray.path] = state;
         return;
     }
@@ -112,7 +115,7 @@ void main() {
     // throughput, or by the surface's albedo (the subcritical set-up P = ∫K).
     if (depth + 1u >= frame.rr_start_depth && frame.rr_mode != RR_OFF) {
         float survive = frame.rr_mode == RR_ALBEDO
-            ? min(bsdf_albedo_estimate(mat, ng, wo), 1.0)
+            ? min(bsdf.albedo_estimate, 1.0)
             : min(max_component(state.throughput), 1.0);
         float weight;
         if (!roulette(u_light.w, survive, weight)) {

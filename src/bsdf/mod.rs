@@ -253,8 +253,18 @@ impl BsdfFrame {
         }
     }
 
-    /// Samples one lobe with `u.z`, then a direction in it with `u.xy`.
-    fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+    /// f(wo, wi) of the non-delta lobes for world-space `wi` ([`bsdf_eval`] with this frame).
+    pub fn eval(self, wi: Vec3, mode: TransportMode) -> Vec3 {
+        self.eval_local(self.to_local(wi), mode)
+    }
+
+    /// The mixture pdf at world-space `wi` ([`bsdf_pdf`] with this frame).
+    pub fn pdf(self, wi: Vec3) -> f32 {
+        self.pdf_local(self.to_local(wi))
+    }
+
+    /// Samples one lobe with `u.z`, then a direction in it with `u.xy` ([`bsdf_sample`]).
+    pub fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
         let [p_diffuse, p_reflection, _] = self.lobe_pmf;
         let lobe = if u.z < p_diffuse {
             LOBE_DIFFUSE

@@ -2,7 +2,7 @@
 //! (and of the helpers in `shaders/inc/scene.glsl`), with the same names and the same order of
 //! random numbers, so that a disagreement between the two integrators points at one stage.
 
-use crate::bsdf::{bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, TransportMode};
+use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED, RR_ALBEDO,
@@ -194,6 +194,11 @@ fn shade(
     if depth >= frame.max_depth {
         return (None, None);
     }
+    // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
+    // the surface exactly (nothing scatters along it).
+    let Some(bsdf) = BsdfFrame::new(mat, ng, wo) else {
+        return (None, None);
+    };
 
     // Emitter sampling: one point on one emitting triangle, chosen by power. Delta lobes have no
     // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
@@ -225,7 +230,7 @@ fn shade(
         let light_le = emitted_radiance(&scene.materials[light.material as usize], cos_light);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
-        let f = bsdf_eval(mat, ng, wo, wi, TransportMode::Radiance);
+        let f = bsdf.eval(wi, TransportMode::Radiance);
         if f.max_element() > 0.0
             && light_le.max_element() > 0.0
             && light_pdf > 0.0
@@ -235,7 +240,7 @@ fn shade(
                 frame.mis_heuristic,
                 frame.mis_beta,
                 light_pdf,
-                bsdf_pdf(mat, ng, wo, wi),
+                bsdf.pdf(wi),
                 true,
             );
             let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
@@ -262,7 +267,7 @@ fn shade(
         4 * (dim::bounce_block(depth) + 1),
         Vec2::new(u_bsdf.x, u_bsdf.y),
     );
-    let Some(s) = bsdf_sample(mat, ng, wo, u_dir.extend(u_bsdf.z), TransportMode::Radiance) else {
+    let Some(s) = bsdf.sample(u_dir.extend(u_bsdf.z), TransportMode::Radiance) else {
         return (None, shadow);
     };
     throughput *= s.weight;
@@ -277,7 +282,7 @@ fn shade(
     // albedo (the subcritical set-up P = ∫K).
     if depth + 1 >= frame.rr_start_depth && frame.rr_mode != RR_OFF {
         let survive = if frame.rr_mode == RR_ALBEDO {
-            bsdf_albedo_estimate(mat, ng, wo).min(1.0)
+            bsdf.albedo_estimate.min(1.0)
         } else {
             throughput.max_element().min(1.0)
         };
