@@ -173,6 +173,17 @@ def cases():
     yield "long_color.gltf", edit(q, lambda d: d.update(materials=[{"pbrMetallicRoughness": {
         "baseColorFactor": [1, 1, 1, 1, 1]}}])), 1, \
         ["materials[0].pbrMetallicRoughness.baseColorFactor", "found 5 elements", "too long"], []
+    yield "metallic_above_one.gltf", edit(q, lambda d: d.update(materials=[{"name": "Shiny", "pbrMetallicRoughness": {
+        "metallicFactor": 2}}])), 1, \
+        ["materials[0].pbrMetallicRoughness.metallicFactor", "\"Shiny\"", "outside [0, 1]"], []
+    yield "transmission_negative.gltf", edit(q, lambda d: d.update(
+        extensionsUsed=["KHR_materials_transmission"],
+        materials=[{"extensions": {"KHR_materials_transmission": {"transmissionFactor": -0.5}}}])), 1, \
+        ["materials[0].extensions.KHR_materials_transmission.transmissionFactor", "outside [0, 1]"], []
+    yield "ior_below_one.gltf", edit(q, lambda d: d.update(
+        extensionsUsed=["KHR_materials_ior"],
+        materials=[{"extensions": {"KHR_materials_ior": {"ior": 0.5}}}])), 1, \
+        ["materials[0].extensions.KHR_materials_ior.ior", "at least 1"], []
     yield "string_bytelength.gltf", set_("buffers.0.byteLength", "60"), 1, \
         ["buffers[0].byteLength", "found the string"], []
     yield "syntax_truncated.gltf", json.dumps(q, indent=1)[:300].encode(), 1, ["accessors[0]", "invalid JSON", "line"], []

@@ -255,7 +255,14 @@ pub(super) fn label(kind: &str, index: usize, name: Option<&str>) -> String {
 // Materials
 
 fn convert_material(index: usize, material: &gltf::Material) -> Result<Material> {
-    let what = label("material", index, material.name());
+    // The JSON path of one property of this material, with the material's name after it.
+    let at = |property: &str| {
+        let path = format!("{}.{property}", json_path("material", index));
+        match material.name() {
+            Some(name) if !name.is_empty() => format!("{path} (material {name:?})"),
+            _ => path,
+        }
+    };
     let [r, g, b, _] = material.pbr_metallic_roughness().base_color_factor();
     let base_color = Vec3::new(r, g, b);
     // The spec bounds factors to [0, 1]; forgive rounding just above 1.
@@ -263,14 +270,17 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
         && base_color.min_element() >= 0.0
         && base_color.max_element() <= 1.0 + 1e-4)
     {
-        bail!("{what}: baseColorFactor {base_color} is outside [0, 1] (an albedo above 1 creates energy)");
+        bail!(
+            "{}: {base_color} is outside [0, 1] (an albedo above 1 creates energy)",
+            at("pbrMetallicRoughness.baseColorFactor")
+        );
     }
     let pbr = material.pbr_metallic_roughness();
-    let unit = |name: &str, v: f32| -> Result<f32> {
+    let unit = |property: &str, v: f32| -> Result<f32> {
         if (0.0..=1.0 + 1e-4).contains(&v) {
             Ok(v.min(1.0))
         } else {
-            bail!("{what}: {name} {v} is outside [0, 1]")
+            bail!("{}: {v} is outside [0, 1]", at(property))
         }
     };
     let metallic = unit("pbrMetallicRoughness.metallicFactor", pbr.metallic_factor())?;
@@ -280,17 +290,23 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
     )?;
     let transmission = material.transmission().map_or(Ok(0.0), |t| {
         unit(
-            "KHR_materials_transmission.transmissionFactor",
+            "extensions.KHR_materials_transmission.transmissionFactor",
             t.transmission_factor(),
         )
     })?;
     let specular = material.specular().map_or(Ok(1.0), |s| {
-        unit("KHR_materials_specular.specularFactor", s.specular_factor())
+        unit(
+            "extensions.KHR_materials_specular.specularFactor",
+            s.specular_factor(),
+        )
     })?;
     // KHR_materials_ior: ior ≥ 1, or exactly 0 (f0 = 1, a specular-glossiness conversion).
     let ior = material.ior().unwrap_or(1.5);
     if !(ior.is_finite() && (ior >= 1.0 || ior == 0.0)) {
-        bail!("{what}: KHR_materials_ior.ior {ior} must be at least 1 (or exactly 0)");
+        bail!(
+            "{}: {ior} must be at least 1 (or exactly 0)",
+            at("extensions.KHR_materials_ior.ior")
+        );
     }
     let factor = Vec3::from(material.emissive_factor());
     let strength = material.emissive_strength().unwrap_or(1.0);
@@ -300,7 +316,10 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
         && strength >= 0.0
         && emission.is_finite())
     {
-        bail!("{what}: emission (emissiveFactor {factor} × emissiveStrength {strength}) must be finite and non-negative");
+        bail!(
+            "{}: emission (emissiveFactor {factor} × emissiveStrength {strength}) must be finite and non-negative",
+            at("emissiveFactor")
+        );
     }
     Ok(Material {
         name: material
