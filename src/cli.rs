@@ -122,6 +122,23 @@ pub struct RenderArgs {
     /// Which integrator renders.
     #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
     pub device: DeviceKind,
+    /// Output image: .exr (linear, with variance) or .png (tonemapped sRGB); default: SCENE.png.
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Print per-kernel GPU time.
+    #[arg(long)]
+    pub stats: bool,
+    #[command(flatten)]
+    pub opts: RenderOptions,
+}
+
+/// What a render is: its size, samples, integrator settings, device and loading limits (shared
+/// by `render` and `verify`).
+#[derive(Args, Debug, Clone)]
+pub struct RenderOptions {
     /// Samples per pixel.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
     pub spp: u32,
@@ -137,9 +154,6 @@ pub struct RenderArgs {
     /// Random seed: the same seed gives the same image on the same device.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
-    /// Output image: .exr (linear, with variance) or .png (tonemapped sRGB); default: SCENE.png.
-    #[arg(short = 'o', long = "output")]
-    pub output: Option<PathBuf>,
     /// Vulkan device index, as `wavetrace devices` lists them.
     #[arg(long)]
     pub gpu_index: Option<usize>,
@@ -165,12 +179,6 @@ pub struct RenderArgs {
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,
-    /// PNG exposure in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub exposure: f32,
-    /// Print per-kernel GPU time.
-    #[arg(long)]
-    pub stats: bool,
     /// Run with the Vulkan validation layer (when installed); its errors fail the render.
     #[arg(long)]
     pub validate: bool,
@@ -182,6 +190,9 @@ pub struct RenderArgs {
     /// 512M or 4G (default: half the machine's physical memory).
     #[arg(long, value_parser = wavetrace::scene::parse_size, value_name = "SIZE")]
     pub max_memory: Option<u64>,
+    /// Test-only `layout::DEBUG_*` bits for the GPU side (e.g. 1 drops next event estimation).
+    #[arg(long, default_value_t = 0, hide = true)]
+    pub debug_flags: u32,
 }
 
 #[derive(Args, Debug, Clone)]

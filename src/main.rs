@@ -4,7 +4,9 @@ mod cli;
 
 use anyhow::{bail, Context as _, Result};
 use clap::Parser;
-use cli::{BenchArgs, Cli, Command, CompareArgs, DeviceKind, EstimatorsArgs, RenderArgs};
+use cli::{
+    BenchArgs, Cli, Command, CompareArgs, DeviceKind, EstimatorsArgs, RenderArgs, RenderOptions,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::mem::size_of;
 use std::path::{Path, PathBuf};
@@ -159,20 +161,22 @@ fn progress_bar(samples: u64) -> ProgressBar {
     bar
 }
 
-fn render(args: &RenderArgs) -> Result<()> {
-    let path = args
-        .scene
-        .clone()
-        .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+/// Loads `path` under the options' limits and reserves what rendering it on `device` will take;
+/// returns the scene and the settings the options ask for, and prints the scene's notes.
+fn prepare(
+    path: &Path,
+    opts: &RenderOptions,
+    device: DeviceKind,
+) -> Result<(Scene, PreparedScene, RenderSettings)> {
     let options = LoadOptions {
-        allow_paths: args.allow_paths.clone(),
+        allow_paths: opts.allow_paths.clone(),
         budget: Budget::new(
-            args.max_memory
+            opts.max_memory
                 .unwrap_or_else(wavetrace::scene::default_memory_budget),
         ),
     };
-    let (scene, prepared) = load_with(&path, &options)?;
-    let (width, height) = image_size(args.width, args.height, scene.camera.aspect_ratio);
+    let (scene, prepared) = load_with(path, &options)?;
+    let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio);
     if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
         bail!(
             "{width}×{height} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} in all); \
@@ -183,8 +187,41 @@ fn render(args: &RenderArgs) -> Result<()> {
         &options.budget,
         prepared.triangles.len(),
         width as u64 * height as u64,
-        args.device,
+        device,
     )?;
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: opts.spp,
+        max_depth: opts.max_depth,
+        seed: opts.seed,
+        environment: opts.environment,
+        mis: opts.mis.heuristic(opts.mis_beta),
+        sampler: opts.sampler.code(),
+        rr_mode: opts.rr.code(),
+        rr_start_depth: opts.rr_depth,
+        debug_flags: opts.debug_flags,
+        ..RenderSettings::default()
+    };
+    for note in &scene.notes {
+        eprintln!("note: {}: {note}", path.display());
+    }
+    if prepared.lights.is_empty() && settings.environment.max_element() <= 0.0 {
+        eprintln!(
+            "note: {}: nothing emits light (no emissive surfaces, --environment 0): the image will be black",
+            path.display()
+        );
+    }
+    Ok((scene, prepared, settings))
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let path = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+    let (_scene, prepared, settings) = prepare(&path, &args.opts, args.device)?;
+    let (width, height) = (settings.width, settings.height);
     let output = args.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
             "{}.png",
@@ -196,28 +233,6 @@ fn render(args: &RenderArgs) -> Result<()> {
     match output.extension().and_then(|e| e.to_str()) {
         Some("exr") | Some("png") => {}
         _ => bail!("{}: the output must end in .exr or .png", output.display()),
-    }
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: args.spp,
-        max_depth: args.max_depth,
-        seed: args.seed,
-        environment: args.environment,
-        mis: args.mis.heuristic(args.mis_beta),
-        sampler: args.sampler.code(),
-        rr_mode: args.rr.code(),
-        rr_start_depth: args.rr_depth,
-        ..RenderSettings::default()
-    };
-    for note in &scene.notes {
-        eprintln!("note: {}: {note}", path.display());
-    }
-    if prepared.lights.is_empty() && settings.environment.max_element() <= 0.0 {
-        eprintln!(
-            "note: {}: nothing emits light (no emissive surfaces, --environment 0): the image will be black",
-            path.display()
-        );
     }
     let b = &prepared.bvh.stats;
     println!(
@@ -234,28 +249,29 @@ fn render(args: &RenderArgs) -> Result<()> {
     let RenderOutput { film, stats } = match args.device {
         DeviceKind::Gpu => {
             let gpu = GpuRenderer::new(&GpuOptions {
-                device_index: args.gpu_index,
-                validation: args.validate,
+                device_index: args.opts.gpu_index,
+                validation: args.opts.validate,
                 timing: true,
             })?;
             println!(
                 "rendering {width}×{height} at {} spp, max depth {}, on {} (Vulkan {}, {})",
-                args.spp,
-                args.max_depth,
+                args.opts.spp,
+                args.opts.max_depth,
                 gpu.device().name,
                 gpu.device().api_version,
                 gpu.device().driver
             );
             let progress = progress_bar(settings.total_samples());
-            let out = gpu.render_with_progress(&prepared, &settings, args.wavefront, &progress);
+            let out =
+                gpu.render_with_progress(&prepared, &settings, args.opts.wavefront, &progress);
             progress.finish_and_clear();
             out?
         }
         DeviceKind::Cpu => {
             println!(
                 "rendering {width}×{height} at {} spp, max depth {}, on the CPU ({} threads)",
-                args.spp,
-                args.max_depth,
+                args.opts.spp,
+                args.opts.max_depth,
                 rayon::current_num_threads()
             );
             let progress = progress_bar(settings.total_samples());
