@@ -25,6 +25,10 @@ pub enum Command {
     Devices,
     /// Measure samples/s and rays/s of the GPU and CPU integrators on the committed scenes.
     Bench(BenchArgs),
+    /// Render each scene on the GPU and with the CPU reference (or once against a stored
+    /// reference) and test per tile that they agree; exit status 0 if every scene agrees, 1 if
+    /// one differs, 2 on errors. Writes JUnit, JSON and an HTML report on request.
+    Verify(VerifyArgs),
     /// Test whether two EXR renders by wavetrace have the same expectation (per-tile Welch
     /// tests); exit status 0 if they agree, 1 if they differ, 2 on errors, like diff(1).
     Compare(CompareArgs),
@@ -193,6 +197,37 @@ pub struct RenderOptions {
     /// Test-only `layout::DEBUG_*` bits for the GPU side (e.g. 1 drops next event estimation).
     #[arg(long, default_value_t = 0, hide = true)]
     pub debug_flags: u32,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct VerifyArgs {
+    /// Scene files (.gltf or .glb), verified one after the other.
+    #[arg(required = true)]
+    pub scenes: Vec<std::path::PathBuf>,
+    /// Test one render against this stored reference (.exr written by wavetrace) instead of
+    /// rendering both sides; with several scenes, one reference per scene in the same order.
+    #[arg(long, value_name = "REF.exr")]
+    pub against: Vec<std::path::PathBuf>,
+    /// With --against: which integrator renders.
+    #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
+    pub device: DeviceKind,
+    /// Tile size in pixels: one Welch test per tile and channel.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub tile: u32,
+    /// Family-wise significance level of each scene's test, Šidák-corrected over tiles × channels.
+    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
+    pub alpha: f64,
+    /// Write the images, z-score heat maps and index.html into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<std::path::PathBuf>,
+    /// Write a JUnit XML file (one test case per scene).
+    #[arg(long, value_name = "FILE.xml")]
+    pub junit: Option<std::path::PathBuf>,
+    /// Write every figure as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub json: Option<std::path::PathBuf>,
+    #[command(flatten)]
+    pub opts: RenderOptions,
 }
 
 #[derive(Args, Debug, Clone)]

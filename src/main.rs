@@ -1,6 +1,7 @@
 //! `wavetrace`: render glTF scenes on a Vulkan device or the CPU, list devices, benchmark.
 
 mod cli;
+mod verify_cmd;
 
 use anyhow::{bail, Context as _, Result};
 use clap::Parser;
@@ -50,6 +51,16 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench(&args),
         Command::Estimators(args) => {
             return match estimators(&args) {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => ExitCode::from(1),
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    ExitCode::from(2)
+                }
+            };
+        }
+        Command::Verify(args) => {
+            return match verify_cmd::verify(&args) {
                 Ok(true) => ExitCode::SUCCESS,
                 Ok(false) => ExitCode::from(1),
                 Err(e) => {
@@ -201,7 +212,6 @@ fn prepare(
         rr_mode: opts.rr.code(),
         rr_start_depth: opts.rr_depth,
         debug_flags: opts.debug_flags,
-        ..RenderSettings::default()
     };
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());

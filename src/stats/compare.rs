@@ -38,6 +38,9 @@ pub struct Comparison {
     pub min_p: f64,
     /// Failing tests, in tile row-major order then channel.
     pub failures: Vec<TileFailure>,
+    /// Welch's t of every tile and channel (a − b over its standard error), tiles in row-major
+    /// order: the signed heat map of `wavetrace verify`.
+    pub tile_t: Vec<[f64; 3]>,
     /// Tile edge in pixels and the film size, to name each failure's pixel range.
     pub tile: u32,
     pub width: u32,
@@ -185,12 +188,14 @@ pub fn compare_films(a: &Film, b: &Film, tile: u32, alpha: f64) -> anyhow::Resul
     let per_test_alpha = sidak(alpha, tests);
     let mut min_p: f64 = 1.0;
     let mut failures = Vec::new();
+    let mut tile_t = Vec::with_capacity(tests / 3);
     for tile_y in 0..tiles_y {
         for tile_x in 0..tiles_x {
             let (x0, y0) = (tile_x * tile, tile_y * tile);
             let (x1, y1) = ((x0 + tile).min(a.width), (y0 + tile).min(a.height));
             let (sa, sb) = (tile_side(a, x0, x1, y0, y1), tile_side(b, x0, x1, y0, y1));
-            for c in 0..3 {
+            let mut ts = [0.0; 3];
+            for (c, tc) in ts.iter_mut().enumerate() {
                 let rounding = sa.rounding[c] + sb.rounding[c];
                 let (t, _df, p) = welch_with_known_variance(
                     sa.mean[c] - sb.mean[c],
@@ -198,6 +203,7 @@ pub fn compare_films(a: &Film, b: &Film, tile: u32, alpha: f64) -> anyhow::Resul
                     rounding * rounding,
                 );
                 let p = if p.is_nan() { 0.0 } else { p };
+                *tc = t;
                 min_p = min_p.min(p);
                 if p < per_test_alpha {
                     failures.push(TileFailure {
@@ -212,6 +218,7 @@ pub fn compare_films(a: &Film, b: &Film, tile: u32, alpha: f64) -> anyhow::Resul
                     });
                 }
             }
+            tile_t.push(ts);
         }
     }
     Ok(Comparison {
@@ -220,6 +227,7 @@ pub fn compare_films(a: &Film, b: &Film, tile: u32, alpha: f64) -> anyhow::Resul
         per_test_alpha,
         min_p,
         failures,
+        tile_t,
         tile,
         width: a.width,
         height: a.height,

@@ -1,0 +1,299 @@
+//! The reports of `wavetrace verify`: for each scene, two films (GPU and CPU reference, or a
+//! render and a stored reference) and their per-tile comparison, written as a JUnit XML file and
+//! a JSON file for CI systems, and as a folder with the images, a signed z-score heat map per
+//! scene and one `index.html` for people (no JavaScript: it opens from a CI artifact).
+
+use crate::film::Film;
+use crate::stats::{film_mean, normal_quantile_upper, Comparison};
+use anyhow::{Context as _, Result};
+use image::{Rgb, RgbImage};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One scene's verdict: what was compared and how it came out.
+pub struct SceneVerdict {
+    /// The scene file as the user named it.
+    pub scene: String,
+    /// What each side is, e.g. "GPU (llvmpipe), seed 0" and "CPU reference, seed 1".
+    pub label_a: String,
+    pub label_b: String,
+    pub a: Film,
+    pub b: Film,
+    pub comparison: Comparison,
+    /// Wall-clock seconds of the two renders together.
+    pub seconds: f64,
+}
+
+impl SceneVerdict {
+    pub fn passed(&self) -> bool {
+        self.comparison.passed()
+    }
+
+    /// The failing tile tests, worst (smallest p) first, at most `n`, one line each.
+    pub fn worst_tiles(&self, n: usize) -> Vec<String> {
+        let c = &self.comparison;
+        let mut failures: Vec<_> = c.failures.iter().collect();
+        failures.sort_by(|x, y| x.p.total_cmp(&y.p));
+        failures
+            .iter()
+            .take(n)
+            .map(|f| {
+                let (x0, y0) = (f.tile_x * c.tile, f.tile_y * c.tile);
+                format!(
+                    "tile ({}, {}) = pixels x {}..{}, y {}..{}, channel {}: {:.6e} vs {:.6e} ± {:.3e}, t = {:.2}, p = {:.3e}",
+                    f.tile_x,
+                    f.tile_y,
+                    x0,
+                    (x0 + c.tile).min(c.width),
+                    y0,
+                    (y0 + c.tile).min(c.height),
+                    ["R", "G", "B"][f.channel],
+                    f.mean_a,
+                    f.mean_b,
+                    f.std_err,
+                    f.t,
+                    f.p
+                )
+            })
+            .collect()
+    }
+
+    /// A file-name-safe name for the scene's report files.
+    fn slug(&self, index: usize) -> String {
+        let stem: String = Path::new(&self.scene)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        format!("{index:02}-{stem}")
+    }
+}
+
+fn xml_escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c if (c as u32) < 0x20 && c != '\n' && c != '\t' => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// JUnit XML: one test case per scene; a failure carries the worst tiles.
+pub fn junit_xml(verdicts: &[SceneVerdict]) -> String {
+    let failures = verdicts.iter().filter(|v| !v.passed()).count();
+    let seconds: f64 = verdicts.iter().map(|v| v.seconds).sum();
+    let mut x = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let _ = writeln!(
+        x,
+        "<testsuites name=\"wavetrace verify\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" time=\"{seconds:.3}\">",
+        verdicts.len()
+    );
+    let _ = writeln!(
+        x,
+        "  <testsuite name=\"wavetrace verify\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" skipped=\"0\" time=\"{seconds:.3}\">",
+        verdicts.len()
+    );
+    for v in verdicts {
+        let _ = write!(
+            x,
+            "    <testcase classname=\"wavetrace.verify\" name=\"{}\" time=\"{:.3}\"",
+            xml_escape(&v.scene),
+            v.seconds
+        );
+        if v.passed() {
+            x.push_str("/>\n");
+        } else {
+            let c = &v.comparison;
+            let message = format!(
+                "{} of {} tile×channel Welch tests reject equality of {} and {} (family-wise α = {})",
+                c.failures.len(),
+                c.tests,
+                v.label_a,
+                v.label_b,
+                c.alpha
+            );
+            let _ = writeln!(
+                x,
+                ">\n      <failure message=\"{}\" type=\"StatisticalMismatch\">{}</failure>\n    </testcase>",
+                xml_escape(&message),
+                xml_escape(&v.worst_tiles(10).join("\n"))
+            );
+        }
+    }
+    x.push_str("  </testsuite>\n</testsuites>\n");
+    x
+}
+
+/// Every figure of the verdicts as JSON.
+pub fn json_report(verdicts: &[SceneVerdict]) -> serde_json::Value {
+    let scenes: Vec<serde_json::Value> = verdicts
+        .iter()
+        .map(|v| {
+            let c = &v.comparison;
+            let (mean_a, se_a) = film_mean(&v.a);
+            let (mean_b, se_b) = film_mean(&v.b);
+            json!({
+                "scene": v.scene,
+                "passed": v.passed(),
+                "a": {"label": v.label_a, "mean": mean_a.to_array(), "std_error": se_a.to_array(),
+                      "samples_per_pixel": v.a.total_samples() as f64 / v.a.len().max(1) as f64},
+                "b": {"label": v.label_b, "mean": mean_b.to_array(), "std_error": se_b.to_array(),
+                      "samples_per_pixel": v.b.total_samples() as f64 / v.b.len().max(1) as f64},
+                "width": c.width,
+                "height": c.height,
+                "tile": c.tile,
+                "tests": c.tests,
+                "alpha": c.alpha,
+                "per_test_alpha": c.per_test_alpha,
+                "min_p": c.min_p,
+                "failures": c.failures.iter().map(|f| json!({
+                    "tile_x": f.tile_x, "tile_y": f.tile_y, "channel": f.channel,
+                    "mean_a": f.mean_a, "mean_b": f.mean_b, "std_err": f.std_err, "t": f.t, "p": f.p,
+                })).collect::<Vec<_>>(),
+                "tile_t": c.tile_t,
+                "seconds": v.seconds,
+            })
+        })
+        .collect();
+    json!({
+        "passed": verdicts.iter().all(SceneVerdict::passed),
+        "scenes": scenes,
+    })
+}
+
+/// The |t| at which a tile test rejects, in the normal approximation (the colour scale of the
+/// heat map; the outlined tiles are the ones the Welch tests actually rejected).
+pub fn rejection_threshold(c: &Comparison) -> f64 {
+    normal_quantile_upper(0.5 * c.per_test_alpha)
+}
+
+/// The signed heat map of one comparison, one pixel per film pixel: each tile coloured by the
+/// channel with the largest |t| — red where a > b, blue where a < b, full colour at the
+/// rejection threshold (white beyond it) — and a yellow outline round every rejected tile.
+pub fn heat_map(c: &Comparison) -> RgbImage {
+    let threshold = rejection_threshold(c);
+    let tiles_x = c.width.div_ceil(c.tile);
+    let rejected = |tx: u32, ty: u32| c.failures.iter().any(|f| f.tile_x == tx && f.tile_y == ty);
+    RgbImage::from_fn(c.width, c.height, |x, y| {
+        let (tx, ty) = (x / c.tile, y / c.tile);
+        let t = c.tile_t[(ty * tiles_x + tx) as usize];
+        let worst = t
+            .into_iter()
+            .fold(0.0f64, |w, v| if v.abs() > w.abs() { v } else { w });
+        let (x0, y0) = (tx * c.tile, ty * c.tile);
+        let (x1, y1) = (
+            (x0 + c.tile).min(c.width) - 1,
+            (y0 + c.tile).min(c.height) - 1,
+        );
+        let edge = x == x0 || y == y0 || x == x1 || y == y1;
+        if rejected(tx, ty) && edge {
+            return Rgb([255, 220, 0]);
+        }
+        let s = (worst.abs() / threshold).min(2.0);
+        let strong = (255.0 * s.min(1.0)) as u8;
+        let beyond = (255.0 * (s - 1.0).max(0.0)) as u8;
+        if worst >= 0.0 {
+            Rgb([strong, beyond, beyond])
+        } else {
+            Rgb([beyond, beyond, strong])
+        }
+    })
+}
+
+/// Writes `dir/index.html` and, per scene, the two images and the heat map.
+pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut html = String::from(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>wavetrace verify</title>\n\
+         <style>body{font-family:sans-serif;background:#222;color:#eee} img{image-rendering:pixelated;\
+         width:256px;border:1px solid #555} td{vertical-align:top;padding:4px} .pass{color:#6d6}\
+         .fail{color:#f66} table.f td{font-family:monospace;font-size:12px}</style></head><body>\n\
+         <h1>wavetrace verify</h1>\n",
+    );
+    let passed = verdicts.iter().filter(|v| v.passed()).count();
+    let _ = writeln!(html, "<p>{passed} of {} scenes agree.</p>", verdicts.len());
+    for (i, v) in verdicts.iter().enumerate() {
+        let slug = v.slug(i);
+        let (a_png, b_png, heat_png) = (
+            format!("{slug}-a.png"),
+            format!("{slug}-b.png"),
+            format!("{slug}-heat.png"),
+        );
+        crate::image_io::write_image(&v.a, &dir.join(&a_png), 0.0)?;
+        crate::image_io::write_image(&v.b, &dir.join(&b_png), 0.0)?;
+        heat_map(&v.comparison)
+            .save(dir.join(&heat_png))
+            .with_context(|| format!("writing {}", dir.join(&heat_png).display()))?;
+        let c = &v.comparison;
+        let (mean_a, se_a) = film_mean(&v.a);
+        let (mean_b, se_b) = film_mean(&v.b);
+        let status = if v.passed() {
+            "<span class=\"pass\">PASS</span>"
+        } else {
+            "<span class=\"fail\">FAIL</span>"
+        };
+        let _ = writeln!(
+            html,
+            "<h2>{status} {}</h2>\n<p>{} of {} tile×channel Welch t tests reject equality ({}×{} px, tiles of {} px; \
+             family-wise α = {}, per test {:.3e}; smallest p = {:.3e}; rejection at |t| ≈ {:.2}).</p>",
+            xml_escape(&v.scene),
+            c.failures.len(),
+            c.tests,
+            c.width,
+            c.height,
+            c.tile,
+            c.alpha,
+            c.per_test_alpha,
+            c.min_p,
+            rejection_threshold(c)
+        );
+        let _ = writeln!(
+            html,
+            "<table><tr><td>{}<br><img src=\"{a_png}\"></td><td>{}<br><img src=\"{b_png}\"></td>\
+             <td>per-tile t (red: first brighter, blue: second; yellow outline: rejected)<br>\
+             <img src=\"{heat_png}\"></td></tr></table>",
+            xml_escape(&v.label_a),
+            xml_escape(&v.label_b)
+        );
+        let _ = writeln!(
+            html,
+            "<table class=\"f\"><tr><td></td><td>R</td><td>G</td><td>B</td></tr>\
+             <tr><td>{}</td>{}</tr><tr><td>{}</td>{}</tr></table>",
+            xml_escape(&v.label_a),
+            (0..3)
+                .map(|k| format!("<td>{:.6} ± {:.6}</td>", mean_a[k], se_a[k]))
+                .collect::<String>(),
+            xml_escape(&v.label_b),
+            (0..3)
+                .map(|k| format!("<td>{:.6} ± {:.6}</td>", mean_b[k], se_b[k]))
+                .collect::<String>(),
+        );
+        let worst = v.worst_tiles(10);
+        if !worst.is_empty() {
+            let _ = writeln!(
+                html,
+                "<p>Worst tiles:</p><pre>{}</pre>",
+                xml_escape(&worst.join("\n"))
+            );
+        }
+    }
+    html.push_str("</body></html>\n");
+    let index = dir.join("index.html");
+    std::fs::write(&index, html).with_context(|| format!("writing {}", index.display()))
+}

@@ -1,0 +1,141 @@
+//! `wavetrace verify`: each scene rendered on the GPU and with the CPU reference (independent
+//! seeds, the same settings), or once against a stored reference, then the per-tile Welch test;
+//! a line per scene, a summary, and the reports of `wavetrace::verify` on request.
+
+use crate::cli::{DeviceKind, VerifyArgs};
+use crate::prepare;
+use anyhow::{bail, Context as _, Result};
+use std::time::Instant;
+use wavetrace::gpu::{GpuOptions, GpuRenderer};
+use wavetrace::render::RenderSettings;
+use wavetrace::stats::compare_films;
+use wavetrace::verify::{json_report, junit_xml, write_report, SceneVerdict};
+
+/// Runs every scene; true if all agree.
+pub fn verify(args: &VerifyArgs) -> Result<bool> {
+    if !args.against.is_empty() && args.against.len() != args.scenes.len() {
+        bail!(
+            "--against names {} references for {} scenes: give one per scene, in the same order",
+            args.against.len(),
+            args.scenes.len()
+        );
+    }
+    let needs_gpu = args.against.is_empty() || args.device == DeviceKind::Gpu;
+    let gpu = if needs_gpu {
+        Some(GpuRenderer::new(&GpuOptions {
+            device_index: args.opts.gpu_index,
+            validation: args.opts.validate,
+            timing: false,
+        })?)
+    } else {
+        None
+    };
+    let gpu_label = |seed: u32| match &gpu {
+        Some(g) => format!("GPU ({}), seed {seed}", g.device().name),
+        None => format!("GPU, seed {seed}"),
+    };
+    let mut verdicts = Vec::new();
+    for (i, path) in args.scenes.iter().enumerate() {
+        let device = if args.against.is_empty() {
+            DeviceKind::Gpu
+        } else {
+            args.device
+        };
+        let (_scene, prepared, settings) = prepare(path, &args.opts, device)?;
+        let start = Instant::now();
+        let render_gpu = |s: &RenderSettings| -> Result<wavetrace::film::Film> {
+            let g = gpu
+                .as_ref()
+                .expect("a GPU renderer exists when a side renders on it");
+            Ok(g.render(&prepared, s, args.opts.wavefront)?.film)
+        };
+        let render_cpu = |s: &RenderSettings| {
+            // The debug flags bias the GPU side only: the reference stays the reference.
+            let clean = RenderSettings {
+                debug_flags: 0,
+                ..s.clone()
+            };
+            wavetrace::cpu::render(&prepared, &clean).film
+        };
+        let (label_a, a, label_b, b) = match args.against.get(i) {
+            None => {
+                // Independent seeds: the same seed would draw the same numbers on both sides.
+                let cpu_settings = RenderSettings {
+                    seed: settings.seed.wrapping_add(1),
+                    ..settings.clone()
+                };
+                (
+                    gpu_label(settings.seed),
+                    render_gpu(&settings)?,
+                    format!("CPU reference, seed {}", cpu_settings.seed),
+                    render_cpu(&cpu_settings),
+                )
+            }
+            Some(reference) => {
+                let b = wavetrace::image_io::read_film(reference)?;
+                let a = match args.device {
+                    DeviceKind::Gpu => render_gpu(&settings)?,
+                    DeviceKind::Cpu => render_cpu(&settings),
+                };
+                let label = match args.device {
+                    DeviceKind::Gpu => gpu_label(settings.seed),
+                    DeviceKind::Cpu => format!("CPU, seed {}", settings.seed),
+                };
+                (label, a, format!("reference {}", reference.display()), b)
+            }
+        };
+        for (label, film) in [(&label_a, &a), (&label_b, &b)] {
+            if film.dropped > 0 {
+                eprintln!(
+                    "note: {}: {label} dropped {} NaN/Inf samples",
+                    path.display(),
+                    film.dropped
+                );
+            }
+        }
+        let comparison = compare_films(&a, &b, args.tile, args.alpha)
+            .with_context(|| format!("comparing the two renders of {}", path.display()))?;
+        println!("{}: {comparison}", path.display());
+        verdicts.push(SceneVerdict {
+            scene: path.display().to_string(),
+            label_a,
+            label_b,
+            a,
+            b,
+            comparison,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    let agreeing = verdicts.iter().filter(|v| v.passed()).count();
+    println!(
+        "{agreeing} of {} scenes agree{}",
+        verdicts.len(),
+        if agreeing == verdicts.len() {
+            ""
+        } else {
+            "; the failing tiles are listed above"
+        }
+    );
+    if let Some(dir) = &args.report {
+        write_report(dir, &verdicts)?;
+        println!("report: {}", dir.join("index.html").display());
+    }
+    if let Some(file) = &args.junit {
+        write_creating_folders(file, &junit_xml(&verdicts))?;
+    }
+    if let Some(file) = &args.json {
+        write_creating_folders(
+            file,
+            &serde_json::to_string_pretty(&json_report(&verdicts))?,
+        )?;
+    }
+    Ok(agreeing == verdicts.len())
+}
+
+/// Writes `text` to `file`, creating its folder if needed.
+fn write_creating_folders(file: &std::path::Path, text: &str) -> Result<()> {
+    if let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(file, text).with_context(|| format!("writing {}", file.display()))
+}

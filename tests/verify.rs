@@ -1,0 +1,203 @@
+//! `wavetrace verify` as a CI job runs it: exit status, JUnit and JSON files, the HTML report and
+//! its heat maps, on every committed scene, on a deliberately biased GPU render, and against a
+//! stored reference.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn wavetrace(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the wavetrace binary runs")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wavetrace-verify-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn skip_without_gpu() -> bool {
+    let skip = std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1");
+    if skip {
+        eprintln!("skipping: WAVETRACE_SKIP_GPU=1");
+    }
+    skip
+}
+
+fn json(path: &PathBuf) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn every_committed_scene_verifies_and_the_reports_say_so() {
+    if skip_without_gpu() {
+        return;
+    }
+    let report = temp("all");
+    let (junit, json_file) = (report.join("junit.xml"), report.join("verify.json"));
+    let scenes = [
+        "scenes/cornell-box.gltf",
+        "scenes/cornell-materials.gltf",
+        "scenes/furnace.gltf",
+        "scenes/veach-mis.gltf",
+    ];
+    let mut args = vec!["verify"];
+    args.extend(scenes);
+    args.extend(["--width", "32", "--spp", "128", "--report"]);
+    args.push(report.to_str().unwrap());
+    args.extend([
+        "--junit",
+        junit.to_str().unwrap(),
+        "--json",
+        json_file.to_str().unwrap(),
+    ]);
+    let o = wavetrace(&args);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("4 of 4 scenes agree"), "{stdout}");
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(xml.contains("tests=\"4\" failures=\"0\""), "{xml}");
+    assert_eq!(xml.matches("<testcase ").count(), 4);
+    let v = json(&json_file);
+    assert_eq!(v["passed"], true);
+    assert_eq!(v["scenes"].as_array().unwrap().len(), 4);
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    for (i, scene) in scenes.iter().enumerate() {
+        let stem = std::path::Path::new(scene)
+            .file_stem()
+            .unwrap()
+            .to_str()
+            .unwrap();
+        for part in ["a", "b", "heat"] {
+            let png = format!("{i:02}-{stem}-{part}.png");
+            assert!(html.contains(&png), "index.html does not show {png}");
+            assert!(report.join(&png).is_file(), "{png} missing");
+        }
+    }
+}
+
+#[test]
+fn a_biased_gpu_render_fails_and_the_heat_map_marks_its_tiles() {
+    if skip_without_gpu() {
+        return;
+    }
+    // --debug-flags 1 drops next event estimation on the GPU side only.
+    let report = temp("biased");
+    let json_file = report.join("verify.json");
+    let junit = report.join("junit.xml");
+    let o = wavetrace(&[
+        "verify",
+        "scenes/cornell-box.gltf",
+        "--width",
+        "32",
+        "--spp",
+        "64",
+        "--debug-flags",
+        "1",
+        "--report",
+        report.to_str().unwrap(),
+        "--json",
+        json_file.to_str().unwrap(),
+        "--junit",
+        junit.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        xml.contains("failures=\"1\"") && xml.contains("<failure "),
+        "{xml}"
+    );
+    let v = json(&json_file);
+    assert_eq!(v["passed"], false);
+    let scene = &v["scenes"][0];
+    let failures = scene["failures"].as_array().unwrap();
+    assert!(!failures.is_empty());
+    let tile = scene["tile"].as_u64().unwrap() as u32;
+    let heat = image::open(report.join("00-cornell-box-heat.png"))
+        .unwrap()
+        .to_rgb8();
+    let rejected: Vec<(u32, u32)> = failures
+        .iter()
+        .map(|f| {
+            (
+                f["tile_x"].as_u64().unwrap() as u32,
+                f["tile_y"].as_u64().unwrap() as u32,
+            )
+        })
+        .collect();
+    let tiles = 32 / tile;
+    for ty in 0..tiles {
+        for tx in 0..tiles {
+            let corner = heat.get_pixel(tx * tile, ty * tile).0;
+            let outlined = corner == [255, 220, 0];
+            assert_eq!(
+                outlined,
+                rejected.contains(&(tx, ty)),
+                "tile ({tx}, {ty}): outline {outlined}, rejected {}",
+                rejected.contains(&(tx, ty))
+            );
+        }
+    }
+}
+
+#[test]
+fn a_render_verifies_against_a_stored_reference() {
+    if skip_without_gpu() {
+        return;
+    }
+    let reference = temp("reference.exr");
+    let o = wavetrace(&[
+        "render",
+        "scenes/cornell-box.gltf",
+        "--device",
+        "cpu",
+        "--width",
+        "32",
+        "--spp",
+        "128",
+        "--seed",
+        "7",
+        "-o",
+        reference.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let verify = |extra: &[&str]| {
+        let mut args = vec![
+            "verify",
+            "scenes/cornell-box.gltf",
+            "--width",
+            "32",
+            "--spp",
+            "128",
+        ];
+        args.extend(["--against", reference.to_str().unwrap()]);
+        args.extend(extra);
+        wavetrace(&args)
+    };
+    assert_eq!(verify(&[]).status.code(), Some(0));
+    assert_eq!(verify(&["--device", "cpu"]).status.code(), Some(0));
+    // A depth-1 render is not the reference.
+    assert_eq!(verify(&["--max-depth", "1"]).status.code(), Some(1));
+    // A missing reference is an error, exit 2.
+    let o = wavetrace(&[
+        "verify",
+        "scenes/cornell-box.gltf",
+        "--against",
+        "no-such.exr",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no-such.exr"));
+}
