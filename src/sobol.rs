@@ -19,19 +19,17 @@ const SOBOL_TAG: u32 = 0x534f_424c;
 /// Dimension 0 is van der Corput (the index's bits mirrored about the binary point); dimension 1
 /// XORs, for each set bit k of the index, the direction number v_k of the primitive polynomial
 /// x + 1: v_0 = 2³¹, v_(k+1) = v_k ⊕ (v_k ≫ 1) (Sobol 1967; Joe & Kuo 2008, dimension 2), the
-/// rows of Pascal's triangle mod 2.
+/// rows of Pascal's triangle mod 2. By Lucas' theorem bit 31 − j of v_k is set iff j ⊆ k
+/// (bitwise), so the mirrored dimension 1 is the superset-XOR transform of the index's bits: five
+/// shift-and-mask steps, one per bit of a bit position, instead of a loop over 32 bits.
 pub fn sobol2(index: u32) -> UVec2 {
-    let mut y = 0u32;
-    let mut v = 1u32 << 31;
-    let mut i = index;
-    while i != 0 {
-        if i & 1 != 0 {
-            y ^= v;
-        }
-        i >>= 1;
-        v ^= v >> 1;
-    }
-    UVec2::new(index.reverse_bits(), y)
+    let mut x = index;
+    x ^= (x >> 1) & 0x5555_5555;
+    x ^= (x >> 2) & 0x3333_3333;
+    x ^= (x >> 4) & 0x0f0f_0f0f;
+    x ^= (x >> 8) & 0x00ff_00ff;
+    x ^= (x >> 16) & 0x0000_ffff;
+    UVec2::new(index.reverse_bits(), x.reverse_bits())
 }
 
 /// Laine and Karras's hash ("Stratified Sampling for Stochastic Transparency", EGSR 2011) with

@@ -8,15 +8,17 @@
 #define SOBOL_TAG 0x534f424cu
 
 // The first two Sobol dimensions at index, as 32-bit binary fractions: van der Corput, and the
-// direction numbers of x + 1, v_0 = 2^31, v_(k+1) = v_k ^ (v_k >> 1) (Joe & Kuo 2008).
+// direction numbers of x + 1, v_0 = 2^31, v_(k+1) = v_k ^ (v_k >> 1) (Joe & Kuo 2008), summed
+// in closed form.
 uvec2 sobol2(uint index) {
-    uint y = 0u;
-    uint v = 1u << 31u;
-    for (uint i = index; i != 0u; i >>= 1u) {
-        if ((i & 1u) != 0u) y ^= v;
-        v ^= v >> 1u;
-    }
-    return uvec2(bitfieldReverse(index), y);
+    // The superset-XOR transform of the index's bits (src/sobol.rs says why), then mirrored.
+    uint x = index;
+    x ^= (x >> 1u) & 0x55555555u;
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    x ^= (x >> 16u) & 0x0000ffffu;
+    return uvec2(bitfieldReverse(index), bitfieldReverse(x));
 }
 
 // Laine-Karras hash with Burley's constants (Burley 2020, Listing 2): bit j of the result

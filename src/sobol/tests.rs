@@ -56,6 +56,28 @@ fn sobol2_starts_like_the_sobol_sequence() {
 }
 
 #[test]
+fn sobol2_equals_the_direction_number_loop() {
+    // The superset-XOR form against the definition: XOR of v_k over the set bits k of the index.
+    let reference = |index: u32| {
+        let (mut y, mut v, mut i) = (0u32, 1u32 << 31, index);
+        while i != 0 {
+            if i & 1 != 0 {
+                y ^= v;
+            }
+            i >>= 1;
+            v ^= v >> 1;
+        }
+        y
+    };
+    let mut indices: Vec<u32> = (0..65_536).collect();
+    indices.extend((0..65_536u32).map(|i| crate::sampling::pcg4d(glam::UVec4::new(i, 1, 2, 3)).x));
+    indices.extend([u32::MAX, 1 << 31, 0xdead_beef]);
+    for i in indices {
+        assert_eq!(sobol2(i).y, reference(i), "index {i:#x}");
+    }
+}
+
+#[test]
 fn shuffled_index_is_a_bijection_on_every_power_of_two() {
     // Bit j of the shuffled index depends only on bits 0..=j, so the first 2^k indices map one to
     // one onto the residues mod 2^k (and so does every aligned block of 2^k).
