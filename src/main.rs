@@ -49,42 +49,28 @@ fn main() -> ExitCode {
         Command::Render(args) => render(&args),
         Command::Devices => devices(),
         Command::Bench(args) => bench(&args),
-        Command::Estimators(args) => {
-            return match estimators(&args) {
-                Ok(true) => ExitCode::SUCCESS,
-                Ok(false) => ExitCode::from(1),
-                Err(e) => {
-                    eprintln!("error: {e:#}");
-                    ExitCode::from(2)
-                }
-            };
-        }
-        Command::Verify(args) => {
-            return match verify_cmd::verify(&args) {
-                Ok(true) => ExitCode::SUCCESS,
-                Ok(false) => ExitCode::from(1),
-                Err(e) => {
-                    eprintln!("error: {e:#}");
-                    ExitCode::from(2)
-                }
-            };
-        }
-        Command::Compare(args) => {
-            return match compare(&args) {
-                Ok(true) => ExitCode::SUCCESS,
-                Ok(false) => ExitCode::from(1),
-                Err(e) => {
-                    eprintln!("error: {e:#}");
-                    ExitCode::from(2)
-                }
-            };
-        }
+        Command::Estimators(args) => return exit_like_diff(estimators(&args)),
+        Command::Verify(args) => return exit_like_diff(verify_cmd::verify(&args)),
+        Command::Compare(args) => return exit_like_diff(compare(&args)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// Exit status of the commands that answer a yes/no question, like diff(1): 0 yes, 1 no,
+/// 2 error.
+fn exit_like_diff(answer: Result<bool>) -> ExitCode {
+    match answer {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
         }
     }
 }

@@ -253,19 +253,24 @@ pub fn chi_square_p(chi2: f64, dof: f64) -> f64 {
     incomplete_gamma_q(0.5 * dof, 0.5 * chi2)
 }
 
-/// The z with P(Z > z) = `p` for a standard normal Z (0 < p < 1/2), by bisection on
-/// P(Z > z) = Q(1/2, z²/2) / 2 (the complementary error function as an incomplete gamma).
-pub fn normal_quantile_upper(p: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+/// The x with P(X ≥ x) = `p` for X ~ χ²(`d`), by bisection on [`chi_square_p`].
+pub fn chi_square_quantile_upper(p: f64, d: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, d + 40.0 * (2.0 * d).sqrt() + 2000.0);
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
-        if 0.5 * incomplete_gamma_q(0.5, 0.5 * mid * mid) > p {
+        if chi_square_p(mid, d) > p {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     0.5 * (lo + hi)
+}
+
+/// The z with P(Z > z) = `p` for a standard normal Z (0 < p < 1/2): Z² is χ²(1), so
+/// z = √(the χ²(1) quantile with upper tail 2p).
+pub fn normal_quantile_upper(p: f64) -> f64 {
+    chi_square_quantile_upper(2.0 * p, 1.0).sqrt()
 }
 
 /// Per-test significance for m independent tests at family-wise level α (Šidák 1967):

@@ -189,10 +189,14 @@ pub fn rejection_threshold(c: &Comparison) -> f64 {
 pub fn heat_map(c: &Comparison) -> RgbImage {
     let threshold = rejection_threshold(c);
     let tiles_x = c.width.div_ceil(c.tile);
-    let rejected = |tx: u32, ty: u32| c.failures.iter().any(|f| f.tile_x == tx && f.tile_y == ty);
+    let mut rejected = vec![false; c.tile_t.len()];
+    for f in &c.failures {
+        rejected[(f.tile_y * tiles_x + f.tile_x) as usize] = true;
+    }
     RgbImage::from_fn(c.width, c.height, |x, y| {
         let (tx, ty) = (x / c.tile, y / c.tile);
-        let t = c.tile_t[(ty * tiles_x + tx) as usize];
+        let tile = (ty * tiles_x + tx) as usize;
+        let t = c.tile_t[tile];
         let worst = t
             .into_iter()
             .fold(0.0f64, |w, v| if v.abs() > w.abs() { v } else { w });
@@ -202,7 +206,7 @@ pub fn heat_map(c: &Comparison) -> RgbImage {
             (y0 + c.tile).min(c.height) - 1,
         );
         let edge = x == x0 || y == y0 || x == x1 || y == y1;
-        if rejected(tx, ty) && edge {
+        if rejected[tile] && edge {
             return Rgb([255, 220, 0]);
         }
         let s = (worst.abs() / threshold).min(2.0);

@@ -3,22 +3,16 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn wavetrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the wavetrace binary runs")
-}
+mod common;
+
+use common::wavetrace;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wavetrace-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    common::temp("cli", name)
 }
 
 #[test]

@@ -3,20 +3,13 @@
 //! stored reference.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
-fn wavetrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the wavetrace binary runs")
-}
+mod common;
+
+use common::wavetrace;
 
 fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wavetrace-verify-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    common::temp("verify", name)
 }
 
 fn skip_without_gpu() -> bool {

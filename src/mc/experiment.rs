@@ -9,7 +9,9 @@ use super::integrands::{integrands, Integrand, ROULETTE_P};
 use super::predict::{balance_bound, cumulants, lecture_variance, strategies, Estimator};
 use super::KeyedUniforms;
 use crate::mis::Heuristic;
-use crate::stats::{chi_square_p, incomplete_beta, sidak, student_t_two_sided_p};
+use crate::stats::{
+    chi_square_p, chi_square_quantile_upper, incomplete_beta, sidak, student_t_two_sided_p,
+};
 use anyhow::{bail, Result};
 
 /// What to run.
@@ -106,25 +108,6 @@ impl Report {
             })
             .sum()
     }
-}
-
-/// P(χ²(d) ≤ x).
-fn chi_square_cdf(x: f64, d: f64) -> f64 {
-    1.0 - chi_square_p(x, d)
-}
-
-/// The q-quantile of χ²(d), by bisection on its distribution function.
-fn chi_square_quantile(q: f64, d: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, d + 20.0 * (2.0 * d).sqrt() + 100.0);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if chi_square_cdf(mid, d) < q {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
 }
 
 /// Degrees of freedom d of a sample variance s² of `count` values with excess kurtosis γ₂, so
@@ -228,10 +211,10 @@ fn row(i: &Integrand, e: Estimator, values: Running, n: usize, alpha_each: f64) 
     // Variance: d s²/σ² ~ χ²(d), two-sided.
     let dof = variance_dof(count, kurtosis);
     let x = dof * measured / predicted;
-    let variance_p = (2.0 * chi_square_cdf(x, dof).min(chi_square_p(x, dof))).min(1.0);
+    let variance_p = (2.0 * (1.0 - chi_square_p(x, dof)).min(chi_square_p(x, dof))).min(1.0);
     let interval = (
-        chi_square_quantile(alpha_each / 2.0, dof) / dof,
-        chi_square_quantile(1.0 - alpha_each / 2.0, dof) / dof,
+        chi_square_quantile_upper(1.0 - alpha_each / 2.0, dof) / dof,
+        chi_square_quantile_upper(alpha_each / 2.0, dof) / dof,
     );
     Row {
         label: label(i, e),
@@ -290,7 +273,7 @@ fn relations(i: &Integrand, rows: &[Row], n: usize, alpha_each: f64) -> Vec<Chec
             continue;
         }
         let p = if bound_n > 0.0 {
-            chi_square_cdf(r.dof * r.measured_variance / bound_n, r.dof)
+            1.0 - chi_square_p(r.dof * r.measured_variance / bound_n, r.dof)
         } else {
             1.0
         };

@@ -47,10 +47,8 @@ pub fn lecture_variance(i: &Integrand, e: Estimator, n: usize) -> f64 {
         // σ²_strat = Σ_i [(1/N) ∫_{A_i} f² − I_i²] = (1/N) ∫ f² − Σ I_i².
         Estimator::Stratified => {
             let h = 1.0 / n as f64;
-            let panels = (QUADRATURE_PANELS / n).max(4);
-            (0..n)
-                .map(|k| {
-                    let (a, b) = (k as f64 * h, (k + 1) as f64 * h);
+            strata(n)
+                .map(|(a, b, panels)| {
                     let ik = integrate(f, a, b, panels);
                     h * integrate(|x| f(x) * f(x), a, b, panels) - ik * ik
                 })
@@ -180,10 +178,8 @@ pub fn cumulants(i: &Integrand, e: Estimator, n: usize) -> Cumulants {
         Estimator::Stratified => {
             // Σ_k f(ξ_k)/N, ξ_k uniform on A_k (density N there).
             let h = 1.0 / n as f64;
-            let panels = (QUADRATURE_PANELS / n).max(4);
-            (0..n)
-                .map(|k| {
-                    let (a, b) = (k as f64 * h, (k + 1) as f64 * h);
+            strata(n)
+                .map(|(a, b, panels)| {
                     let on_stratum = |g: &dyn Fn(f64) -> f64| integrate(g, a, b, panels);
                     Cumulants::of(on_stratum, f, |_| n as f64).scaled(h)
                 })
@@ -217,4 +213,11 @@ pub fn cumulants(i: &Integrand, e: Estimator, n: usize) -> Cumulants {
             }
         }
     }
+}
+
+/// The N equal strata of [0, 1) as (start, end, quadrature panels for each).
+fn strata(n: usize) -> impl Iterator<Item = (f64, f64, usize)> {
+    let h = 1.0 / n as f64;
+    let panels = (QUADRATURE_PANELS / n).max(4);
+    (0..n).map(move |k| (k as f64 * h, (k + 1) as f64 * h, panels))
 }

@@ -115,3 +115,19 @@ pub fn assert_agree_at(gpu: &Film, cpu: &Film, alpha: f64, what: &str) {
     println!("{what}: {cmp}");
     assert!(cmp.passed(), "{what}:\n{cmp}");
 }
+
+/// Runs the wavetrace binary from the crate root.
+pub fn wavetrace(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the wavetrace binary runs")
+}
+
+/// A path for `name` in a temporary folder of this test binary (`group` names the binary).
+pub fn temp(group: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wavetrace-{group}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
