@@ -86,6 +86,19 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
+        self.intersect_closest_filtered(triangles, ray, t_min, t_max, |_, _, _| true)
+    }
+
+    /// [`intersect_closest`](Bvh::intersect_closest) counting only hits (triangle, u, v) that
+    /// `accept` (the any-hit test: alpha cut-outs and stochastic transparency, `surface.rs`).
+    pub fn intersect_closest_filtered(
+        &self,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: impl Fn(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
         if self.is_empty() {
             return None;
         }
@@ -103,6 +116,7 @@ impl Bvh {
                 for i in first..first + node.count {
                     if let Some((t, u, v)) =
                         intersect_triangle(&triangles[i as usize], ray, t_min, t_far)
+                            .filter(|&(_, u, v)| accept(i, u, v))
                     {
                         t_far = t;
                         closest = Some(Hit {
@@ -167,6 +181,18 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
     ) -> bool {
+        self.intersect_any_filtered(triangles, ray, t_min, t_max, |_, _, _| true)
+    }
+
+    /// [`intersect_any`](Bvh::intersect_any) counting only hits that `accept`.
+    pub fn intersect_any_filtered(
+        &self,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: impl Fn(u32, f32, f32) -> bool,
+    ) -> bool {
         if self.is_empty() {
             return false;
         }
@@ -181,7 +207,9 @@ impl Bvh {
             if node.is_leaf() {
                 let first = node.first_triangle();
                 for i in first..first + node.count {
-                    if intersect_triangle(&triangles[i as usize], ray, t_min, t_max).is_some() {
+                    if intersect_triangle(&triangles[i as usize], ray, t_min, t_max)
+                        .is_some_and(|(_, u, v)| accept(i, u, v))
+                    {
                         return true;
                     }
                 }

@@ -68,11 +68,19 @@ pub struct GpuTriangle {
 
 /// Material flags (`Material::flags`).
 pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
+/// alphaMode MASK: the surface exists where base-colour alpha ≥ `alpha_cutoff`.
+pub const MATERIAL_ALPHA_MASK: u32 = 2;
+/// alphaMode BLEND: the surface exists with probability alpha (stochastic transparency).
+pub const MATERIAL_ALPHA_BLEND: u32 = 4;
 
-/// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance.
-/// Total: 48 bytes.
+/// No texture in a `GpuMaterial::*_texture` slot.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
+/// texture references that modulate its factors at each surface point (`surface`).
+/// Total: 80 bytes.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
     pub base_color: [f32; 3], // 12 bytes: linear RGB, baseColorFactor
     pub flags: u32,           // 4 bytes: MATERIAL_* bits
@@ -82,6 +90,99 @@ pub struct GpuMaterial {
     pub ior: f32,             // 4 bytes: KHR_materials_ior (1.5 by default)
     pub transmission: f32,    // 4 bytes: KHR_materials_transmission's factor
     pub specular: f32,        // 4 bytes: KHR_materials_specular's specularFactor (1 by default)
+    pub alpha: f32,           // 4 bytes: baseColorFactor's alpha
+    pub alpha_cutoff: f32,    // 4 bytes: alphaCutoff (MATERIAL_ALPHA_MASK)
+    pub normal_scale: f32,    // 4 bytes: normalTexture.scale
+    /// Indices into the texture references (`GpuTextureRef`), or `NO_TEXTURE`.
+    pub base_color_texture: u32, // 4 bytes: sRGB; RGB × base_color, A × alpha
+    pub metallic_roughness_texture: u32, // 4 bytes: B × metallic, G × roughness
+    pub emissive_texture: u32, // 4 bytes: sRGB; RGB × emission
+    pub normal_texture: u32,  // 4 bytes: tangent-space normal
+    pub transmission_texture: u32, // 4 bytes: R × transmission
+}
+
+impl Default for GpuMaterial {
+    /// glTF's default material (base colour 1, metallic 1, roughness 1), untextured.
+    fn default() -> Self {
+        GpuMaterial {
+            base_color: [1.0; 3],
+            flags: 0,
+            emission: [0.0; 3],
+            metallic: 1.0,
+            roughness: 1.0,
+            ior: 1.5,
+            transmission: 0.0,
+            specular: 1.0,
+            alpha: 1.0,
+            alpha_cutoff: 0.5,
+            normal_scale: 1.0,
+            base_color_texture: NO_TEXTURE,
+            metallic_roughness_texture: NO_TEXTURE,
+            emissive_texture: NO_TEXTURE,
+            normal_texture: NO_TEXTURE,
+            transmission_texture: NO_TEXTURE,
+        }
+    }
+}
+
+/// Shading attributes of one vertex, in world space. Total: 64 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuVertex {
+    /// xyz: unit tangent; w: ±1, the bitangent is w · cross(normal, tangent) (glTF TANGENT).
+    pub tangent: [f32; 4], // 16 bytes
+    pub normal: [f32; 3], // 12 bytes: unit shading normal (NORMAL)
+    pub pad: u32,         // 4 bytes
+    pub uv: [f32; 4],     // 16 bytes: TEXCOORD_0 (xy), TEXCOORD_1 (zw)
+    pub color: [f32; 4],  // 16 bytes: COLOR_0 (RGBA, 1 when absent)
+}
+
+/// `triangle_vertices[i].w` bits: the triangle has no vertex normals (shade with its face normal).
+pub const TRIANGLE_FLAT: u32 = 1;
+/// The triangle's material is alpha-tested (MASK or BLEND): traversal consults its alpha.
+pub const TRIANGLE_ALPHA: u32 = 2;
+
+/// A texture as a sampler sees it: a mip chain of RGBA8 texels in the texel buffer (level k
+/// follows level k − 1; level k is max(1, ⌊w/2ᵏ⌋) × max(1, ⌊h/2ᵏ⌋), rows top to bottom) and
+/// glTF's sampler settings. Total: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTexture {
+    pub texel_offset: u32, // 4 bytes: first texel of level 0
+    pub width: u32,        // 4 bytes
+    pub height: u32,       // 4 bytes
+    pub levels: u32,       // 4 bytes
+    pub wrap_s: u32,       // 4 bytes: WRAP_*
+    pub wrap_t: u32,       // 4 bytes: WRAP_*
+    /// Magnification filter (`FILTER_*`) in bits 0–3, minification (`MIN_*`) in bits 4–7.
+    pub filters: u32, // 4 bytes
+    /// 1: the texels are sRGB-encoded colour (decoded before filtering), 0: linear data.
+    pub srgb: u32, // 4 bytes
+}
+
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_CLAMP_TO_EDGE: u32 = 1;
+pub const WRAP_MIRRORED_REPEAT: u32 = 2;
+pub const FILTER_NEAREST: u32 = 0;
+pub const FILTER_LINEAR: u32 = 1;
+pub const MIN_NEAREST: u32 = 0;
+pub const MIN_LINEAR: u32 = 1;
+pub const MIN_NEAREST_MIPMAP_NEAREST: u32 = 2;
+pub const MIN_LINEAR_MIPMAP_NEAREST: u32 = 3;
+pub const MIN_NEAREST_MIPMAP_LINEAR: u32 = 4;
+pub const MIN_LINEAR_MIPMAP_LINEAR: u32 = 5;
+
+/// A material's use of a texture: which texture coordinate set, through which
+/// `KHR_texture_transform` (uv' = (dot(row0, uv), dot(row1, uv)) + offset).
+/// Total: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTextureRef {
+    /// (row0.x, row0.y, row1.x, row1.y) of the 2×2 part of the transform.
+    pub transform: [f32; 4], // 16 bytes
+    pub offset: [f32; 2], // 8 bytes
+    pub texture: u32,     // 4 bytes: index into the textures
+    pub texcoord: u32,    // 4 bytes: 0 or 1
 }
 
 /// One entry of the emitter table: triangles that emit, with the running CDF of their selection
@@ -96,7 +197,7 @@ pub struct LightEntry {
     pub pad: u32,      // 4 bytes
 }
 
-/// Constants of one render (std140 uniform). Total: 128 bytes.
+/// Constants of one render (std140 uniform). Total: 144 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
@@ -129,6 +230,12 @@ pub struct FrameParams {
     /// `RR_*`: how Russian roulette picks survival probabilities.
     pub rr_mode: u32, // 4 bytes
     pub pad: u32,               // 4 bytes
+    /// Ray cones (Akenine-Möller et al. 2021): the cone's width at the camera and its spread
+    /// angle per unit distance, for texture level-of-detail.
+    pub cone_width: f32, // 4 bytes
+    pub cone_spread: f32,       // 4 bytes
+    pub pad1: u32,              // 4 bytes
+    pub pad2: u32,              // 4 bytes
 }
 
 /// `FrameParams::sampler_mode`: every number independent.
@@ -185,7 +292,11 @@ pub struct PathState {
     pub radiance: [f32; 3],   // 12 bytes
     /// 1 if the previous vertex was the camera or a specular bounce (no MIS on emission).
     pub prev_specular: u32, // 4 bytes
-    pub pad: [u32; 4],        // 16 bytes
+    /// Width of the ray cone at the current ray's origin (texture level of detail).
+    pub cone_width: f32, // 4 bytes
+    pub pad0: u32,            // 4 bytes
+    pub pad1: u32,            // 4 bytes
+    pub pad2: u32,            // 4 bytes
 }
 
 /// A ray in the extension queue. Total: 32 bytes.
@@ -293,7 +404,38 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         roughness,
         ior,
         transmission,
-        specular
+        specular,
+        alpha,
+        alpha_cutoff,
+        normal_scale,
+        base_color_texture,
+        metallic_roughness_texture,
+        emissive_texture,
+        normal_texture,
+        transmission_texture
+    }),
+    struct_layout!(GpuVertex {
+        tangent,
+        normal,
+        pad,
+        uv,
+        color
+    }),
+    struct_layout!(GpuTexture {
+        texel_offset,
+        width,
+        height,
+        levels,
+        wrap_s,
+        wrap_t,
+        filters,
+        srgb
+    }),
+    struct_layout!(GpuTextureRef {
+        transform,
+        offset,
+        texture,
+        texcoord
     }),
     struct_layout!(LightEntry {
         cdf,
@@ -323,7 +465,11 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         spp,
         sampler_mode,
         rr_mode,
-        pad
+        pad,
+        cone_width,
+        cone_spread,
+        pad1,
+        pad2
     }),
     struct_layout!(DispatchParams {
         first_sample,
@@ -340,7 +486,10 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         prev_bsdf_pdf,
         radiance,
         prev_specular,
-        pad
+        cone_width,
+        pad0,
+        pad1,
+        pad2
     }),
     struct_layout!(QueuedRay {
         origin,

@@ -15,6 +15,8 @@ pub mod sampling;
 pub mod scene;
 pub mod sobol;
 pub mod stats;
+pub mod surface;
+pub mod texture;
 pub mod verify;
 
 /// The SPIR-V of every wavefront kernel, compiled from `shaders/` by build.rs.

@@ -4,12 +4,14 @@
 use crate::bvh::{gpu_triangles, Bvh};
 use crate::film::Film;
 use crate::layout::{
-    FrameParams, GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED, RR_THROUGHPUT,
+    FrameParams, GpuMaterial, GpuTexture, GpuTextureRef, GpuTriangle, GpuVertex, LightEntry,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_TEXTURE, RR_THROUGHPUT,
     SAMPLER_SOBOL,
 };
 use crate::mis::Heuristic;
-use crate::scene::{build_light_table, Camera, Scene};
-use glam::Vec3;
+use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, NO_VERTEX};
+use crate::texture::TextureData;
+use glam::{UVec4, Vec3};
 
 /// What to render and how.
 #[derive(Clone, Debug)]
@@ -61,13 +63,54 @@ impl RenderSettings {
     }
 }
 
-/// The scene in the form both integrators trace: flattened BVH and triangles in BVH order.
+/// The scene in the form both integrators trace: flattened BVH and triangles in BVH order,
+/// with their shading data (`surface.rs`).
 pub struct PreparedScene {
     pub bvh: Bvh,
     pub triangles: Vec<GpuTriangle>,
     pub materials: Vec<GpuMaterial>,
     pub lights: Vec<LightEntry>,
+    /// Per BVH-ordered triangle: its vertices (xyz) and `TRIANGLE_*` flags (w).
+    pub triangle_vertices: Vec<UVec4>,
+    /// The scene's vertices and, last, one without attributes (`NO_VERTEX` corners).
+    pub vertices: Vec<GpuVertex>,
+    pub textures: Vec<GpuTexture>,
+    pub texture_refs: Vec<GpuTextureRef>,
+    pub texels: Vec<u32>,
     pub camera: Camera,
+}
+
+/// The GPU form of a scene material.
+pub fn gpu_material(m: &Material) -> GpuMaterial {
+    let mut flags = if m.double_sided {
+        MATERIAL_DOUBLE_SIDED
+    } else {
+        0
+    };
+    match m.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask => flags |= MATERIAL_ALPHA_MASK,
+        AlphaMode::Blend => flags |= MATERIAL_ALPHA_BLEND,
+    }
+    let slot = |t: Option<u32>| t.unwrap_or(NO_TEXTURE);
+    GpuMaterial {
+        base_color: m.base_color.to_array(),
+        flags,
+        emission: m.emission.to_array(),
+        metallic: m.metallic,
+        roughness: m.roughness,
+        ior: m.ior,
+        transmission: m.transmission,
+        specular: m.specular,
+        alpha: m.alpha,
+        alpha_cutoff: m.alpha_cutoff,
+        normal_scale: m.normal_scale,
+        base_color_texture: slot(m.textures.base_color),
+        metallic_roughness_texture: slot(m.textures.metallic_roughness),
+        emissive_texture: slot(m.textures.emissive),
+        normal_texture: slot(m.textures.normal),
+        transmission_texture: slot(m.textures.transmission),
+    }
 }
 
 impl PreparedScene {
@@ -76,31 +119,58 @@ impl PreparedScene {
         let material_ids: Vec<u32> = scene.triangles.iter().map(|t| t.material).collect();
         let bvh = Bvh::build(&positions);
         let mut triangles = gpu_triangles(&positions, &material_ids, &bvh.order);
-        let materials: Vec<GpuMaterial> = scene
-            .materials
+        let materials: Vec<GpuMaterial> = scene.materials.iter().map(gpu_material).collect();
+        let mut vertices = scene.vertices.clone();
+        let blank = vertices.len() as u32;
+        vertices.push(GpuVertex {
+            color: [1.0; 4],
+            ..Default::default()
+        });
+        let triangle_vertices = bvh
+            .order
             .iter()
-            .map(|m| GpuMaterial {
-                base_color: m.base_color.to_array(),
-                flags: if m.double_sided {
-                    MATERIAL_DOUBLE_SIDED
-                } else {
-                    0
-                },
-                emission: m.emission.to_array(),
-                metallic: m.metallic,
-                roughness: m.roughness,
-                ior: m.ior,
-                transmission: m.transmission,
-                specular: m.specular,
+            .map(|&i| {
+                let t = &scene.triangles[i as usize];
+                let [a, b, c] = t.vertices.map(|v| if v == NO_VERTEX { blank } else { v });
+                UVec4::new(a, b, c, t.flags)
             })
             .collect();
-        let lights = build_light_table(&mut triangles, &materials);
+        // Emitters are chosen by power; an emissive texture scales it by its mean.
+        let emitting: Vec<GpuMaterial> = materials
+            .iter()
+            .map(|m| {
+                let mut m = *m;
+                if m.emissive_texture != NO_TEXTURE {
+                    let r = &scene.textures.refs[m.emissive_texture as usize];
+                    let mean = scene.textures.means[r.texture as usize];
+                    for k in 0..3 {
+                        m.emission[k] *= mean[k];
+                    }
+                }
+                m
+            })
+            .collect();
+        let lights = build_light_table(&mut triangles, &emitting);
         PreparedScene {
             bvh,
             triangles,
             materials,
             lights,
+            triangle_vertices,
+            vertices,
+            textures: scene.textures.textures.clone(),
+            texture_refs: scene.textures.refs.clone(),
+            texels: scene.textures.texels.clone(),
             camera: scene.camera,
+        }
+    }
+
+    /// The textures as `texture.rs` samples them.
+    pub fn texture_data(&self) -> TextureData<'_> {
+        TextureData {
+            textures: &self.textures,
+            refs: &self.texture_refs,
+            texels: &self.texels,
         }
     }
 
@@ -130,6 +200,12 @@ impl PreparedScene {
             sampler_mode: settings.sampler,
             rr_mode: settings.rr_mode,
             pad: 0,
+            // A pinhole's cone starts as a point and widens by the pixel's angle (Akenine-Möller
+            // et al. 2019, Ray Tracing Gems ch. 20, eq. 30).
+            cone_width: 0.0,
+            cone_spread: (2.0 * (0.5 * c.yfov).tan() / settings.height as f32).atan(),
+            pad1: 0,
+            pad2: 0,
         }
     }
 }

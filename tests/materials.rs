@@ -28,6 +28,7 @@ fn material(base: Vec3, metallic: f32, roughness: f32, transmission: f32) -> Mat
         specular: 1.0,
         emission: Vec3::ZERO,
         double_sided: false,
+        ..Material::default_white()
     }
 }
 
@@ -49,6 +50,8 @@ fn scene(triangles: Vec<Triangle>, material: Material, camera: Camera) -> Prepar
         source: "test".into(),
         triangles,
         materials: vec![material],
+        vertices: Vec::new(),
+        textures: Default::default(),
         camera,
         dropped_degenerate: 0,
         skipped_primitives: 0,
@@ -77,7 +80,7 @@ fn sphere(rings: usize, segments: usize) -> Vec<Triangle> {
                 point(i, j + 1),
             );
             for p in [[a, b, c], [a, c, d]] {
-                let t = Triangle { p, material: 0 };
+                let t = Triangle::flat(p, 0);
                 if t.area() > 1e-9 {
                     triangles.push(t);
                 }
@@ -133,16 +136,7 @@ fn plane_under_white_environment_shows_the_directional_albedo() {
     // lighting only (max depth 1) from --environment 1, no roulette: each pixel's expectation is
     // the directional albedo ∫ f cos dωi for its view direction, computed by quadrature.
     let quad = |a: Vec3, b: Vec3, c: Vec3, d: Vec3| {
-        [
-            Triangle {
-                p: [a, b, c],
-                material: 0,
-            },
-            Triangle {
-                p: [a, c, d],
-                material: 0,
-            },
-        ]
+        [Triangle::flat([a, b, c], 0), Triangle::flat([a, c, d], 0)]
     };
     let s = 50.0;
     let plane = quad(

@@ -15,6 +15,13 @@ layout(std430, set = 0, binding = 8) buffer Shadows { ShadowRay shadow_rays[]; }
 layout(std430, set = 0, binding = 9) buffer Film { FilmPixel film[]; };
 layout(std430, set = 0, binding = 10) buffer Counters { uint counters[]; };
 layout(std430, set = 0, binding = 11) buffer Args { uvec4 dispatch_args[]; };
+// Shading data (surface.glsl, texture.glsl): per-triangle vertex indices (xyz) and TRIANGLE_*
+// flags (w) in BVH order, vertices, textures, texture references and RGBA8 texels.
+layout(std430, set = 0, binding = 12) readonly buffer TriangleVertices { uvec4 triangle_vertices[]; };
+layout(std430, set = 0, binding = 13) readonly buffer Vertices { GpuVertex vertices[]; };
+layout(std430, set = 0, binding = 14) readonly buffer Textures { GpuTexture textures[]; };
+layout(std430, set = 0, binding = 15) readonly buffer TextureRefs { GpuTextureRef texture_refs[]; };
+layout(std430, set = 0, binding = 16) readonly buffer Texels { uint texels[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

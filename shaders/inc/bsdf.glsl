@@ -30,23 +30,47 @@ struct BsdfFrame {
     float f90;
     vec3 lobe_pmf;     // diffuse, reflection, transmission
     float albedo_estimate;
+    vec3 ng;           // geometric normal on wo's side, local
 };
+
+// BsdfFrame::new_shading's minimum height of wo's reflection above the geometric surface.
+#define SHADING_NORMAL_MIN_COS 0.01
+
+// Shading normal ns (on ng's side) bent so that wo's mirror reflection about it lies at least
+// SHADING_NORMAL_MIN_COS above the geometric surface (Keller et al. 2017, "The Iray Light
+// Transport Simulation and Rendering System", A.3). ng, wo unit with dot(ng, wo) > 0.
+vec3 bend_shading_normal(vec3 ns, vec3 ng, vec3 wo) {
+    vec3 r = 2.0 * dot(wo, ns) * ns - wo;
+    float height = dot(r, ng);
+    if (height >= SHADING_NORMAL_MIN_COS) return ns;
+    vec3 tangential = r - height * ng;
+    float len = length(tangential);
+    if (!(len > 1e-12)) return ng;
+    vec3 lifted = tangential * (sqrt(1.0 - SHADING_NORMAL_MIN_COS * SHADING_NORMAL_MIN_COS) / len)
+                + SHADING_NORMAL_MIN_COS * ng;
+    return normalize(wo + lifted);
+}
 
 float average3(vec3 v) {
     return (v.x + v.y + v.z) / 3.0;
 }
 
+// The frame of shading normal ns flipped with ng to wo's side and bent (BsdfFrame::new_shading):
+// evaluated in the shading frame, zero where the geometric and shading sides of wi disagree.
 // False where wo lies in the surface's plane.
-bool bsdf_frame_new(GpuMaterial m, vec3 ng, vec3 wo, out BsdfFrame f) {
+bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFrame f) {
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
     f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = 0.0; f.f90 = 0.0;
-    f.lobe_pmf = vec3(0.0); f.albedo_estimate = 0.0;
+    f.lobe_pmf = vec3(0.0); f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
-    f.n = front ? ng : -ng;
+    vec3 ng_wo = front ? ng : -ng;
+    bool geometric = all(equal(ns, ng));
+    f.n = geometric ? ng_wo : bend_shading_normal(front ? ns : -ns, ng_wo, wo);
     build_frame(f.n, f.t, f.b);
-    f.wo = vec3(dot(wo, f.t), dot(wo, f.b), abs(cos_g));
+    f.wo = vec3(dot(wo, f.t), dot(wo, f.b), geometric ? abs(cos_g) : dot(wo, f.n));
+    if (!geometric) f.ng = vec3(dot(ng_wo, f.t), dot(ng_wo, f.b), dot(ng_wo, f.n));
     f.transmission = m.metallic < 1.0 ? m.transmission : 0.0;
     float ior = max(m.ior, 1.0);
     f.etap = (f.transmission > 0.0 && !front) ? 1.0 / ior : ior;
@@ -66,6 +90,21 @@ bool bsdf_frame_new(GpuMaterial m, vec3 ng, vec3 wo, out BsdfFrame f) {
     f.lobe_pmf = total > 0.0 ? w / total : vec3(0.0);
     f.albedo_estimate = total;
     return true;
+}
+
+// The frame of the geometric normal alone (BsdfFrame::new).
+bool bsdf_frame_new(GpuMaterial m, vec3 ng, vec3 wo, out BsdfFrame f) {
+    return bsdf_frame_new_shading(m, ng, ng, wo, f);
+}
+
+// Whether local wi lies on the same side of the geometric and the shading surface.
+bool bsdf_consistent(BsdfFrame f, vec3 wi) {
+    return (dot(wi, f.ng) > 0.0) == (wi.z > 0.0);
+}
+
+// |cos| between world-space wi and the shading normal (BsdfFrame::cos_theta).
+float bsdf_frame_cos(BsdfFrame f, vec3 wi) {
+    return abs(dot(wi, f.n));
 }
 
 vec3 bsdf_to_local(BsdfFrame f, vec3 v) {
@@ -91,6 +130,7 @@ bool refraction_half_vector(BsdfFrame f, vec3 wi, out vec3 m) {
 // f of the non-delta lobes for local wi.
 vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     vec3 wo = f.wo;
+    if (!bsdf_consistent(f, wi)) return vec3(0.0);
     float dielectric = 1.0 - f.metallic;
     if (wi.z > 0.0) {
         vec3 h = normalize(wo + wi);
@@ -122,6 +162,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
 // Solid-angle pdf of the non-delta lobes' mixture at local wi.
 float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
     vec3 wo = f.wo;
+    if (!bsdf_consistent(f, wi)) return 0.0;
     if (wi.z > 0.0) {
         float pdf = f.lobe_pmf.x * cosine_hemisphere_pdf(wi.z);
         if (!bsdf_is_delta(f) && f.lobe_pmf.y > 0.0) {
@@ -197,7 +238,7 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
     vec3 local;
     if (lobe != LOBE_DIFFUSE && bsdf_is_delta(f)) {
         vec3 value;
-        if (!bsdf_delta_lobe(f, lobe, mode, local, value)) return false;
+        if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
         wi = bsdf_to_world(f, local);
         weight = value / lobe_p;
         pdf = lobe_p;

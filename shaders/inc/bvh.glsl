@@ -14,6 +14,16 @@
 #define BVH_FLT_MAX 3.402823466e38
 #define BVH_FLT_MIN 1.175494351e-38
 
+// The any-hit test: a kernel that defines BVH_ANY_HIT (and includes surface.glsl) honours
+// alpha cut-outs and stochastic transparency (surface.rs); others accept every hit.
+bool bvh_accept(uint i, float u, float v, uvec4 key) {
+#ifdef BVH_ANY_HIT
+    return triangle_present(i, u, v, key);
+#else
+    return true;
+#endif
+}
+
 // Möller–Trumbore ray/triangle test (Möller & Trumbore 1997), double-sided: true for a hit with
 // t in (t_min, t_max); u, v are the barycentric weights of p1, p2. NaN fails every test.
 bool intersect_triangle(GpuTriangle tri, vec3 origin, vec3 dir, float t_min, float t_max,
@@ -71,7 +81,8 @@ bool bvh_is_empty() {
 }
 
 // Closest hit with t in (t_min, t_max). On a miss returns false with hit.triangle = NO_HIT.
-bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, out HitRecord hit) {
+// key: the ray's alpha key (surface.glsl, alpha_key).
+bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0);
     if (bvh_is_empty()) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
@@ -89,7 +100,7 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, out 
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v)) {
+                if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v) && bvh_accept(i, u, v, key)) {
                     t_far = t;
                     hit = HitRecord(t, i, u, v);
                 }
@@ -135,7 +146,7 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, out 
 }
 
 // True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
-bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max) {
+bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (bvh_is_empty()) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uint stack[BVH_STACK_SIZE];
@@ -149,7 +160,7 @@ bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max) {
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                if (intersect_triangle(triangles[i], origin, dir, t_min, t_max, t, u, v)) return true;
+                if (intersect_triangle(triangles[i], origin, dir, t_min, t_max, t, u, v) && bvh_accept(i, u, v, key)) return true;
             }
         } else {
             uint li = index + 1u;

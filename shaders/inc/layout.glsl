@@ -32,9 +32,13 @@ struct GpuTriangle {
 };
 
 #define MATERIAL_DOUBLE_SIDED 1u
+#define MATERIAL_ALPHA_MASK 2u
+#define MATERIAL_ALPHA_BLEND 4u
+#define NO_TEXTURE 0xffffffffu
 
-// A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance.
-// Total: 48 bytes.
+// A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
+// texture references that modulate its factors at each surface point (surface.glsl).
+// Total: 80 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -44,6 +48,56 @@ struct GpuMaterial {
     float ior;           // 4 bytes: KHR_materials_ior
     float transmission;  // 4 bytes: KHR_materials_transmission
     float specular;      // 4 bytes: KHR_materials_specular's specularFactor
+    float alpha;         // 4 bytes: baseColorFactor's alpha
+    float alpha_cutoff;  // 4 bytes
+    float normal_scale;  // 4 bytes
+    uint base_color_texture;          // 4 bytes: GpuTextureRef index or NO_TEXTURE
+    uint metallic_roughness_texture;  // 4 bytes
+    uint emissive_texture;            // 4 bytes
+    uint normal_texture;              // 4 bytes
+    uint transmission_texture;        // 4 bytes
+};
+
+// Shading attributes of one vertex, world space. Total: 64 bytes.
+struct GpuVertex {
+    vec4 tangent;  // 16 bytes: xyz unit tangent, w bitangent sign
+    vec3 normal;   // 12 bytes
+    uint pad;      // 4 bytes
+    vec4 uv;       // 16 bytes: TEXCOORD_0 (xy), TEXCOORD_1 (zw)
+    vec4 color;    // 16 bytes: COLOR_0
+};
+#define TRIANGLE_FLAT 1u
+#define TRIANGLE_ALPHA 2u
+
+// A mip chain of RGBA8 texels and glTF's sampler settings (src/layout.rs). Total: 32 bytes.
+struct GpuTexture {
+    uint texel_offset;  // 4 bytes
+    uint width;         // 4 bytes
+    uint height;        // 4 bytes
+    uint levels;        // 4 bytes
+    uint wrap_s;        // 4 bytes
+    uint wrap_t;        // 4 bytes
+    uint filters;       // 4 bytes: mag in bits 0-3, min in bits 4-7
+    uint srgb;          // 4 bytes
+};
+#define WRAP_REPEAT 0u
+#define WRAP_CLAMP_TO_EDGE 1u
+#define WRAP_MIRRORED_REPEAT 2u
+#define FILTER_NEAREST 0u
+#define FILTER_LINEAR 1u
+#define MIN_NEAREST 0u
+#define MIN_LINEAR 1u
+#define MIN_NEAREST_MIPMAP_NEAREST 2u
+#define MIN_LINEAR_MIPMAP_NEAREST 3u
+#define MIN_NEAREST_MIPMAP_LINEAR 4u
+#define MIN_LINEAR_MIPMAP_LINEAR 5u
+
+// A material's use of a texture: texture coordinate set and KHR_texture_transform. Total: 32 bytes.
+struct GpuTextureRef {
+    vec4 transform;  // 16 bytes: rows (x, y) and (z, w) of the 2x2 part
+    vec2 offset;     // 8 bytes
+    uint texture;    // 4 bytes
+    uint texcoord;   // 4 bytes
 };
 
 // Emitter table entry, CDF proportional to power. Total: 16 bytes.
@@ -54,7 +108,7 @@ struct LightEntry {
     uint pad;         // 4 bytes
 };
 
-// Constants of one render (std140 uniform). Total: 128 bytes.
+// Constants of one render (std140 uniform). Total: 144 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
     float tan_half_fov_y; // 4 bytes
@@ -78,6 +132,10 @@ struct FrameParams {
     uint sampler_mode;      // 4 bytes: SAMPLER_*
     uint rr_mode;           // 4 bytes: RR_*
     uint pad;               // 4 bytes
+    float cone_width;       // 4 bytes: ray cone at the camera (texture level of detail)
+    float cone_spread;      // 4 bytes: its spread angle
+    uint pad1;              // 4 bytes
+    uint pad2;              // 4 bytes
 };
 #define SAMPLER_INDEPENDENT 0u
 #define SAMPLER_STRATIFIED 1u
@@ -105,7 +163,10 @@ struct PathState {
     float prev_bsdf_pdf;  // 4 bytes
     vec3 radiance;        // 12 bytes
     uint prev_specular;   // 4 bytes
-    uvec4 pad;            // 16 bytes
+    float cone_width;     // 4 bytes: ray cone width at the ray's origin
+    uint pad0;            // 4 bytes
+    uint pad1;            // 4 bytes
+    uint pad2;            // 4 bytes
 };
 
 // Extension-queue ray. Total: 32 bytes.

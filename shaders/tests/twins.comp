@@ -73,10 +73,10 @@ void main() {
     // A ray through the scene: origin from the key's bits, direction -wo.
     vec3 origin = uintBitsToFloat(key.xyz);
     HitRecord hit;
-    bvh_intersect_closest(origin, -wo, 0.0, 3.402823466e38, hit);
+    bvh_intersect_closest(origin, -wo, 0.0, 3.402823466e38, uvec4(0u), hit);
     outputs[o + 10u] = vec4(hit.t, uintBitsToFloat(hit.triangle), hit.u, hit.v);
     float t_max = u.z * 4.0;
-    outputs[o + 11u] = vec4(bvh_intersect_any(origin, -wo, 0.0, t_max) ? 1.0 : 0.0, t_max, 0.0, 0.0);
+    outputs[o + 11u] = vec4(bvh_intersect_any(origin, -wo, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
 
     uint n_perm = 1u + i % 300u;
     uint p = permute(i % n_perm, n_perm, key.x);

@@ -4,6 +4,12 @@
 // (each path has at most one shadow ray per bounce, so no atomics on radiance).
 #include "layout.glsl"
 #include "bindings.glsl"
+#define BVH_ANY_HIT
+#include "rng.glsl"
+#include "sampling.glsl"
+#include "scene.glsl"
+#include "texture.glsl"
+#include "surface.glsl"
 #include "bvh.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
@@ -12,7 +18,10 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_SHADOW]) return;
     ShadowRay shadow = shadow_rays[i];
-    if (!bvh_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max)) {
+    uint pixel, sample_index;
+    path_pixel_sample(shadow.path, pixel, sample_index);
+    uvec4 key = alpha_key(frame.seed, pixel, sample_index, params.depth, true);
+    if (!bvh_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
         paths[shadow.path].radiance += shadow.contribution;
     }
 }

@@ -3,6 +3,12 @@
 // Stage 2: closest hit for every queued extension ray.
 #include "layout.glsl"
 #include "bindings.glsl"
+#define BVH_ANY_HIT
+#include "rng.glsl"
+#include "sampling.glsl"
+#include "scene.glsl"
+#include "texture.glsl"
+#include "surface.glsl"
 #include "bvh.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
@@ -12,7 +18,10 @@ void main() {
     uint queue = params.depth & 1u;
     if (i >= counters[queue]) return;
     QueuedRay ray = rays[queue * params.batch_size + i];
+    uint pixel, sample_index;
+    path_pixel_sample(ray.path, pixel, sample_index);
+    uvec4 key = alpha_key(frame.seed, pixel, sample_index, params.depth, false);
     HitRecord hit;
-    bvh_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, hit);
+    bvh_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, key, hit);
     hits[i] = hit;
 }

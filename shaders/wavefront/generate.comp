@@ -20,7 +20,10 @@ void main() {
     state.prev_bsdf_pdf = 0.0;
     state.radiance = vec3(0.0);
     state.prev_specular = 1u;
-    state.pad = uvec4(0u);
+    state.cone_width = frame.cone_width;
+    state.pad0 = 0u;
+    state.pad1 = 0u;
+    state.pad2 = 0u;
     paths[i] = state;
 
     QueuedRay ray;

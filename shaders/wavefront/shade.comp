@@ -9,6 +9,8 @@
 #include "bsdf.glsl"
 #include "mis.glsl"
 #include "scene.glsl"
+#include "texture.glsl"
+#include "surface.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -31,10 +33,16 @@ void main() {
         return;
     }
     GpuTriangle tri = triangles[hit.triangle];
-    GpuMaterial mat = materials[tri.material];
-    vec3 p = tri.p0 + hit.u * tri.e1 + hit.v * tri.e2;
-    vec3 ng = normalize(cross(tri.e1, tri.e2));
+    SurfacePoint sp = surface_point(tri, triangle_vertices[hit.triangle], hit.u, hit.v);
+    vec3 p = sp.p;
+    vec3 ng = sp.ng;
     float cos_out = dot(ng, wo);
+    // The ray cone's width at the hit sets the textures' level of detail.
+    float cone_width = state.cone_width + frame.cone_spread * hit.t;
+    state.cone_width = cone_width;
+    vec2 lod = surface_lod_base(sp, cone_width, cos_out);
+    GpuMaterial raw = materials[tri.material];
+    GpuMaterial mat = surface_material(raw, sp, lod);
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     vec3 le = emitted_radiance(mat, cos_out);
@@ -49,7 +57,8 @@ void main() {
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
     // the surface exactly (nothing scatters along it).
     BsdfFrame bsdf;
-    if (depth >= frame.max_depth || !bsdf_frame_new(mat, ng, wo, bsdf)) {
+    if (depth >= frame.max_depth
+        || !bsdf_frame_new_shading(mat, ng, surface_normal(raw, sp, lod), wo, bsdf)) {
         paths[ray.path] = state;
         return;
     }
@@ -70,7 +79,12 @@ void main() {
         vec3 wi = to_light / dist;
         float cos_light = dot(light_n, -wi);
         float cos_surface = dot(ng, wi);
-        vec3 light_le = emitted_radiance(materials[light.material], cos_light);
+        // The light point's emission (its textures at level 0) where its surface exists.
+        SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
+        GpuMaterial light_mat = surface_material(materials[light.material], light_sp, LOD_MAGNIFY);
+        uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
+        vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key)
+            ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);
         vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
@@ -85,7 +99,7 @@ void main() {
             shadow.path = ray.path;
             shadow.dir = d / t_max;
             shadow.t_max = t_max;
-            shadow.contribution = state.throughput * f * abs(cos_surface) * light_le * (w / light_pdf);
+            shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * light_le * (w / light_pdf);
             shadow.pad = 0u;
             shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
         }

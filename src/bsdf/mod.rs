@@ -84,6 +84,36 @@ pub struct BsdfFrame {
     pub lobe_pmf: [f32; 3],
     /// Sum of the lobe albedo estimates (before normalising to `lobe_pmf`).
     pub albedo_estimate: f32,
+    /// The geometric normal on `wo`'s side, in the local frame: a direction reflects or
+    /// transmits by the side of the geometric surface it lies on.
+    ng: Vec3,
+}
+
+/// How far above the geometric surface the shading normal must reflect `wo`
+/// ([`bend_shading_normal`]): the cosine of the reflected direction with the geometric normal.
+pub const SHADING_NORMAL_MIN_COS: f32 = 0.01;
+
+/// A shading normal `ns` (on `ng`'s side) bent so that the mirror reflection of `wo` about it
+/// lies at least [`SHADING_NORMAL_MIN_COS`] above the geometric surface (Keller et al. 2017,
+/// "The Iray Light Transport Simulation and Rendering System", §A.3): without it, a normal map
+/// or interpolated normal that faces away from `wo` turns the surface black. `ng` and `wo` must
+/// be unit and on the same side (ng·wo > 0); returns a unit vector with ns·wo > 0.
+pub fn bend_shading_normal(ns: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
+    let r = 2.0 * wo.dot(ns) * ns - wo;
+    let height = r.dot(ng);
+    if height >= SHADING_NORMAL_MIN_COS {
+        return ns;
+    }
+    // Lift the reflection to the minimum height, keeping its azimuth, and take the half vector.
+    let tangential = r - height * ng;
+    let length = tangential.length();
+    if !(length > 1e-12) {
+        return ng;
+    }
+    let lifted = tangential
+        * ((1.0 - SHADING_NORMAL_MIN_COS * SHADING_NORMAL_MIN_COS).sqrt() / length)
+        + SHADING_NORMAL_MIN_COS * ng;
+    (wo + lifted).normalize()
 }
 
 fn average(v: Vec3) -> f32 {
@@ -91,16 +121,35 @@ fn average(v: Vec3) -> f32 {
 }
 
 impl BsdfFrame {
-    /// None where `wo` lies in the surface's plane (no light leaves along it).
+    /// The frame of the geometric normal (no shading normal). None where `wo` lies in the
+    /// surface's plane (no light leaves along it).
     pub fn new(m: &GpuMaterial, ng: Vec3, wo: Vec3) -> Option<BsdfFrame> {
+        BsdfFrame::new_shading(m, ng, ng, wo)
+    }
+
+    /// The frame of shading normal `ns` (unit, either side), flipped with the geometric normal
+    /// `ng` to `wo`'s side and bent by [`bend_shading_normal`]. The BSDF is evaluated in it,
+    /// but whether a direction reflects or transmits is decided by the geometric surface, and
+    /// where the two disagree the BSDF is zero, so no light leaks through a surface whose
+    /// shading normal tilts over its horizon (Veach 1997, §5.3; pbrt-v3 §9.1).
+    pub fn new_shading(m: &GpuMaterial, ng: Vec3, ns: Vec3, wo: Vec3) -> Option<BsdfFrame> {
         let cos_g = ng.dot(wo);
         if cos_g == 0.0 || !cos_g.is_finite() {
             return None;
         }
         let front = cos_g > 0.0;
-        let n = if front { ng } else { -ng };
+        let ng_wo = if front { ng } else { -ng };
+        let n = if ns == ng {
+            ng_wo
+        } else {
+            bend_shading_normal(if front { ns } else { -ns }, ng_wo, wo)
+        };
         let (t, b) = build_frame(n);
-        let wo_local = Vec3::new(wo.dot(t), wo.dot(b), cos_g.abs());
+        let wo_local = Vec3::new(
+            wo.dot(t),
+            wo.dot(b),
+            if ns == ng { cos_g.abs() } else { wo.dot(n) },
+        );
         let transmission = if m.metallic < 1.0 {
             m.transmission
         } else {
@@ -144,7 +193,23 @@ impl BsdfFrame {
             f90,
             lobe_pmf,
             albedo_estimate: total,
+            ng: if ns == ng {
+                Vec3::Z
+            } else {
+                Vec3::new(ng_wo.dot(t), ng_wo.dot(b), ng_wo.dot(n))
+            },
         })
+    }
+
+    /// Whether local `wi` lies on the same side of the geometric and the shading surface.
+    fn consistent(&self, wi: Vec3) -> bool {
+        (wi.dot(self.ng) > 0.0) == (wi.z > 0.0)
+    }
+
+    /// |cos| between world-space `wi` and the shading normal: the cosine of the rendering
+    /// equation.
+    pub fn cos_theta(&self, wi: Vec3) -> f32 {
+        wi.dot(self.n).abs()
     }
 
     fn to_local(self, v: Vec3) -> Vec3 {
@@ -172,6 +237,9 @@ impl BsdfFrame {
     /// f of the non-delta lobes for local `wi`.
     fn eval_local(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
         let wo = self.wo;
+        if !self.consistent(wi) {
+            return Vec3::ZERO;
+        }
         let dielectric = 1.0 - self.metallic;
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
@@ -208,6 +276,9 @@ impl BsdfFrame {
     /// Solid-angle pdf of the non-delta lobes' mixture at local `wi`.
     fn pdf_local(&self, wi: Vec3) -> f32 {
         let wo = self.wo;
+        if !self.consistent(wi) {
+            return 0.0;
+        }
         let [p_diffuse, p_reflection, p_transmission] = self.lobe_pmf;
         if wi.z > 0.0 {
             let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
@@ -278,6 +349,9 @@ impl BsdfFrame {
         }
         if lobe != LOBE_DIFFUSE && self.is_delta() {
             let (wi, value) = self.delta_lobe(lobe, mode)?;
+            if !self.consistent(wi) {
+                return None;
+            }
             let pdf = self.lobe_pmf[lobe];
             return Some(BsdfSample {
                 wi: self.to_world(wi),

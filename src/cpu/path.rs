@@ -14,7 +14,11 @@ use crate::render::PreparedScene;
 use crate::sampling::{
     offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
 };
-use glam::{Vec2, Vec3};
+use crate::surface::{
+    alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, triangle_present,
+    LOD_MAGNIFY,
+};
+use glam::{UVec4, Vec2, Vec3};
 
 /// Extension and shadow rays traced.
 #[derive(Clone, Copy, Debug, Default)]
@@ -117,23 +121,33 @@ pub fn trace_path(
     let mut state = PathState {
         throughput: [1.0; 3],
         prev_specular: 1,
+        cone_width: frame.cone_width,
         ..Default::default()
     };
     let mut depth = 0;
     loop {
         // extend
         counts.extension += 1;
-        let hit = scene
-            .bvh
-            .intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);
+        let key = alpha_key(frame.seed, pixel, sample, depth, false);
+        let hit = scene.bvh.intersect_closest_filtered(
+            &scene.triangles,
+            &ray,
+            0.0,
+            f32::MAX,
+            |i, u, v| present(scene, i, u, v, key),
+        );
         let (next, shadow) = shade(scene, frame, pixel, sample, depth, &ray, hit, &mut state);
         // connect
         if let Some(s) = shadow {
             counts.shadow += 1;
-            if !scene
-                .bvh
-                .intersect_any(&scene.triangles, &s.ray, 0.0, s.t_max)
-            {
+            let key = alpha_key(frame.seed, pixel, sample, depth, true);
+            if !scene.bvh.intersect_any_filtered(
+                &scene.triangles,
+                &s.ray,
+                0.0,
+                s.t_max,
+                |i, u, v| present(scene, i, u, v, key),
+            ) {
                 state.radiance = (Vec3::from(state.radiance) + s.contribution).to_array();
             }
         }
@@ -143,6 +157,21 @@ pub fn trace_path(
         }
         depth += 1;
     }
+}
+
+/// The any-hit test of both traversals (`surface::triangle_present`).
+fn present(scene: &PreparedScene, index: u32, u: f32, v: f32, key: UVec4) -> bool {
+    triangle_present(
+        &scene.texture_data(),
+        &scene.triangles,
+        &scene.triangle_vertices,
+        &scene.vertices,
+        &scene.materials,
+        index,
+        u,
+        v,
+        key,
+    )
 }
 
 /// One vertex of the path (shade.comp): MIS-weighted emission, one emitter sample, the BSDF
@@ -168,11 +197,22 @@ fn shade(
         return (None, None);
     };
     let tri = &scene.triangles[hit.triangle as usize];
-    let mat = &scene.materials[tri.material as usize];
-    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
-    let p = Vec3::from(tri.p0) + hit.u * e1 + hit.v * e2;
-    let ng = e1.cross(e2).normalize();
+    let textures = scene.texture_data();
+    let sp = surface_point(
+        tri,
+        scene.triangle_vertices[hit.triangle as usize],
+        &scene.vertices,
+        hit.u,
+        hit.v,
+    );
+    let (p, ng) = (sp.p, sp.ng);
     let cos_out = ng.dot(wo);
+    // The ray cone's width at the hit sets the textures' level of detail.
+    let cone_width = state.cone_width + frame.cone_spread * hit.t;
+    state.cone_width = cone_width;
+    let lod = surface_lod_base(&sp, cone_width, cos_out);
+    let raw = &scene.materials[tri.material as usize];
+    let mat = &surface_material(&textures, raw, &sp, lod);
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     let le = emitted_radiance(mat, cos_out);
@@ -196,7 +236,8 @@ fn shade(
     }
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
     // the surface exactly (nothing scatters along it).
-    let Some(bsdf) = BsdfFrame::new(mat, ng, wo) else {
+    let ns = surface_normal(&textures, raw, &sp, lod);
+    let Some(bsdf) = BsdfFrame::new_shading(mat, ng, ns, wo) else {
         return (None, None);
     };
 
@@ -210,6 +251,7 @@ fn shade(
     {
         let entry = &scene.lights[sample_light(&scene.lights, u_light.x)];
         let light = &scene.triangles[entry.triangle as usize];
+        let light_vertices = scene.triangle_vertices[entry.triangle as usize];
         let dimension = 4 * dim::bounce_block(depth) + 1;
         let b = sample_uniform_triangle(sample_pair(
             frame,
@@ -227,7 +269,16 @@ fn shade(
         let wi = to_light / dist;
         let cos_light = light_n.dot(-wi);
         let cos_surface = ng.dot(wi);
-        let light_le = emitted_radiance(&scene.materials[light.material as usize], cos_light);
+        // The light point's emission (its textures at level 0) where its surface exists.
+        let light_raw = &scene.materials[light.material as usize];
+        let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
+        let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
+        let key = alpha_key(frame.seed, pixel, sample, depth, true);
+        let light_le = if present(scene, entry.triangle, b.x, b.y, key) {
+            emitted_radiance(&light_mat, cos_light)
+        } else {
+            Vec3::ZERO
+        };
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
         let f = bsdf.eval(wi, TransportMode::Radiance);
@@ -253,7 +304,7 @@ fn shade(
                     dir: d / t_max,
                 },
                 t_max,
-                contribution: throughput * f * cos_surface.abs() * light_le * (w / light_pdf),
+                contribution: throughput * f * bsdf.cos_theta(wi) * light_le * (w / light_pdf),
             });
         }
     }

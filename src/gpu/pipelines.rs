@@ -24,10 +24,15 @@ pub enum Binding {
     Film = 9,
     Counters = 10,
     Args = 11,
+    TriangleVertices = 12,
+    Vertices = 13,
+    Textures = 14,
+    TextureRefs = 15,
+    Texels = 16,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 12] = [
+    pub const ALL: [Binding; 17] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -40,6 +45,11 @@ impl Binding {
         Binding::Film,
         Binding::Counters,
         Binding::Args,
+        Binding::TriangleVertices,
+        Binding::Vertices,
+        Binding::Textures,
+        Binding::TextureRefs,
+        Binding::Texels,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

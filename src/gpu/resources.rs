@@ -52,6 +52,8 @@ impl RenderBuffers {
             ("BVH nodes", size_of_val(scene.bvh.nodes.as_slice())),
             ("triangles", size_of_val(scene.triangles.as_slice())),
             ("emitters", size_of_val(scene.lights.as_slice())),
+            ("vertices", size_of_val(scene.vertices.as_slice())),
+            ("texels", size_of_val(scene.texels.as_slice())),
         ] {
             if bytes > range {
                 bail!(
@@ -75,6 +77,14 @@ impl RenderBuffers {
         let triangles = device("triangles", size_of_val(scene.triangles.as_slice()))?;
         let materials = device("materials", size_of_val(scene.materials.as_slice()))?;
         let lights = device("lights", size_of_val(scene.lights.as_slice()))?;
+        let triangle_vertices = device(
+            "triangle_vertices",
+            size_of_val(scene.triangle_vertices.as_slice()),
+        )?;
+        let vertices = device("vertices", size_of_val(scene.vertices.as_slice()))?;
+        let textures = device("textures", size_of_val(scene.textures.as_slice()))?;
+        let texture_refs = device("texture_refs", size_of_val(scene.texture_refs.as_slice()))?;
+        let texels = device("texels", size_of_val(scene.texels.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
         let hits = device("hits", cap * size_of::<HitRecord>())?;
@@ -103,6 +113,11 @@ impl RenderBuffers {
             (Binding::Film, film.buffer),
             (Binding::Counters, counters.buffer),
             (Binding::Args, args.buffer),
+            (Binding::TriangleVertices, triangle_vertices.buffer),
+            (Binding::Vertices, vertices.buffer),
+            (Binding::Textures, textures.buffer),
+            (Binding::TextureRefs, texture_refs.buffer),
+            (Binding::Texels, texels.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -111,6 +126,14 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&scene.triangles), &triangles),
             (bytemuck::cast_slice(&scene.materials), &materials),
             (bytemuck::cast_slice(&scene.lights), &lights),
+            (
+                bytemuck::cast_slice(&scene.triangle_vertices),
+                &triangle_vertices,
+            ),
+            (bytemuck::cast_slice(&scene.vertices), &vertices),
+            (bytemuck::cast_slice(&scene.textures), &textures),
+            (bytemuck::cast_slice(&scene.texture_refs), &texture_refs),
+            (bytemuck::cast_slice(&scene.texels), &texels),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -136,7 +159,19 @@ impl RenderBuffers {
             counters_back,
             args,
             _bound: vec![
-                nodes, triangles, materials, lights, paths, rays, hits, shadows,
+                nodes,
+                triangles,
+                materials,
+                lights,
+                paths,
+                rays,
+                hits,
+                shadows,
+                triangle_vertices,
+                vertices,
+                textures,
+                texture_refs,
+                texels,
             ],
         })
     }

@@ -187,6 +187,62 @@ pub(super) fn read_indices(
     }
 }
 
+/// A vertex attribute as up to four floats per element (missing components 0): FLOAT, or
+/// normalized integers where `normalized_types` allows them, decoded as glTF 2.0 §3.11
+/// ("Animations"/"Meshes": c / (2ⁿ − 1) for unsigned, max(c / (2ⁿ⁻¹ − 1), −1) for signed).
+/// `dimensions` lists the accepted element types. Non-finite values are reported as an error
+/// by the caller, which knows what the attribute means.
+pub(super) fn read_attribute(
+    accessor: &Accessor,
+    buffers: &[Vec<u8>],
+    budget: &Budget,
+    dimensions: &[Dimensions],
+    normalized_types: &[DataType],
+) -> Result<Vec<[f32; 4]>> {
+    let dims = accessor.dimensions();
+    if !dimensions.contains(&dims) {
+        bail!("expected {dimensions:?} elements, found {dims:?}");
+    }
+    let n = dims.multiplicity();
+    let ty = accessor.data_type();
+    let float = ty == DataType::F32 && !accessor.normalized();
+    if !float && !(accessor.normalized() && normalized_types.contains(&ty)) {
+        let allowed: Vec<String> = normalized_types
+            .iter()
+            .map(|t| format!("normalized {t:?}"))
+            .collect();
+        bail!(
+            "component type {ty:?}{} is not allowed here (expected FLOAT{}{})",
+            if accessor.normalized() {
+                " (normalized)"
+            } else {
+                ""
+            },
+            if allowed.is_empty() { "" } else { " or " },
+            allowed.join(", ")
+        );
+    }
+    let component = ty.size();
+    let decode = move |b: &[u8]| {
+        let mut out = [0.0f32; 4];
+        for (k, value) in out.iter_mut().enumerate().take(n) {
+            let c = &b[k * component..];
+            *value = match ty {
+                DataType::F32 => f32::from_le_bytes([c[0], c[1], c[2], c[3]]),
+                DataType::U8 => c[0] as f32 / 255.0,
+                DataType::I8 => (c[0] as i8 as f32 / 127.0).max(-1.0),
+                DataType::U16 => u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0,
+                DataType::I16 => (i16::from_le_bytes([c[0], c[1]]) as f32 / 32767.0).max(-1.0),
+                DataType::U32 => u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32,
+            };
+        }
+        out
+    };
+    // Vertex attributes are aligned to 4 bytes per element (glTF 2.0 §3.6.2.4), but the
+    // element itself is n components.
+    read_accessor(accessor, buffers, budget, n * component, decode)
+}
+
 /// Vertex triples of a triangle list, strip or fan (glTF 2.0 §3.7.2.1 topology rules).
 pub(super) fn triangle_corners(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>> {
     let n = v.len();

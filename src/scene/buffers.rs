@@ -112,6 +112,27 @@ pub(super) fn check_image_uris(
     Ok(())
 }
 
+/// An image's bytes from its URI (a data URI or a file inside the allowed folders), reserved
+/// in the budget before they are read.
+pub(super) fn read_image_uri(uri: &str, base: &Path, options: &LoadOptions) -> Result<Vec<u8>> {
+    let describe = describe_uri(uri);
+    let result = (|| {
+        if uri.starts_with("data:") {
+            options
+                .budget
+                .reserve("an image's data: URI", uri.len() as u64)?;
+            return read_uri(uri, 0, base, options);
+        }
+        let file = confined_path(uri, base, &options.allow_paths)?;
+        let (_, size) = open_regular(&file)?;
+        options
+            .budget
+            .reserve(&format!("the image file {}", file.display()), size)?;
+        read_regular_file(&file, size as usize)
+    })();
+    result.with_context(|| format!("cannot load {describe}"))
+}
+
 /// A buffer's bytes: at most `length` bytes from a file, or a decoded data URI.
 fn read_uri(uri: &str, length: usize, base: &Path, options: &LoadOptions) -> Result<Vec<u8>> {
     if let Some(rest) = uri.strip_prefix("data:") {

@@ -18,16 +18,23 @@
 //! morph targets, textures and KHR_mesh_quantization are not supported (the first two are
 //! ignored, quantized positions are an error).
 
-use super::accessors::{element_bytes, read_indices, read_positions, triangle_corners};
+use super::accessors::{
+    element_bytes, read_attribute, read_indices, read_positions, triangle_corners,
+};
 use super::buffers::{check_image_uris, load_buffers, open_regular};
+use super::images::{TextureBuilder, TextureInfo, TextureUse};
 use super::json::{parse_value, split_container, typed_root, validation_message};
 use super::limits::{format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_TRIANGLE};
+use super::tangents::mikktspace_tangents;
 use super::validate::check_document;
-use super::{bounds_of, Camera, Material, Scene, Triangle};
+use super::{bounds_of, AlphaMode, Camera, Material, MaterialTextures, Scene, Triangle};
+use crate::layout::{GpuVertex, TRIANGLE_ALPHA, TRIANGLE_FLAT};
 use anyhow::{anyhow, bail, Context, Result};
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Primitive};
 use gltf::Document;
+use gltf::Semantic;
 use std::io::Read;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
@@ -38,6 +45,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_specular",
+    "KHR_texture_transform",
 ];
 
 /// Memory a parsed JSON value may take per structural character (`,` `:` `[` `{`) of its text:
@@ -122,11 +130,14 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         bytes
     });
     let buffers = load_buffers(&document, bin, container.is_glb(), base, options)?;
-    let materials = document
+    let mut textures = TextureBuilder::new(&buffers, base, options);
+    let (materials, needs): (Vec<Material>, Vec<MaterialNeeds>) = document
         .materials()
         .enumerate()
-        .map(|(i, m)| convert_material(i, &m))
-        .collect::<Result<_>>()?;
+        .map(|(i, m)| convert_material(i, &m, &mut textures))
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -138,7 +149,10 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         buffers: &buffers,
         budget: &options.budget,
         triangles: Vec::new(),
+        vertices: Vec::new(),
         materials,
+        needs,
+        repairs: Repairs::default(),
         default_material: None,
         camera: None,
         dropped_degenerate: 0,
@@ -171,6 +185,8 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         source: path.to_path_buf(),
         triangles: builder.triangles,
         materials: builder.materials,
+        vertices: builder.vertices,
+        textures: textures.set,
         camera,
         dropped_degenerate: builder.dropped_degenerate,
         skipped_primitives: builder.skipped_primitives,
@@ -181,32 +197,23 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
 /// What the file holds that the render will not show, said once each (`Scene::notes`).
 fn notes(document: &Document, builder: &Builder) -> Vec<String> {
     let mut notes = Vec::new();
-    let textured: Vec<String> = document
+    let ignored_textures: Vec<String> = document
         .materials()
         .enumerate()
         .filter(|(_, m)| {
-            let pbr = m.pbr_metallic_roughness();
-            pbr.base_color_texture().is_some()
-                || pbr.metallic_roughness_texture().is_some()
-                || m.emissive_texture().is_some()
-                || m.normal_texture().is_some()
-                || m.transmission()
-                    .is_some_and(|t| t.transmission_texture().is_some())
-                || m.specular().is_some_and(|t| t.specular_texture().is_some())
+            m.specular().is_some_and(|t| {
+                t.specular_texture().is_some() || t.specular_color_texture().is_some()
+            })
         })
         .map(|(i, m)| label("material", i, m.name()))
         .collect();
-    if !textured.is_empty() {
-        let verb = if textured.len() == 1 {
-            "uses its"
-        } else {
-            "use their"
-        };
+    if !ignored_textures.is_empty() {
         notes.push(format!(
-            "textures are not supported yet: {} {verb} colour factors only",
-            textured.join(", ")
+            "KHR_materials_specular's textures are not supported yet: {} use the factors only",
+            ignored_textures.join(", ")
         ));
     }
+    notes.extend(builder.repairs.notes());
     let ignored: Vec<&str> = document
         .extensions_used()
         .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
@@ -254,7 +261,74 @@ pub(super) fn label(kind: &str, index: usize, name: Option<&str>) -> String {
 // ---------------------------------------------------------------------------------------------
 // Materials
 
-fn convert_material(index: usize, material: &gltf::Material) -> Result<Material> {
+/// What a material asks of the primitives that use it.
+#[derive(Clone, Copy, Debug, Default)]
+struct MaterialNeeds {
+    /// Texture coordinate sets its textures read.
+    tex_coords: [bool; 2],
+    /// The set its normal map reads, if it has one (tangents are generated for it).
+    normal_map: Option<u32>,
+}
+
+/// A textureInfo's texture, set and KHR_texture_transform.
+fn texture_info<'a>(info: gltf::texture::Info<'a>) -> TextureInfo<'a> {
+    TextureInfo {
+        texture: info.texture(),
+        tex_coord: info.tex_coord(),
+        transform: info
+            .texture_transform()
+            .map(|t| (t.offset(), t.rotation(), t.scale(), t.tex_coord())),
+    }
+}
+
+/// KHR_texture_transform of a textureInfo the `gltf` crate does not type (normalTexture).
+#[allow(clippy::type_complexity)]
+fn untyped_transform(
+    value: Option<&serde_json::Value>,
+    what: &str,
+) -> Result<Option<([f32; 2], f32, [f32; 2], Option<u32>)>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    let pair = |key: &str, default: [f32; 2]| -> Result<[f32; 2]> {
+        match value.get(key) {
+            None => Ok(default),
+            Some(v) => match v
+                .as_array()
+                .map(|a| a.iter().map(|x| x.as_f64()).collect::<Vec<_>>())
+            {
+                Some(a) if a.len() == 2 && a.iter().all(Option::is_some) => {
+                    Ok([a[0].unwrap() as f32, a[1].unwrap() as f32])
+                }
+                _ => bail!("{what}.extensions.KHR_texture_transform.{key}: expected two numbers"),
+            },
+        }
+    };
+    let rotation = match value.get("rotation") {
+        None => 0.0,
+        Some(v) => v.as_f64().ok_or_else(|| {
+            anyhow!("{what}.extensions.KHR_texture_transform.rotation: expected a number")
+        })? as f32,
+    };
+    let tex_coord = match value.get("texCoord") {
+        None => None,
+        Some(v) => Some(v.as_u64().filter(|&c| c <= u32::MAX as u64).ok_or_else(|| {
+            anyhow!("{what}.extensions.KHR_texture_transform.texCoord: expected a non-negative integer")
+        })? as u32),
+    };
+    Ok(Some((
+        pair("offset", [0.0, 0.0])?,
+        rotation,
+        pair("scale", [1.0, 1.0])?,
+        tex_coord,
+    )))
+}
+
+fn convert_material(
+    index: usize,
+    material: &gltf::Material,
+    builder: &mut TextureBuilder,
+) -> Result<(Material, MaterialNeeds)> {
     // The JSON path of one property of this material, with the material's name after it.
     let at = |property: &str| {
         let path = format!("{}.{property}", json_path("material", index));
@@ -321,29 +395,164 @@ fn convert_material(index: usize, material: &gltf::Material) -> Result<Material>
             at("emissiveFactor")
         );
     }
-    Ok(Material {
-        name: material
-            .name()
-            .map_or_else(|| format!("material {index}"), str::to_owned),
-        base_color: base_color.min(Vec3::ONE),
-        metallic,
-        roughness,
-        ior,
-        transmission,
-        specular,
-        emission,
-        double_sided: material.double_sided(),
-    })
+    let alpha = material.pbr_metallic_roughness().base_color_factor()[3];
+    if !(0.0..=1.0 + 1e-4).contains(&alpha) {
+        bail!(
+            "{}: alpha {alpha} is outside [0, 1]",
+            at("pbrMetallicRoughness.baseColorFactor")
+        );
+    }
+    let alpha_cutoff = material.alpha_cutoff().unwrap_or(0.5);
+    if !(alpha_cutoff.is_finite() && alpha_cutoff >= 0.0) {
+        bail!(
+            "{}: {alpha_cutoff} must be a non-negative number",
+            at("alphaCutoff")
+        );
+    }
+    let alpha_mode = match material.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+    };
+
+    // Textures: each use becomes a reference (set, transform) to a decoded texture.
+    let mut needs = MaterialNeeds::default();
+    let mut reference = |property: &str, info: TextureInfo, srgb: bool| -> Result<u32> {
+        let what = at(property);
+        let r = builder.reference(TextureUse { what, info, srgb })?;
+        let set = builder.set.refs[r as usize].texcoord as usize;
+        needs.tex_coords[set] = true;
+        Ok(r)
+    };
+    let mut textures = MaterialTextures::default();
+    if let Some(info) = pbr.base_color_texture() {
+        textures.base_color = Some(reference(
+            "pbrMetallicRoughness.baseColorTexture",
+            texture_info(info),
+            true,
+        )?);
+    }
+    if let Some(info) = pbr.metallic_roughness_texture() {
+        textures.metallic_roughness = Some(reference(
+            "pbrMetallicRoughness.metallicRoughnessTexture",
+            texture_info(info),
+            false,
+        )?);
+    }
+    if let Some(info) = material.emissive_texture() {
+        textures.emissive = Some(reference("emissiveTexture", texture_info(info), true)?);
+    }
+    if let Some(info) = material
+        .transmission()
+        .and_then(|t| t.transmission_texture())
+    {
+        textures.transmission = Some(reference(
+            "extensions.KHR_materials_transmission.transmissionTexture",
+            texture_info(info),
+            false,
+        )?);
+    }
+    let mut normal_scale = 1.0;
+    if let Some(normal) = material.normal_texture() {
+        normal_scale = normal.scale();
+        if !normal_scale.is_finite() {
+            bail!(
+                "{}: {normal_scale} is not finite",
+                at("normalTexture.scale")
+            );
+        }
+        let info = TextureInfo {
+            texture: normal.texture(),
+            tex_coord: normal.tex_coord(),
+            transform: untyped_transform(
+                normal.extension_value("KHR_texture_transform"),
+                &at("normalTexture"),
+            )?,
+        };
+        let r = reference("normalTexture", info, false)?;
+        textures.normal = Some(r);
+        needs.normal_map = Some(builder.set.refs[r as usize].texcoord);
+    }
+    Ok((
+        Material {
+            name: material
+                .name()
+                .map_or_else(|| format!("material {index}"), str::to_owned),
+            base_color: base_color.min(Vec3::ONE),
+            metallic,
+            roughness,
+            ior,
+            transmission,
+            specular,
+            emission,
+            double_sided: material.double_sided(),
+            alpha: alpha.min(1.0),
+            alpha_mode,
+            alpha_cutoff,
+            normal_scale,
+            textures,
+        },
+        needs,
+    ))
 }
 
 // ---------------------------------------------------------------------------------------------
 // Node traversal
 
+/// A primitive's vertex attributes, in its local space, one per glTF vertex.
+struct Attributes {
+    normals: Option<Vec<Vec3>>,
+    /// Whether each NORMAL is finite and non-zero.
+    normal_valid: Vec<bool>,
+    tangents: Option<Vec<Vec4>>,
+    uv: [Vec<Vec2>; 2],
+    color: Vec<Vec4>,
+}
+
+/// Defects repaired while loading, counted for one note each.
+#[derive(Default)]
+struct Repairs {
+    /// Vertices whose NORMAL is not finite or zero (their triangles are shaded flat).
+    normals: usize,
+    /// TEXCOORD, COLOR or TANGENT components that were not finite (set to their default).
+    attributes: usize,
+    /// Primitives whose MikkTSpace tangents could not be generated (normal map ignored there).
+    tangents: usize,
+}
+
+impl Repairs {
+    fn notes(&self) -> Vec<String> {
+        let mut notes = Vec::new();
+        if self.normals > 0 {
+            notes.push(format!(
+                "{} vertex normals were not finite or zero: their triangles are shaded with face normals",
+                self.normals
+            ));
+        }
+        if self.attributes > 0 {
+            notes.push(format!(
+                "{} vertex attributes (TEXCOORD, COLOR_0, TANGENT) were not finite: replaced by their defaults",
+                self.attributes
+            ));
+        }
+        if self.tangents > 0 {
+            notes.push(format!(
+                "MikkTSpace could not build tangents for {} primitives: their normal maps are ignored",
+                self.tangents
+            ));
+        }
+        notes
+    }
+}
+
 struct Builder<'a> {
     buffers: &'a [Vec<u8>],
     budget: &'a Budget,
     triangles: Vec<Triangle>,
+    vertices: Vec<GpuVertex>,
     materials: Vec<Material>,
+    needs: Vec<MaterialNeeds>,
+    repairs: Repairs,
     default_material: Option<u32>,
     camera: Option<Camera>,
     dropped_degenerate: usize,
@@ -501,8 +710,104 @@ impl Builder<'_> {
         let corners = triangle_corners(primitive.mode(), &vertices)?;
         self.reserve_triangles(corners.len())?;
         let material = self.material_index(primitive.material().index());
-        // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
-        let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;
+        let needs = primitive
+            .material()
+            .index()
+            .map_or_else(MaterialNeeds::default, |i| self.needs[i]);
+        let alpha_tested = self.materials[material as usize].alpha_mode != AlphaMode::Opaque;
+        let attributes = self.read_attributes(primitive, positions.len(), &needs)?;
+
+        // Shading vertices: one per glTF vertex, or one per triangle corner where MikkTSpace
+        // tangents are generated (a corner keeps the tangent MikkTSpace gives it).
+        let first_vertex = self.vertices.len() as u64;
+        let unweld = needs.normal_map.is_some() && attributes.tangents.is_none();
+        let local: Vec<(Vec3, Vec3, Vec4, [Vec2; 2], Vec4, bool)> = if unweld {
+            let set = needs.normal_map.unwrap_or(0) as usize;
+            let mut p = Vec::with_capacity(3 * corners.len());
+            let mut n = Vec::with_capacity(3 * corners.len());
+            let mut uv = Vec::with_capacity(3 * corners.len());
+            let mut flat = Vec::with_capacity(3 * corners.len());
+            for c in &corners {
+                let q = c.map(|v| positions[v as usize]);
+                let face = (q[1] - q[0]).cross(q[2] - q[0]).normalize_or_zero();
+                for &v in c {
+                    p.push(positions[v as usize]);
+                    let (normal, valid) = match &attributes.normals {
+                        Some(normals) if attributes.normal_valid[v as usize] => {
+                            (normals[v as usize], true)
+                        }
+                        _ => (face, attributes.normals.is_none()),
+                    };
+                    n.push(normal);
+                    flat.push(!valid);
+                    uv.push(attributes.uv[set][v as usize]);
+                }
+            }
+            let tangents = mikktspace_tangents(&p, &n, &uv);
+            if tangents.is_none() {
+                self.repairs.tangents += 1;
+            }
+            let tangents = tangents.unwrap_or_else(|| vec![[0.0, 0.0, 0.0, 1.0]; p.len()]);
+            corners
+                .iter()
+                .flatten()
+                .enumerate()
+                .map(|(k, &v)| {
+                    let v = v as usize;
+                    (
+                        p[k],
+                        n[k],
+                        Vec4::from(tangents[k]),
+                        [attributes.uv[0][v], attributes.uv[1][v]],
+                        attributes.color[v],
+                        flat[k],
+                    )
+                })
+                .collect()
+        } else {
+            (0..positions.len())
+                .map(|v| {
+                    (
+                        positions[v],
+                        attributes.normals.as_ref().map_or(Vec3::ZERO, |n| n[v]),
+                        attributes
+                            .tangents
+                            .as_ref()
+                            .map_or(Vec4::new(0.0, 0.0, 0.0, 1.0), |t| t[v]),
+                        [attributes.uv[0][v], attributes.uv[1][v]],
+                        attributes.color[v],
+                        attributes.normals.is_none() || !attributes.normal_valid[v],
+                    )
+                })
+                .collect()
+        };
+        self.budget.reserve(
+            &format!("{} shading vertices", local.len()),
+            local.len() as u64 * std::mem::size_of::<GpuVertex>() as u64,
+        )?;
+        if first_vertex + local.len() as u64 > u32::MAX as u64 - 1 {
+            bail!("the scene has more than 2³² − 2 shading vertices");
+        }
+        // Normals transform by the inverse transpose; tangents like positions, their
+        // handedness flipping with a mirroring transform.
+        let linear = Mat3::from_mat4(*world);
+        let determinant = linear.determinant();
+        let mirrored = determinant < 0.0;
+        let normal_matrix = linear.inverse().transpose();
+        let mut vertex_flat = Vec::with_capacity(local.len());
+        for &(_, n, t, uv, color, flat) in &local {
+            let normal = (normal_matrix * n).normalize_or_zero();
+            let tangent = (linear * t.truncate()).normalize_or_zero();
+            let sign = if (t.w < 0.0) != mirrored { -1.0 } else { 1.0 };
+            vertex_flat.push(flat || normal == Vec3::ZERO || !normal.is_finite());
+            self.vertices.push(GpuVertex {
+                tangent: tangent.extend(sign).to_array(),
+                normal: normal.to_array(),
+                pad: 0,
+                uv: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
+                color: color.to_array(),
+            });
+        }
 
         for (t, c) in corners.iter().enumerate() {
             let mut p = c.map(|v| world.transform_point3(positions[v as usize]));
@@ -513,10 +818,24 @@ impl Builder<'_> {
                     p[k]
                 );
             }
+            let local_index = |k: usize| if unweld { 3 * t + k } else { c[k] as usize };
+            let mut corner_vertices =
+                [0, 1, 2].map(|k| (first_vertex + local_index(k) as u64) as u32);
+            let flat = (0..3).any(|k| vertex_flat[local_index(k)]);
             if mirrored {
                 p.swap(1, 2);
+                corner_vertices.swap(1, 2);
             }
-            let triangle = Triangle { p, material };
+            let mut flags = if flat { TRIANGLE_FLAT } else { 0 };
+            if alpha_tested {
+                flags |= TRIANGLE_ALPHA;
+            }
+            let triangle = Triangle {
+                p,
+                material,
+                vertices: corner_vertices,
+                flags,
+            };
             if triangle.geometric_normal().try_normalize().is_none() {
                 self.dropped_degenerate += 1;
                 continue;
@@ -528,6 +847,114 @@ impl Builder<'_> {
             element_bytes(&positions) + element_bytes(&vertices) + element_bytes(&corners),
         );
         Ok(())
+    }
+
+    /// NORMAL, TANGENT, TEXCOORD_0/1 and COLOR_0 of a primitive of `count` vertices, checked
+    /// against what its material needs; non-finite values repaired and counted.
+    fn read_attributes(
+        &mut self,
+        primitive: &Primitive,
+        count: usize,
+        needs: &MaterialNeeds,
+    ) -> Result<Attributes> {
+        let read = |semantic: Semantic,
+                    dims: &[Dimensions],
+                    normalized: &[DataType]|
+         -> Result<Option<Vec<[f32; 4]>>> {
+            let Some(accessor) = primitive.get(&semantic) else {
+                return Ok(None);
+            };
+            let what = format!(
+                "attributes.{} = {}",
+                semantic.to_string(),
+                label("accessor", accessor.index(), accessor.name())
+            );
+            let values = read_attribute(&accessor, self.buffers, self.budget, dims, normalized)
+                .context(what.clone())?;
+            if values.len() != count {
+                bail!(
+                    "{what}: {} elements, but POSITION has {count}",
+                    values.len()
+                );
+            }
+            Ok(Some(values))
+        };
+        let normals = read(Semantic::Normals, &[Dimensions::Vec3], &[])?;
+        let tangents = read(Semantic::Tangents, &[Dimensions::Vec4], &[])?;
+        let uv_types = [DataType::U8, DataType::U16];
+        let uv0 = read(Semantic::TexCoords(0), &[Dimensions::Vec2], &uv_types)?;
+        let uv1 = read(Semantic::TexCoords(1), &[Dimensions::Vec2], &uv_types)?;
+        let colors = primitive.get(&Semantic::Colors(0)).map(|a| a.dimensions());
+        let color = read(
+            Semantic::Colors(0),
+            &[Dimensions::Vec3, Dimensions::Vec4],
+            &uv_types,
+        )?;
+        for (set, present) in [(0, uv0.is_some()), (1, uv1.is_some())] {
+            if needs.tex_coords[set] && !present {
+                bail!(
+                    "attributes.TEXCOORD_{set}: missing, but the primitive's material reads texture \
+                     coordinate set {set}"
+                );
+            }
+        }
+        let mut repaired = 0;
+        let mut finite_or = |v: [f32; 4], default: [f32; 4]| {
+            if v.iter().all(|x| x.is_finite()) {
+                v
+            } else {
+                repaired += 1;
+                default
+            }
+        };
+        let uv = [uv0, uv1].map(|set| match set {
+            Some(values) => values
+                .into_iter()
+                .map(|v| Vec2::from_slice(&finite_or(v, [0.0; 4])))
+                .collect(),
+            None => vec![Vec2::ZERO; count],
+        });
+        let color = match color {
+            Some(values) => values
+                .into_iter()
+                .map(|mut v| {
+                    if colors == Some(Dimensions::Vec3) {
+                        v[3] = 1.0;
+                    }
+                    Vec4::from(finite_or(v, [1.0; 4])).clamp(Vec4::ZERO, Vec4::ONE)
+                })
+                .collect(),
+            None => vec![Vec4::ONE; count],
+        };
+        let tangents = tangents.map(|values| {
+            values
+                .into_iter()
+                .map(|v| Vec4::from(finite_or(v, [0.0, 0.0, 0.0, 1.0])))
+                .collect()
+        });
+        self.repairs.attributes += repaired;
+        let mut normal_valid = vec![true; count];
+        let normals = normals.map(|values| {
+            values
+                .into_iter()
+                .enumerate()
+                .map(|(k, v)| {
+                    let n = Vec3::new(v[0], v[1], v[2]);
+                    if !(n.is_finite() && n.length_squared() > 0.0) {
+                        normal_valid[k] = false;
+                        self.repairs.normals += 1;
+                    }
+                    n
+                })
+                .collect()
+        });
+        Ok(Attributes {
+            normals,
+            normal_valid,
+            tangents,
+            uv,
+            color,
+        })
     }
 
     /// The file's material index, or the default material, appended on first use.

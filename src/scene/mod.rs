@@ -14,16 +14,19 @@
 mod accessors;
 mod buffers;
 mod camera;
+mod images;
 mod json;
 mod lights;
 mod limits;
 mod load;
+mod tangents;
 mod validate;
 
 pub use camera::Camera;
 pub use lights::{build_light_table, emitted_power, luminance};
 pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
 
+use crate::layout::{GpuTexture, GpuTextureRef, GpuVertex, TRIANGLE_FLAT};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -38,6 +41,10 @@ pub struct Scene {
     /// Indexed by `Triangle::material`: the file's materials in file order, then
     /// [`Material::default_white`] if some primitive has no material.
     pub materials: Vec<Material>,
+    /// World-space shading attributes that `Triangle::vertices` index.
+    pub vertices: Vec<GpuVertex>,
+    /// Decoded textures (mip chains) and the materials' references to them.
+    pub textures: TextureSet,
     pub camera: Camera,
     /// Zero-area triangles dropped while loading.
     pub dropped_degenerate: usize,
@@ -54,9 +61,26 @@ pub struct Triangle {
     pub p: [Vec3; 3],
     /// Index into `Scene::materials`.
     pub material: u32,
+    /// Indices into `Scene::vertices` of p0, p1, p2 ([`NO_VERTEX`]: untextured white, flat).
+    pub vertices: [u32; 3],
+    /// `layout::TRIANGLE_*` bits.
+    pub flags: u32,
 }
 
+/// A triangle corner without attributes (texture coordinates 0, colour 1, face normal).
+pub const NO_VERTEX: u32 = u32::MAX;
+
 impl Triangle {
+    /// A triangle without vertex attributes: flat-shaded, untextured.
+    pub fn flat(p: [Vec3; 3], material: u32) -> Triangle {
+        Triangle {
+            p,
+            material,
+            vertices: [NO_VERTEX; 3],
+            flags: TRIANGLE_FLAT,
+        }
+    }
+
     /// `cross(p1 − p0, p2 − p0)`: points to the front face, length = twice the area.
     pub fn geometric_normal(&self) -> Vec3 {
         (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
@@ -67,9 +91,43 @@ impl Triangle {
     }
 }
 
+/// The textures of a scene as both integrators sample them (`texture.rs`): mip chains of RGBA8
+/// texels, one `GpuTexture` per (glTF texture, colour space) used, and one `GpuTextureRef` per
+/// material slot that reads a texture.
+#[derive(Clone, Debug, Default)]
+pub struct TextureSet {
+    pub textures: Vec<GpuTexture>,
+    pub refs: Vec<GpuTextureRef>,
+    pub texels: Vec<u32>,
+    /// Mean RGBA of each texture's level 0 (linear), for the emitters' power.
+    pub means: Vec<[f32; 4]>,
+}
+
+/// How a material's alpha is read (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AlphaMode {
+    #[default]
+    Opaque,
+    /// Present where alpha ≥ `Material::alpha_cutoff`.
+    Mask,
+    /// Present with probability alpha (stochastic transparency).
+    Blend,
+}
+
+/// A material's texture slots: indices into `TextureSet::refs`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MaterialTextures {
+    pub base_color: Option<u32>,
+    pub metallic_roughness: Option<u32>,
+    pub emissive: Option<u32>,
+    pub normal: Option<u32>,
+    pub transmission: Option<u32>,
+}
+
 /// A glTF metallic-roughness material with emission: `pbrMetallicRoughness` factors,
 /// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`'s factor and
-/// `emissiveFactor × KHR_materials_emissive_strength` (textures are not read yet).
+/// `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the textures that modulate
+/// them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
@@ -88,6 +146,13 @@ pub struct Material {
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
     pub double_sided: bool,
+    /// baseColorFactor's alpha and how alpha is used.
+    pub alpha: f32,
+    pub alpha_mode: AlphaMode,
+    pub alpha_cutoff: f32,
+    /// normalTexture.scale.
+    pub normal_scale: f32,
+    pub textures: MaterialTextures,
 }
 
 impl Material {
@@ -104,6 +169,11 @@ impl Material {
             specular: 1.0,
             emission: Vec3::ZERO,
             double_sided: false,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            normal_scale: 1.0,
+            textures: MaterialTextures::default(),
         }
     }
 

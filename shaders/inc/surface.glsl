@@ -1,0 +1,128 @@
+// A hit point's attributes, its material with textures applied, its shading normal and alpha
+// coverage: twin of src/surface.rs (same names; the rules are written down there).
+// Needs bindings.glsl, rng.glsl and texture.glsl.
+#ifndef SURFACE_GLSL
+#define SURFACE_GLSL
+
+struct SurfacePoint {
+    vec3 p;
+    vec3 ng;          // unit geometric normal of the front face
+    vec3 ns;          // unit interpolated vertex normal (ng on flat triangles)
+    vec4 tangent;
+    vec2 uv0;
+    vec2 uv1;
+    vec4 color;
+    vec2 uv_density;  // log2(uv area / world area) / 2, per set
+    uint flags;
+};
+
+float surface_uv_density(vec2 t0, vec2 t1, vec2 t2, float world) {
+    vec2 a = t1 - t0;
+    vec2 b = t2 - t0;
+    float area = abs(a.x * b.y - a.y * b.x);
+    return 0.5 * log2(max(area, 1e-30) / world);
+}
+
+SurfacePoint surface_point(GpuTriangle tri, uvec4 tv, float u, float v) {
+    SurfacePoint sp;
+    sp.p = tri.p0 + u * tri.e1 + v * tri.e2;
+    vec3 c = cross(tri.e1, tri.e2);
+    sp.ng = normalize(c);
+    GpuVertex a = vertices[tv.x];
+    GpuVertex b = vertices[tv.y];
+    GpuVertex d = vertices[tv.z];
+    float w = 1.0 - u - v;
+    vec4 uv = w * a.uv + u * b.uv + v * d.uv;
+    sp.ns = sp.ng;
+    if ((tv.w & TRIANGLE_FLAT) == 0u) {
+        vec3 n = w * a.normal + u * b.normal + v * d.normal;
+        float len = length(n);
+        if (len > 0.0 && !isinf(len)) sp.ns = n / len;
+    }
+    float world = max(length(c), 1e-30);
+    sp.tangent = w * a.tangent + u * b.tangent + v * d.tangent;
+    sp.uv0 = uv.xy;
+    sp.uv1 = uv.zw;
+    sp.color = w * a.color + u * b.color + v * d.color;
+    sp.uv_density = vec2(surface_uv_density(a.uv.xy, b.uv.xy, d.uv.xy, world),
+                         surface_uv_density(a.uv.zw, b.uv.zw, d.uv.zw, world));
+    sp.flags = tv.w;
+    return sp;
+}
+
+// log2(W / |cos|) + the uv density, per set (Akenine-Moller et al. 2021, eq. 34).
+vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
+    float footprint = log2(max(cone_width / max(abs(cos_view), 1e-6), 1e-30));
+    return vec2(footprint) + sp.uv_density;
+}
+
+#define LOD_MAGNIFY vec2(-1e30)
+
+// Material m at the surface point: factors times textures times vertex colour.
+GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    GpuMaterial o = m;
+    vec4 base = vec4(m.base_color, m.alpha) * sp.color;
+    if (m.base_color_texture != NO_TEXTURE) base *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, lod);
+    o.base_color = base.xyz;
+    o.alpha = base.w;
+    if (m.metallic_roughness_texture != NO_TEXTURE) {
+        vec4 mr = sample_texture_ref(m.metallic_roughness_texture, sp.uv0, sp.uv1, lod);
+        o.metallic *= mr.z;
+        o.roughness *= mr.y;
+    }
+    if (m.emissive_texture != NO_TEXTURE) {
+        o.emission = m.emission * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
+    }
+    if (m.transmission_texture != NO_TEXTURE) {
+        o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
+    }
+    return o;
+}
+
+// The shading normal with the normal map applied (unit, not flipped).
+vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    if (m.normal_texture == NO_TEXTURE) return sp.ns;
+    vec3 n = sp.ns;
+    vec3 t = sp.tangent.xyz;
+    t = t - n * dot(n, t);
+    float t_len = length(t);
+    if (!(t_len > 1e-12) || isinf(t_len)) return n;
+    t /= t_len;
+    vec3 b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
+    vec4 texel = sample_texture_ref(m.normal_texture, sp.uv0, sp.uv1, lod);
+    float x = (2.0 * texel.x - 1.0) * m.normal_scale;
+    float y = (2.0 * texel.y - 1.0) * m.normal_scale;
+    float z = 2.0 * texel.z - 1.0;
+    vec3 mapped = t * x + b * y + n * z;
+    float len = length(mapped);
+    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
+}
+
+float alpha_random(uvec4 key, uint triangle) {
+    uvec4 h = pcg4d(uvec4(key.x, key.y, key.z, key.w ^ (triangle * 0x9e3779b9u)));
+    return uint_to_unit_float(h.x);
+}
+
+uvec4 alpha_key(uint seed, uint pixel, uint sample_index, uint depth, bool shadow) {
+    return uvec4(pixel, sample_index, 0x40000000u | (2u * depth + (shadow ? 1u : 0u)), seed);
+}
+
+bool alpha_present(uint flags, float alpha, float cutoff, float u) {
+    if ((flags & MATERIAL_ALPHA_MASK) != 0u) return alpha >= cutoff;
+    if ((flags & MATERIAL_ALPHA_BLEND) != 0u) return u < alpha;
+    return true;
+}
+
+// The any-hit test of both traversals: whether triangle `index` exists at (u, v) for the ray.
+bool triangle_present(uint index, float u, float v, uvec4 key) {
+    uvec4 tv = triangle_vertices[index];
+    if ((tv.w & TRIANGLE_ALPHA) == 0u) return true;
+    GpuTriangle tri = triangles[index];
+    GpuMaterial m = materials[tri.material];
+    SurfacePoint sp = surface_point(tri, tv, u, v);
+    float alpha = m.alpha * sp.color.w;
+    if (m.base_color_texture != NO_TEXTURE) alpha *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, LOD_MAGNIFY).w;
+    return alpha_present(m.flags, alpha, m.alpha_cutoff, alpha_random(key, index));
+}
+
+#endif

@@ -1,0 +1,124 @@
+// Texture sampling by hand from the RGBA8 texel buffer: twin of src/texture.rs (same names; the
+// wrap, filter and level-of-detail rules are written down there). Needs bindings.glsl.
+#ifndef TEXTURE_GLSL
+#define TEXTURE_GLSL
+
+// The sRGB transfer function's inverse (IEC 61966-2-1), per channel.
+float srgb_to_linear(float c) {
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+vec4 unpack_texel(uint word, bool srgb) {
+    vec4 v = unpackUnorm4x8(word);
+    if (srgb) v = vec4(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z), v.w);
+    return v;
+}
+
+// A coordinate reduced to the range its wrap mode repeats over; non-finite reads as 0.
+float reduce_coordinate(float u, uint mode) {
+    if (isnan(u) || isinf(u)) return 0.0;
+    if (mode == WRAP_CLAMP_TO_EDGE) return clamp(u, -1.0, 2.0);
+    if (mode == WRAP_MIRRORED_REPEAT) return u - 2.0 * floor(0.5 * u);
+    return u - floor(u);
+}
+
+// Texel index i (in [-n, 3n)) wrapped into [0, n) (Vulkan spec, "Wrapping Operation").
+int wrap_texel(int i, int n, uint mode) {
+    if (mode == WRAP_CLAMP_TO_EDGE) return clamp(i, 0, n - 1);
+    if (mode == WRAP_MIRRORED_REPEAT) {
+        int j = (i + 2 * n) % (2 * n);
+        return j >= n ? 2 * n - 1 - j : j;
+    }
+    return (i + n) % n;
+}
+
+// Width, height and first texel of mip level `level`.
+uvec3 texture_level(GpuTexture t, uint level) {
+    uint w = t.width;
+    uint h = t.height;
+    uint offset = t.texel_offset;
+    for (uint k = 0u; k < level; ++k) {
+        offset += w * h;
+        w = max(w / 2u, 1u);
+        h = max(h / 2u, 1u);
+    }
+    return uvec3(w, h, offset);
+}
+
+vec4 texture_fetch(GpuTexture t, uint offset, uint w, int x, int y) {
+    return unpack_texel(texels[offset + uint(y) * w + uint(x)], t.srgb != 0u);
+}
+
+// One mip level, nearest or bilinear.
+vec4 texture_sample_level(GpuTexture t, uint level, vec2 uv, bool linear) {
+    uvec3 l = texture_level(t, level);
+    int wi = int(l.x);
+    int hi = int(l.y);
+    float x = reduce_coordinate(uv.x, t.wrap_s) * float(l.x);
+    float y = reduce_coordinate(uv.y, t.wrap_t) * float(l.y);
+    if (!linear) {
+        int i = wrap_texel(int(floor(x)), wi, t.wrap_s);
+        int j = wrap_texel(int(floor(y)), hi, t.wrap_t);
+        return texture_fetch(t, l.z, l.x, i, j);
+    }
+    x -= 0.5;
+    y -= 0.5;
+    float x0 = floor(x);
+    float y0 = floor(y);
+    float fx = x - x0;
+    float fy = y - y0;
+    int i0 = wrap_texel(int(x0), wi, t.wrap_s);
+    int i1 = wrap_texel(int(x0) + 1, wi, t.wrap_s);
+    int j0 = wrap_texel(int(y0), hi, t.wrap_t);
+    int j1 = wrap_texel(int(y0) + 1, hi, t.wrap_t);
+    vec4 a = texture_fetch(t, l.z, l.x, i0, j0);
+    vec4 b = texture_fetch(t, l.z, l.x, i1, j0);
+    vec4 c = texture_fetch(t, l.z, l.x, i0, j1);
+    vec4 d = texture_fetch(t, l.z, l.x, i1, j1);
+    vec4 top = a + (b - a) * fx;
+    vec4 bottom = c + (d - c) * fx;
+    return top + (bottom - top) * fy;
+}
+
+// lambda of a texture: lod_base + log2(w h |det M|) / 2.
+float texture_lod(GpuTexture t, GpuTextureRef r, float lod_base) {
+    float det = abs(r.transform.x * r.transform.w - r.transform.y * r.transform.z);
+    return lod_base + 0.5 * log2(max(float(t.width) * float(t.height) * det, 1e-30));
+}
+
+// The texture at uv with level of detail lod (magnification where lod <= 0 or NaN).
+vec4 texture_sample_lod(GpuTexture t, vec2 uv, float lod) {
+    uint mag = t.filters & 15u;
+    uint minf = (t.filters >> 4u) & 15u;
+    if (isnan(lod) || lod <= 0.0) return texture_sample_level(t, 0u, uv, mag == FILTER_LINEAR);
+    if (minf == MIN_NEAREST || minf == MIN_LINEAR) return texture_sample_level(t, 0u, uv, minf == MIN_LINEAR);
+    bool linear = minf == MIN_LINEAR_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_LINEAR;
+    float top = float(t.levels - 1u);
+    if (minf == MIN_NEAREST_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_NEAREST) {
+        float level = min(floor(lod + 0.5), top);
+        return texture_sample_level(t, uint(level), uv, linear);
+    }
+    float l0 = min(floor(lod), top);
+    float l1 = min(l0 + 1.0, top);
+    float f = clamp(lod - l0, 0.0, 1.0);
+    vec4 a = texture_sample_level(t, uint(l0), uv, linear);
+    vec4 b = texture_sample_level(t, uint(l1), uv, linear);
+    return a + (b - a) * f;
+}
+
+// The coordinate a reference reads: its set, through its KHR_texture_transform.
+vec2 texture_ref_uv(GpuTextureRef r, vec2 uv0, vec2 uv1) {
+    vec2 st = r.texcoord == 1u ? uv1 : uv0;
+    return vec2(r.transform.x * st.x + r.transform.y * st.y + r.offset.x,
+                r.transform.z * st.x + r.transform.w * st.y + r.offset.y);
+}
+
+// A material's texture reference `index` at the coordinates of both sets.
+vec4 sample_texture_ref(uint index, vec2 uv0, vec2 uv1, vec2 lod_base) {
+    GpuTextureRef r = texture_refs[index];
+    GpuTexture t = textures[r.texture];
+    float base = r.texcoord == 1u ? lod_base.y : lod_base.x;
+    return texture_sample_lod(t, texture_ref_uv(r, uv0, uv1), texture_lod(t, r, base));
+}
+
+#endif

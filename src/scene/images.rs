@@ -1,0 +1,347 @@
+//! glTF textures → [`TextureSet`]: images decoded (PNG and JPEG, from a GLB buffer view, a data
+//! URI or a file inside the allowed folders), checked against a size limit and the memory
+//! budget, turned into RGBA8 mip chains, and paired with their samplers and the materials'
+//! `KHR_texture_transform`s.
+//!
+//! One `GpuTexture` per (glTF texture, colour space) a material uses; texels are shared between
+//! textures that use the same image in the same colour space. Mip levels are 2×2 box averages
+//! (the last row or column of an odd-sized level folds into its neighbour's average), computed
+//! in linear light for sRGB textures and on the stored values for data textures.
+
+use super::buffers::read_image_uri;
+use super::limits::LoadOptions;
+use super::load::label;
+use super::TextureSet;
+use crate::layout::{
+    GpuTexture, GpuTextureRef, FILTER_LINEAR, FILTER_NEAREST, MIN_LINEAR, MIN_LINEAR_MIPMAP_LINEAR,
+    MIN_LINEAR_MIPMAP_NEAREST, MIN_NEAREST, MIN_NEAREST_MIPMAP_LINEAR, MIN_NEAREST_MIPMAP_NEAREST,
+    WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
+};
+use crate::texture::linear_to_srgb;
+use anyhow::{anyhow, bail, Context, Result};
+use gltf::texture::{MagFilter, MinFilter, WrappingMode};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// The largest image side wavetrace decodes (larger images are refused, not resized).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// Where a material's texture reference came from, for messages: e.g.
+/// `materials[3].normalTexture`.
+pub(super) struct TextureUse<'a> {
+    pub what: String,
+    pub info: TextureInfo<'a>,
+    pub srgb: bool,
+}
+
+/// The parts of a glTF textureInfo wavetrace reads.
+pub(super) struct TextureInfo<'a> {
+    pub texture: gltf::Texture<'a>,
+    pub tex_coord: u32,
+    /// KHR_texture_transform: offset, rotation (radians), scale, texCoord override.
+    pub transform: Option<([f32; 2], f32, [f32; 2], Option<u32>)>,
+}
+
+pub(super) struct TextureBuilder<'a> {
+    buffers: &'a [Vec<u8>],
+    base: &'a Path,
+    options: &'a LoadOptions,
+    pub set: TextureSet,
+    /// (texture, sRGB) → index into `set.textures`.
+    textures: HashMap<(usize, bool), u32>,
+    /// (image, sRGB) → (first texel, width, height, levels), and the level-0 mean.
+    images: HashMap<(usize, bool), ([u32; 4], [f32; 4])>,
+    /// Texture coordinate sets each primitive's material needs are checked by the loader.
+    pub max_tex_coord: u32,
+}
+
+impl<'a> TextureBuilder<'a> {
+    pub fn new(buffers: &'a [Vec<u8>], base: &'a Path, options: &'a LoadOptions) -> Self {
+        TextureBuilder {
+            buffers,
+            base,
+            options,
+            set: TextureSet::default(),
+            textures: HashMap::new(),
+            images: HashMap::new(),
+            max_tex_coord: 0,
+        }
+    }
+
+    /// The `GpuTextureRef` index of one use of a texture by a material.
+    pub fn reference(&mut self, usage: TextureUse) -> Result<u32> {
+        let TextureUse { what, info, srgb } = usage;
+        let texture = self
+            .texture(&info.texture, srgb)
+            .with_context(|| format!("{what}: index {}", info.texture.index()))?;
+        let (mut tex_coord, mut transform, mut offset) =
+            (info.tex_coord, [1.0, 0.0, 0.0, 1.0], [0.0; 2]);
+        if let Some((o, rotation, scale, coord)) = info.transform {
+            let finite = o.iter().chain(&scale).all(|v| v.is_finite()) && rotation.is_finite();
+            if !finite {
+                bail!("{what}.extensions.KHR_texture_transform: offset, rotation and scale must be finite");
+            }
+            // uv' = T · R · S · uv (KHR_texture_transform, "Transformation").
+            let (s, c) = rotation.sin_cos();
+            transform = [c * scale[0], s * scale[1], -s * scale[0], c * scale[1]];
+            offset = o;
+            if let Some(coord) = coord {
+                tex_coord = coord;
+            }
+        }
+        if tex_coord > 1 {
+            bail!("{what}.texCoord: {tex_coord}, wavetrace reads texture coordinate sets 0 and 1");
+        }
+        self.max_tex_coord = self.max_tex_coord.max(tex_coord);
+        self.set.refs.push(GpuTextureRef {
+            transform,
+            offset,
+            texture,
+            texcoord: tex_coord,
+        });
+        Ok(self.set.refs.len() as u32 - 1)
+    }
+
+    fn texture(&mut self, texture: &gltf::Texture, srgb: bool) -> Result<u32> {
+        if let Some(&index) = self.textures.get(&(texture.index(), srgb)) {
+            return Ok(index);
+        }
+        let image = texture.source();
+        let ([texel_offset, width, height, levels], mean) =
+            match self.images.get(&(image.index(), srgb)) {
+                Some(&found) => found,
+                None => {
+                    let decoded = self
+                        .image(&image, srgb)
+                        .with_context(|| label("image", image.index(), image.name()))?;
+                    self.images.insert((image.index(), srgb), decoded);
+                    decoded
+                }
+            };
+        let sampler = texture.sampler();
+        let wrap = |mode: WrappingMode| match mode {
+            WrappingMode::ClampToEdge => WRAP_CLAMP_TO_EDGE,
+            WrappingMode::MirroredRepeat => WRAP_MIRRORED_REPEAT,
+            WrappingMode::Repeat => WRAP_REPEAT,
+        };
+        let mag = match sampler.mag_filter() {
+            Some(MagFilter::Nearest) => FILTER_NEAREST,
+            _ => FILTER_LINEAR,
+        };
+        let min = match sampler.min_filter() {
+            Some(MinFilter::Nearest) => MIN_NEAREST,
+            Some(MinFilter::Linear) => MIN_LINEAR,
+            Some(MinFilter::NearestMipmapNearest) => MIN_NEAREST_MIPMAP_NEAREST,
+            Some(MinFilter::LinearMipmapNearest) => MIN_LINEAR_MIPMAP_NEAREST,
+            Some(MinFilter::NearestMipmapLinear) => MIN_NEAREST_MIPMAP_LINEAR,
+            Some(MinFilter::LinearMipmapLinear) | None => MIN_LINEAR_MIPMAP_LINEAR,
+        };
+        self.set.textures.push(GpuTexture {
+            texel_offset,
+            width,
+            height,
+            levels,
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+            filters: mag | (min << 4),
+            srgb: srgb as u32,
+        });
+        self.set.means.push(mean);
+        let index = self.set.textures.len() as u32 - 1;
+        self.textures.insert((texture.index(), srgb), index);
+        Ok(index)
+    }
+
+    /// Decodes an image and appends its mip chain to the texels.
+    fn image(&mut self, image: &gltf::Image, srgb: bool) -> Result<([u32; 4], [f32; 4])> {
+        let (bytes, mime) = match image.source() {
+            gltf::image::Source::View { view, mime_type } => {
+                let buffer = &self.buffers[view.buffer().index()];
+                let range = view.offset()..view.offset().saturating_add(view.length());
+                let bytes = buffer.get(range.clone()).ok_or_else(|| {
+                    anyhow!(
+                        "bufferView {}: bytes {}..{} lie outside its buffer of {} bytes",
+                        view.index(),
+                        range.start,
+                        range.end,
+                        buffer.len()
+                    )
+                })?;
+                (bytes.to_vec(), Some(mime_type.to_owned()))
+            }
+            gltf::image::Source::Uri { uri, mime_type } => (
+                read_image_uri(uri, self.base, self.options).context("uri")?,
+                mime_type.map(str::to_owned),
+            ),
+        };
+        let format = image::guess_format(&bytes).ok();
+        let format = match format {
+            Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg)) => f,
+            other => {
+                let seen = match other {
+                    Some(f) => format!("{f:?}"),
+                    None => "unrecognised".to_owned(),
+                };
+                bail!(
+                    "the image's data is {seen}{}, not PNG or JPEG (wavetrace reads PNG and JPEG; \
+                     KTX2/Basis and WebP need extensions it does not support)",
+                    mime.map_or_else(String::new, |m| format!(" (declared {m:?})"))
+                );
+            }
+        };
+        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_IMAGE_SIDE);
+        limits.max_image_height = Some(MAX_IMAGE_SIDE);
+        limits.max_alloc = Some(
+            self.options
+                .budget
+                .limit()
+                .saturating_sub(self.options.budget.used()),
+        );
+        reader.limits(limits);
+        let (width, height) = reader
+            .into_dimensions()
+            .map_err(|e| anyhow!("cannot read the {format:?} header: {e}"))?;
+        if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+            bail!(
+                "{width} × {height} texels: wavetrace reads images of 1 to {MAX_IMAGE_SIDE} texels a side"
+            );
+        }
+        let texels_level0 = width as u64 * height as u64;
+        // Decoding (up to 16 bytes per texel for 16-bit RGBA) and the mip chain (4/3 · 4 bytes).
+        let reserve = texels_level0 * (16 + 6);
+        self.options.budget.reserve(
+            &format!("decoding a {width} × {height} {format:?} image"),
+            reserve,
+        )?;
+        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_IMAGE_SIDE);
+        limits.max_image_height = Some(MAX_IMAGE_SIDE);
+        reader.limits(limits);
+        let decoded = reader
+            .decode()
+            .map_err(|e| anyhow!("cannot decode the {format:?} data: {e}"))?
+            .into_rgba8();
+        drop(bytes);
+        let level0: Vec<u32> = decoded.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
+        drop(decoded);
+        self.options.budget.release(texels_level0 * 16);
+        let first = self.set.texels.len();
+        if first as u64 + texels_level0 * 2 > u32::MAX as u64 {
+            bail!("the scene's textures exceed 2³² texels");
+        }
+        let mean = mean_texel(&level0, srgb);
+        let levels = push_mip_chain(&mut self.set.texels, level0, width, height, srgb);
+        Ok(([first as u32, width, height, levels], mean))
+    }
+}
+
+/// Mean RGBA of a level, linear.
+fn mean_texel(texels: &[u32], srgb: bool) -> [f32; 4] {
+    let mut sum = [0f64; 4];
+    for &t in texels {
+        let v = crate::texture::unpack_texel(t, srgb);
+        for (s, c) in sum.iter_mut().zip(v.to_array()) {
+            *s += c as f64;
+        }
+    }
+    sum.map(|s| (s / texels.len().max(1) as f64) as f32)
+}
+
+/// Appends level 0 and every smaller level down to 1 × 1; returns the number of levels.
+pub(crate) fn push_mip_chain(
+    out: &mut Vec<u32>,
+    level0: Vec<u32>,
+    width: u32,
+    height: u32,
+    srgb: bool,
+) -> u32 {
+    let (mut w, mut h) = (width, height);
+    let mut level = level0;
+    let mut levels = 1;
+    loop {
+        out.extend_from_slice(&level);
+        if w == 1 && h == 1 {
+            return levels;
+        }
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let decode = |t: u32| {
+            let v = crate::texture::unpack_texel(t, srgb);
+            [v.x, v.y, v.z, v.w]
+        };
+        let encode = |v: [f32; 4]| {
+            let c = |x: f32, s: bool| {
+                let x = if s { linear_to_srgb(x) } else { x };
+                (x.clamp(0.0, 1.0) * 255.0).round() as u8
+            };
+            u32::from_le_bytes([c(v[0], srgb), c(v[1], srgb), c(v[2], srgb), c(v[3], false)])
+        };
+        let mut next = Vec::with_capacity((nw * nh) as usize);
+        for y in 0..nh {
+            // Source rows and columns this texel averages: 2y, 2y + 1 (and 2y + 2 for the last
+            // texel of an odd-sized side).
+            let ys: Vec<u32> = source_span(y, nh, h);
+            for x in 0..nw {
+                let xs = source_span(x, nw, w);
+                let mut sum = [0f32; 4];
+                for &sy in &ys {
+                    for &sx in &xs {
+                        let v = decode(level[(sy * w + sx) as usize]);
+                        for k in 0..4 {
+                            sum[k] += v[k];
+                        }
+                    }
+                }
+                let n = (xs.len() * ys.len()) as f32;
+                next.push(encode(sum.map(|s| s / n)));
+            }
+        }
+        level = next;
+        w = nw;
+        h = nh;
+        levels += 1;
+    }
+}
+
+/// The source indices of destination index `i` of `n` when halving a side of `size`.
+fn source_span(i: u32, n: u32, size: u32) -> Vec<u32> {
+    if size == 1 {
+        return vec![0];
+    }
+    let mut span = vec![2 * i, 2 * i + 1];
+    if i == n - 1 && size % 2 == 1 {
+        span.push(2 * i + 2);
+    }
+    span
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mip_chains_halve_to_one_texel_and_keep_the_mean() {
+        let (w, h) = (5u32, 3u32);
+        let level0: Vec<u32> = (0..w * h)
+            .map(|i| u32::from_le_bytes([(i * 17) as u8, 100, 200, 255]))
+            .collect();
+        let mut out = Vec::new();
+        let levels = push_mip_chain(&mut out, level0.clone(), w, h, false);
+        assert_eq!(levels, 3);
+        assert_eq!(out.len(), 15 + 2 + 1);
+        assert_eq!(&out[..15], &level0[..]);
+        let top = crate::texture::unpack_texel(out[17], false);
+        assert!((top.y - 100.0 / 255.0).abs() < 1e-6);
+        // A power-of-two image's last level is its mean, up to 8-bit rounding at each level.
+        let level0: Vec<u32> = (0..16u32)
+            .map(|i| u32::from_le_bytes([(i * 13) as u8, 0, 0, 255]))
+            .collect();
+        let mut out = Vec::new();
+        assert_eq!(push_mip_chain(&mut out, level0.clone(), 4, 4, true), 3);
+        let top = crate::texture::unpack_texel(out[20], true);
+        let mean = mean_texel(&level0, true);
+        assert!((top.x - mean[0]).abs() < 3.0 / 255.0, "{top} vs {mean:?}");
+    }
+}

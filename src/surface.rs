@@ -1,0 +1,229 @@
+//! What a hit point looks like: interpolated vertex attributes, the material with its textures
+//! applied, the shading normal (normal maps) and alpha coverage. Twin of
+//! `shaders/inc/surface.glsl`, same names.
+//!
+//! - Attributes are interpolated with the hit's barycentrics (u weights p1, v weights p2).
+//! - Textures modulate the factors as glTF says: base colour × texture (sRGB) × COLOR_0,
+//!   metallic × B and roughness × G of the metallic-roughness texture, emission × emissive
+//!   texture (sRGB), transmission × R. Occlusion maps are ignored: a path tracer computes the
+//!   occlusion they approximate.
+//! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
+//! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
+//! - Alpha: MASK keeps the surface where alpha ≥ alphaCutoff; BLEND keeps it with probability
+//!   alpha (stochastic transparency, Enderton et al. 2010), decided by a hash of the ray and
+//!   the triangle so that every traversal of one ray sees the same surfaces. The expected
+//!   image is the alpha-blended one, and both closest-hit and shadow rays obey it.
+
+use crate::layout::{
+    GpuMaterial, GpuTriangle, GpuVertex, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE,
+    TRIANGLE_ALPHA, TRIANGLE_FLAT,
+};
+use crate::sampling::{pcg4d, uint_to_unit_float};
+use crate::texture::{sample_texture_ref, TextureData};
+use glam::{UVec4, Vec2, Vec3, Vec4};
+
+/// The attributes of one hit point.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Unit geometric normal of the front face.
+    pub ng: Vec3,
+    /// Unit interpolated vertex normal (`ng` on flat triangles), not flipped to any side.
+    pub ns: Vec3,
+    /// Interpolated TANGENT (xyz not normalised; w the bitangent sign).
+    pub tangent: Vec4,
+    pub uv: [Vec2; 2],
+    pub color: Vec4,
+    /// ½·log2(uv area / world area) of the triangle for each texture coordinate set.
+    pub uv_density: [f32; 2],
+    /// `TRIANGLE_*` bits.
+    pub flags: u32,
+}
+
+/// The hit point (u, v) of triangle `tri` whose vertex indices and flags are `tv`.
+pub fn surface_point(
+    tri: &GpuTriangle,
+    tv: UVec4,
+    vertices: &[GpuVertex],
+    u: f32,
+    v: f32,
+) -> SurfacePoint {
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let p = Vec3::from(tri.p0) + u * e1 + v * e2;
+    let cross = e1.cross(e2);
+    let ng = cross.normalize();
+    let [a, b, c] = [tv.x, tv.y, tv.z].map(|i| vertices[i as usize]);
+    let w = 1.0 - u - v;
+    let mix4 = |x: [f32; 4], y: [f32; 4], z: [f32; 4]| {
+        w * Vec4::from(x) + u * Vec4::from(y) + v * Vec4::from(z)
+    };
+    let uv = mix4(a.uv, b.uv, c.uv);
+    let ns = if tv.w & TRIANGLE_FLAT != 0 {
+        ng
+    } else {
+        let n = w * Vec3::from(a.normal) + u * Vec3::from(b.normal) + v * Vec3::from(c.normal);
+        let length = n.length();
+        if length > 0.0 && length.is_finite() {
+            n / length
+        } else {
+            ng
+        }
+    };
+    // Areas for the level of detail: |Δuv₁ × Δuv₂| against |e1 × e2|.
+    let world = cross.length().max(1e-30);
+    let density = |s: usize| {
+        let (t0, t1, t2) = (
+            Vec2::from_slice(&a.uv[2 * s..]),
+            Vec2::from_slice(&b.uv[2 * s..]),
+            Vec2::from_slice(&c.uv[2 * s..]),
+        );
+        let area = (t1 - t0).perp_dot(t2 - t0).abs();
+        0.5 * (area.max(1e-30) / world).log2()
+    };
+    SurfacePoint {
+        p,
+        ng,
+        ns,
+        tangent: mix4(a.tangent, b.tangent, c.tangent),
+        uv: [uv.truncate().truncate().into(), Vec2::new(uv.z, uv.w)],
+        color: mix4(a.color, b.color, c.color),
+        uv_density: [density(0), density(1)],
+        flags: tv.w,
+    }
+}
+
+/// The texture-independent part of the level of detail for each coordinate set:
+/// log2(W / |cos θ|) + ½·log2(uv area / world area), W the cone's width at the hit and θ the
+/// angle between the ray and the geometric normal (Akenine-Möller et al. 2021, eq. 34).
+pub fn surface_lod_base(sp: &SurfacePoint, cone_width: f32, cos_view: f32) -> [f32; 2] {
+    let footprint = (cone_width / cos_view.abs().max(1e-6)).max(1e-30).log2();
+    [footprint + sp.uv_density[0], footprint + sp.uv_density[1]]
+}
+
+/// A level of detail that always magnifies (alpha tests read level 0).
+pub const LOD_MAGNIFY: [f32; 2] = [-1e30, -1e30];
+
+/// Material `m` at the surface point: factors times textures times vertex colour.
+pub fn surface_material(
+    data: &TextureData,
+    m: &GpuMaterial,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> GpuMaterial {
+    let mut out = *m;
+    let mut base = Vec4::from((Vec3::from(m.base_color), m.alpha)) * sp.color;
+    if m.base_color_texture != NO_TEXTURE {
+        base *= sample_texture_ref(data, m.base_color_texture, sp.uv, lod);
+    }
+    out.base_color = base.truncate().to_array();
+    out.alpha = base.w;
+    if m.metallic_roughness_texture != NO_TEXTURE {
+        let mr = sample_texture_ref(data, m.metallic_roughness_texture, sp.uv, lod);
+        out.metallic *= mr.z;
+        out.roughness *= mr.y;
+    }
+    if m.emissive_texture != NO_TEXTURE {
+        let e = sample_texture_ref(data, m.emissive_texture, sp.uv, lod);
+        out.emission = (Vec3::from(m.emission) * e.truncate()).to_array();
+    }
+    if m.transmission_texture != NO_TEXTURE {
+        out.transmission *= sample_texture_ref(data, m.transmission_texture, sp.uv, lod).x;
+    }
+    out
+}
+
+/// The shading normal: the interpolated normal, perturbed by the normal map if there is one and
+/// the tangent frame is not degenerate. Unit length, not flipped to any side.
+pub fn surface_normal(
+    data: &TextureData,
+    m: &GpuMaterial,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> Vec3 {
+    if m.normal_texture == NO_TEXTURE {
+        return sp.ns;
+    }
+    let n = sp.ns;
+    let t = Vec3::from(sp.tangent.truncate());
+    let t = t - n * n.dot(t);
+    let t_length = t.length();
+    if !(t_length > 1e-12 && t_length.is_finite()) {
+        return n;
+    }
+    let t = t / t_length;
+    let b = n.cross(t) * if sp.tangent.w < 0.0 { -1.0 } else { 1.0 };
+    let texel = sample_texture_ref(data, m.normal_texture, sp.uv, lod);
+    let x = (2.0 * texel.x - 1.0) * m.normal_scale;
+    let y = (2.0 * texel.y - 1.0) * m.normal_scale;
+    let z = 2.0 * texel.z - 1.0;
+    let mapped = t * x + b * y + n * z;
+    let length = mapped.length();
+    if length > 1e-12 && length.is_finite() {
+        mapped / length
+    } else {
+        n
+    }
+}
+
+/// The uniform number that decides a BLEND surface's presence for one ray (`key`) and one
+/// triangle.
+pub fn alpha_random(key: UVec4, triangle: u32) -> f32 {
+    let h = pcg4d(UVec4::new(
+        key.x,
+        key.y,
+        key.z,
+        key.w ^ triangle.wrapping_mul(0x9e37_79b9),
+    ));
+    uint_to_unit_float(h.x)
+}
+
+/// The key of [`alpha_random`] for the ray of bounce `depth` of a path (`shadow`: its shadow
+/// ray).
+pub fn alpha_key(seed: u32, pixel: u32, sample: u32, depth: u32, shadow: bool) -> UVec4 {
+    UVec4::new(
+        pixel,
+        sample,
+        0x4000_0000 | (2 * depth + shadow as u32),
+        seed,
+    )
+}
+
+/// Whether a surface of evaluated alpha `alpha` exists for the ray: MASK by the cutoff, BLEND
+/// with probability alpha, OPAQUE always.
+pub fn alpha_present(flags: u32, alpha: f32, cutoff: f32, u: f32) -> bool {
+    if flags & MATERIAL_ALPHA_MASK != 0 {
+        alpha >= cutoff
+    } else if flags & MATERIAL_ALPHA_BLEND != 0 {
+        u < alpha
+    } else {
+        true
+    }
+}
+
+/// Whether triangle `index`'s surface exists at (u, v) for the ray with alpha key `key`: the
+/// any-hit test of both traversals. Triangles without TRIANGLE_ALPHA always exist.
+#[allow(clippy::too_many_arguments)]
+pub fn triangle_present(
+    data: &TextureData,
+    triangles: &[GpuTriangle],
+    triangle_vertices: &[UVec4],
+    vertices: &[GpuVertex],
+    materials: &[GpuMaterial],
+    index: u32,
+    u: f32,
+    v: f32,
+    key: UVec4,
+) -> bool {
+    let tv = triangle_vertices[index as usize];
+    if tv.w & TRIANGLE_ALPHA == 0 {
+        return true;
+    }
+    let tri = &triangles[index as usize];
+    let m = &materials[tri.material as usize];
+    let sp = surface_point(tri, tv, vertices, u, v);
+    let mut alpha = m.alpha * sp.color.w;
+    if m.base_color_texture != NO_TEXTURE {
+        alpha *= sample_texture_ref(data, m.base_color_texture, sp.uv, LOD_MAGNIFY).w;
+    }
+    alpha_present(m.flags, alpha, m.alpha_cutoff, alpha_random(key, index))
+}
