@@ -158,6 +158,18 @@ pub struct RenderOptions {
     /// Random seed: the same seed gives the same image on the same device.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+    /// Which of the file's cameras renders: N is the glTF camera `cameras[N]`, anything else a
+    /// camera's or node's name (default: the first camera met in the scene's node tree).
+    #[arg(long, value_name = "N|NAME")]
+    pub camera: Option<String>,
+    /// Thin-lens depth of field: the lens diameter in scene units (perspective cameras; default 0,
+    /// a pinhole).
+    #[arg(long, default_value_t = 0.0, value_parser = parse_aperture, value_name = "D", allow_negative_numbers = true)]
+    pub aperture: f32,
+    /// Distance along the view of the plane in focus (default: the centre of the scene's
+    /// bounding box).
+    #[arg(long, value_parser = parse_focus_distance, value_name = "F", allow_negative_numbers = true)]
+    pub focus_distance: Option<f32>,
     /// Vulkan device index, as `wavetrace devices` lists them.
     #[arg(long)]
     pub gpu_index: Option<usize>,
@@ -268,6 +280,26 @@ fn parse_radiance(text: &str) -> Result<glam::Vec3, String> {
         return Err("radiance must be finite and non-negative".into());
     }
     Ok(rgb)
+}
+
+/// A lens diameter: finite and non-negative.
+fn parse_aperture(text: &str) -> Result<f32, String> {
+    let d: f32 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if d.is_finite() && d >= 0.0 {
+        Ok(d)
+    } else {
+        Err("the lens diameter must be finite and non-negative".into())
+    }
+}
+
+/// A focus distance: finite and positive.
+fn parse_focus_distance(text: &str) -> Result<f32, String> {
+    let f: f32 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if f.is_finite() && f > 0.0 {
+        Ok(f)
+    } else {
+        Err("the distance must be positive and finite".into())
+    }
 }
 
 /// β of the power heuristic: finite and positive.

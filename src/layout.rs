@@ -14,7 +14,7 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// Random-number dimensions, a pure function of (seed, pixel, sample, dimension): see
 /// `sampling::rng_uniform4`. Dimensions come in blocks of four; each bounce uses two blocks.
 pub mod dim {
-    /// Block 0: pixel jitter (x, y), two spare.
+    /// Block 0: pixel jitter (x, y), point on the lens (x, y).
     pub const CAMERA_BLOCK: u32 = 0;
     /// Blocks per bounce: `bounce_block(d)` = light pick, light u, light v, roulette;
     /// `bounce_block(d) + 1` = BSDF u, BSDF v, two spare.
@@ -197,12 +197,14 @@ pub struct LightEntry {
     pub pad: u32,      // 4 bytes
 }
 
-/// Constants of one render (std140 uniform). Total: 144 bytes.
+/// Constants of one render (std140 uniform). Total: 160 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
     pub cam_position: [f32; 3], // 12 bytes
-    pub tan_half_fov_y: f32,    // 4 bytes
+    /// Perspective cameras: tan(yfov / 2), the half-height of the image plane at unit distance;
+    /// 0 for orthographic cameras (their half-height is `cam_ymag`).
+    pub tan_half_fov_y: f32, // 4 bytes
     pub cam_right: [f32; 3],    // 12 bytes
     pub aspect: f32,            // 4 bytes: width / height
     pub cam_up: [f32; 3],       // 12 bytes
@@ -229,14 +231,28 @@ pub struct FrameParams {
     pub sampler_mode: u32, // 4 bytes
     /// `RR_*`: how Russian roulette picks survival probabilities.
     pub rr_mode: u32, // 4 bytes
-    pub pad: u32,               // 4 bytes
+    /// `CAMERA_*`: how camera rays leave the film (`scene::camera_ray`).
+    pub cam_projection: u32, // 4 bytes
+    /// Distance of the near plane along `cam_forward`: primary rays start on it.
+    pub cam_znear: f32, // 4 bytes
+    /// Thin lens: radius of the lens (half of `--aperture`), 0 for a pinhole.
+    pub lens_radius: f32, // 4 bytes
+    /// Thin lens: distance along `cam_forward` of the plane in focus.
+    pub focus_distance: f32, // 4 bytes
+    /// Orthographic cameras: ymag, the half-height of the view in scene units; 0 otherwise.
+    pub cam_ymag: f32, // 4 bytes
     /// Ray cones (Akenine-Möller et al. 2021): the cone's width at the camera and its spread
-    /// angle per unit distance, for texture level-of-detail.
+    /// angle per unit distance, for texture level of detail.
     pub cone_width: f32, // 4 bytes
     pub cone_spread: f32,       // 4 bytes
     pub pad1: u32,              // 4 bytes
     pub pad2: u32,              // 4 bytes
 }
+
+/// `FrameParams::cam_projection`: rays from one point (or a thin lens) through the film.
+pub const CAMERA_PERSPECTIVE: u32 = 0;
+/// `FrameParams::cam_projection`: parallel rays along `cam_forward` from the film.
+pub const CAMERA_ORTHOGRAPHIC: u32 = 1;
 
 /// `FrameParams::sampler_mode`: every number independent.
 pub const SAMPLER_INDEPENDENT: u32 = 0;
@@ -465,7 +481,11 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         spp,
         sampler_mode,
         rr_mode,
-        pad,
+        cam_projection,
+        cam_znear,
+        lens_radius,
+        focus_distance,
+        cam_ymag,
         cone_width,
         cone_spread,
         pad1,

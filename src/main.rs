@@ -25,7 +25,8 @@ const MAX_SIDE: u32 = 16384;
 const DEFAULT_WIDTH: u32 = 512;
 
 /// The image size from --width and --height, filling a missing one from the camera's aspect ratio
-/// (width / height) where the file gives one, else making the image square.
+/// (width / height: a perspective camera's aspectRatio, an orthographic one's xmag / ymag) where
+/// the file gives one, else making the image square.
 fn image_size(width: Option<u32>, height: Option<u32>, aspect: Option<f32>) -> (u32, u32) {
     let aspect = aspect.filter(|a| a.is_finite() && *a > 0.0).unwrap_or(1.0) as f64;
     let scaled = |v: u32, by: f64| ((v as f64 * by).round().clamp(1.0, u32::MAX as f64)) as u32;
@@ -93,13 +94,9 @@ const GPU_BYTES_PER_TRIANGLE: u64 =
 /// (for GPU renders) on the device.
 const FILM_BYTES_PER_PIXEL: u64 = 32;
 
-fn load(path: &Path) -> Result<(Scene, PreparedScene)> {
-    load_with(path, &LoadOptions::default())
-}
-
 /// Loads a scene and prepares it (BVH); the loader reserved the preparation's memory.
-fn load_with(path: &Path, options: &LoadOptions) -> Result<(Scene, PreparedScene)> {
-    let scene = Scene::load_with(path, options)?;
+fn load(path: &Path) -> Result<(Scene, PreparedScene)> {
+    let scene = Scene::load_with(path, &LoadOptions::default())?;
     let prepared = PreparedScene::new(&scene);
     Ok((scene, prepared))
 }
@@ -172,8 +169,12 @@ fn prepare(
                 .unwrap_or_else(wavetrace::scene::default_memory_budget),
         ),
     };
-    let (scene, prepared) = load_with(path, &options)?;
-    let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio);
+    let mut scene = Scene::load_with(path, &options)?;
+    if let Some(which) = &opts.camera {
+        scene.select_camera(which)?;
+    }
+    let prepared = PreparedScene::new(&scene);
+    let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio());
     if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
         bail!(
             "{width}×{height} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} in all); \
@@ -198,7 +199,12 @@ fn prepare(
         rr_mode: opts.rr.code(),
         rr_start_depth: opts.rr_depth,
         debug_flags: opts.debug_flags,
+        aperture: opts.aperture,
+        focus_distance: opts.focus_distance,
     };
+    prepared
+        .thin_lens(&settings)
+        .with_context(|| format!("{}", path.display()))?;
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());
     }

@@ -9,7 +9,7 @@ use crate::layout::{
     SAMPLER_SOBOL,
 };
 use crate::mis::Heuristic;
-use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, NO_VERTEX};
+use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX};
 use crate::texture::TextureData;
 use glam::{UVec4, Vec3};
 
@@ -34,6 +34,12 @@ pub struct RenderSettings {
     pub sampler: u32,
     /// `layout::DEBUG_*` bits; 0 except in tests.
     pub debug_flags: u32,
+    /// Thin-lens diameter in scene units (`--aperture`); 0 is a pinhole. Perspective cameras
+    /// only: check with [`PreparedScene::thin_lens`].
+    pub aperture: f32,
+    /// Distance of the plane in focus (`--focus-distance`); `None` focuses on the centre of
+    /// the scene's bounding box.
+    pub focus_distance: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -50,6 +56,8 @@ impl Default for RenderSettings {
             mis: Heuristic::Power(2.0),
             sampler: SAMPLER_SOBOL,
             debug_flags: 0,
+            aperture: 0.0,
+            focus_distance: None,
         }
     }
 }
@@ -174,17 +182,32 @@ impl PreparedScene {
         }
     }
 
-    /// The constants of one render, as the GPU's uniform buffer holds them.
+    /// Axis-aligned bounds (min, max) of the scene's triangles, from the BVH's root; (0, 0)
+    /// for an empty scene.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self.bvh.nodes.first() {
+            Some(root) if !self.bvh.is_empty() => {
+                (Vec3::from(root.bounds_min), Vec3::from(root.bounds_max))
+            }
+            _ => (Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+
+    /// The thin lens `settings` ask of this scene's camera (`Camera::thin_lens`); errors name
+    /// the option at fault.
+    pub fn thin_lens(&self, settings: &RenderSettings) -> anyhow::Result<ThinLens> {
+        self.camera
+            .thin_lens(settings.aperture, settings.focus_distance, self.bounds())
+            .map_err(anyhow::Error::msg)
+    }
+
+    /// The constants of one render, as the GPU's uniform buffer holds them. Settings whose
+    /// [`thin_lens`](PreparedScene::thin_lens) is an error render with a pinhole: check it
+    /// first (the command line does).
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {
-        let c = &self.camera;
-        FrameParams {
-            cam_position: c.position.to_array(),
-            tan_half_fov_y: (0.5 * c.yfov).tan(),
-            cam_right: c.right.to_array(),
+        let mut frame = FrameParams {
             aspect: settings.width as f32 / settings.height as f32,
-            cam_up: c.up.to_array(),
             width: settings.width,
-            cam_forward: c.forward.to_array(),
             height: settings.height,
             seed: settings.seed,
             max_depth: settings.max_depth,
@@ -199,14 +222,12 @@ impl PreparedScene {
             spp: settings.spp,
             sampler_mode: settings.sampler,
             rr_mode: settings.rr_mode,
-            pad: 0,
-            // A pinhole's cone starts as a point and widens by the pixel's angle (Akenine-Möller
-            // et al. 2019, Ray Tracing Gems ch. 20, eq. 30).
-            cone_width: 0.0,
-            cone_spread: (2.0 * (0.5 * c.yfov).tan() / settings.height as f32).atan(),
-            pad1: 0,
-            pad2: 0,
-        }
+            // The camera's fields: written below.
+            ..FrameParams::default()
+        };
+        let lens = self.thin_lens(settings).unwrap_or_default();
+        self.camera.write_frame_params(lens, &mut frame);
+        frame
     }
 }
 

@@ -74,6 +74,8 @@ fn bad_input_fails_with_a_message_naming_it() {
             "out.bmp",
         ),
         (vec!["render", "--environment", "nan"], "--environment"),
+        (vec!["render", "--aperture", "-1"], "--aperture"),
+        (vec!["render", "--focus-distance", "0"], "--focus-distance"),
     ];
     for (args, needle) in cases {
         let o = wavetrace(&args);
@@ -98,6 +100,69 @@ fn bad_input_fails_with_a_message_naming_it() {
             stderr(&o).contains("mesh__primitive_no_position.gltf"),
             "{}",
             stderr(&o)
+        );
+    } else {
+        eprintln!("skipping: ../shared/gltf-samples not found");
+    }
+}
+
+#[test]
+fn unknown_camera_fails_listing_the_cameras() {
+    let out = temp("camera.png");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "scenes/cornell-box.gltf",
+            "--device",
+            "cpu",
+            "--width",
+            "8",
+            "--spp",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        wavetrace(&args)
+    };
+    let o = render(&["--camera", "front"]);
+    assert!(!o.status.success(), "an unknown --camera rendered");
+    let e = stderr(&o);
+    assert!(
+        e.contains("--camera front")
+            && e.contains(r#"cameras[0] ("camera") on nodes[8] ("camera")"#),
+        "{e}"
+    );
+    // By index and by name.
+    for which in ["0", "camera"] {
+        let o = render(&["--camera", which]);
+        assert!(o.status.success(), "--camera {which}: {}", stderr(&o));
+    }
+    // A thin lens on an orthographic camera is refused.
+    let cameras =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid/Cameras.gltf");
+    if cameras.exists() {
+        let o = wavetrace(&[
+            "render",
+            cameras.to_str().unwrap(),
+            "--device",
+            "cpu",
+            "--width",
+            "8",
+            "--spp",
+            "1",
+            "--camera",
+            "1",
+            "--aperture",
+            "0.1",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!o.status.success());
+        let e = stderr(&o);
+        assert!(
+            e.contains("--aperture") && e.contains("orthographic"),
+            "{e}"
         );
     } else {
         eprintln!("skipping: ../shared/gltf-samples not found");

@@ -236,8 +236,8 @@ fn veach_mis_has_four_equal_power_lights_four_plates_and_the_camera() {
     assert!((cam.position - Vec3::new(0.0, 5.0, 11.0)).length() < 1e-6);
     assert!((cam.forward - Vec3::new(0.0, pitch.sin(), -pitch.cos())).length() < 1e-6);
     assert!((cam.right - Vec3::X).length() < 1e-6);
-    assert!((cam.yfov - 44f32.to_radians()).abs() < 1e-6);
-    assert_eq!(cam.aspect_ratio, Some(1.6));
+    assert!((cam.yfov().unwrap() - 44f32.to_radians()).abs() < 1e-6);
+    assert_eq!(cam.aspect_ratio(), Some(1.6));
 }
 
 /// For every plate and light, the point of the plate where the camera sees the light's centre

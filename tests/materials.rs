@@ -14,7 +14,7 @@ use wavetrace::film::Film;
 use wavetrace::layout::{GpuMaterial, RR_ALBEDO, RR_OFF, SAMPLER_INDEPENDENT, SAMPLER_STRATIFIED};
 use wavetrace::mis::Heuristic;
 use wavetrace::render::{PreparedScene, RenderSettings};
-use wavetrace::scene::{Camera, Material, Scene, Triangle};
+use wavetrace::scene::{camera_ray, Camera, Material, Projection, Scene, Triangle};
 use wavetrace::stats::{film_mean, normal_quantile_upper, sidak};
 
 fn material(base: Vec3, metallic: f32, roughness: f32, transmission: f32) -> Material {
@@ -40,8 +40,11 @@ fn looking_at(position: Vec3, target: Vec3, yfov: f32) -> Camera {
         forward,
         right,
         up: right.cross(forward),
-        yfov,
-        aspect_ratio: None,
+        projection: Projection::Perspective {
+            yfov,
+            aspect_ratio: None,
+        },
+        znear: 0.0,
     }
 }
 
@@ -53,6 +56,7 @@ fn scene(triangles: Vec<Triangle>, material: Material, camera: Camera) -> Prepar
         vertices: Vec::new(),
         textures: Default::default(),
         camera,
+        cameras: Vec::new(),
         dropped_degenerate: 0,
         skipped_primitives: 0,
         notes: Vec::new(),
@@ -170,7 +174,7 @@ fn plane_under_white_environment_shows_the_directional_albedo() {
         // The view direction at each pixel's centre (the albedo varies slowly across a pixel).
         let expected: Vec<Vec3> = (0..36)
             .map(|i| {
-                let d = wavetrace::cpu::camera_ray_direction(&frame, i, glam::Vec2::splat(0.5));
+                let d = camera_ray(&frame, i, glam::Vec2::splat(0.5), glam::Vec2::ZERO).dir;
                 // The delta mirror lobe (roughness 0) adds its Fresnel weight at cos θo exactly.
                 let cos = -d.z;
                 let mirror = if gm.roughness == 0.0 {

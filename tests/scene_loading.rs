@@ -4,7 +4,7 @@
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use wavetrace::render::PreparedScene;
-use wavetrace::scene::{Scene, Triangle};
+use wavetrace::scene::{Camera, Projection, Scene, Triangle};
 
 fn crate_root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -117,8 +117,8 @@ fn cornell_box_geometry_materials_and_camera() {
     assert!(approx(cam.forward, Vec3::NEG_Z, 1e-6));
     assert!(approx(cam.up, Vec3::Y, 1e-6));
     assert!(approx(cam.right, Vec3::X, 1e-6));
-    assert!((cam.yfov - 39.3077f32.to_radians()).abs() < 1e-6);
-    assert_eq!(cam.aspect_ratio, Some(1.0));
+    assert!((cam.yfov().unwrap() - 39.3077f32.to_radians()).abs() < 1e-6);
+    assert_eq!(cam.aspect_ratio(), Some(1.0));
 
     let (lo, hi) = scene.bounds();
     assert!(approx(lo, Vec3::new(-1.0, -1.01, -1.0), 1e-5), "{lo}");
@@ -156,7 +156,7 @@ fn furnace_sphere_faces_inwards() {
         (Vec3::splat(0.5), Vec3::splat(0.5), false)
     );
     assert_eq!(scene.camera.position, Vec3::ZERO);
-    assert!((scene.camera.yfov - 60f32.to_radians()).abs() < 1e-6);
+    assert!((scene.camera.yfov().unwrap() - 60f32.to_radians()).abs() < 1e-6);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -318,7 +318,73 @@ fn rotated_camera_node() {
     assert!(approx(cam.position, Vec3::new(5.0, 0.0, 0.0), 1e-6));
     assert!(approx(cam.forward, Vec3::NEG_X, 1e-6), "{}", cam.forward);
     assert!(approx(cam.right, Vec3::NEG_Z, 1e-6), "{}", cam.right);
-    assert_eq!((cam.yfov, cam.aspect_ratio), (0.5, None));
+    assert_eq!((cam.yfov().unwrap(), cam.aspect_ratio()), (0.5, None));
+}
+
+#[test]
+fn every_camera_instance_is_kept_and_chosen_by_index_or_name() {
+    // Node 0 (the quad) has children 1 ("Side", orthographic cameras[1]) and 2 ("Top",
+    // perspective cameras[0]): traversal meets cameras[1] first, so it is the default.
+    let json = quad_gltf(
+        r#", "children": [1, 2]}, {"name": "Side", "camera": 1, "translation": [0, 0, 5]},
+           {"name": "Top", "camera": 0, "translation": [0, 4, 0], "rotation": [-0.7071068, 0, 0, 0.7071068]"#,
+        "",
+        r#""cameras": [
+             {"name": "Main", "type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1, "aspectRatio": 2}},
+             {"name": "Ortho", "type": "orthographic", "orthographic": {"xmag": 3, "ymag": 1.5, "znear": 0.25, "zfar": 100}}],"#,
+    );
+    let (_, scene) = load_text("cameras", &json);
+    let mut scene = scene.unwrap();
+    let labels: Vec<String> = scene.cameras.iter().map(|c| c.label.clone()).collect();
+    assert_eq!(
+        labels,
+        [
+            r#"cameras[1] ("Ortho") on nodes[1] ("Side")"#,
+            r#"cameras[0] ("Main") on nodes[2] ("Top")"#
+        ]
+    );
+    let ortho = scene.camera;
+    assert_eq!(
+        ortho.projection,
+        Projection::Orthographic {
+            xmag: 3.0,
+            ymag: 1.5
+        }
+    );
+    assert_eq!((ortho.znear, ortho.aspect_ratio()), (0.25, Some(2.0)));
+    assert!(approx(ortho.position, Vec3::new(0.0, 0.0, 5.0), 1e-6));
+    assert!(
+        scene.notes.is_empty(),
+        "an orthographic camera is no longer noted: {:?}",
+        scene.notes
+    );
+
+    scene.select_camera("0").unwrap();
+    let top = scene.camera;
+    assert_eq!(
+        (top.yfov(), top.aspect_ratio(), top.znear),
+        (Some(0.5), Some(2.0), 0.1)
+    );
+    assert!(approx(top.forward, Vec3::NEG_Y, 1e-6), "{}", top.forward);
+    for (which, expected) in [("1", ortho), ("Main", top), ("Side", ortho), ("Top", top)] {
+        scene.select_camera(which).unwrap();
+        assert_eq!(scene.camera, expected, "--camera {which}");
+    }
+    for unknown in ["2", "Front", ""] {
+        let e = format!("{:#}", scene.select_camera(unknown).unwrap_err());
+        assert!(
+            e.contains(&format!("--camera {unknown}"))
+                && labels.iter().all(|l| e.contains(l.as_str())),
+            "{e}"
+        );
+    }
+    // A file without cameras keeps the framing camera, and --camera says there is none.
+    let (_, plain) = load_text("no-cameras", &quad_gltf("", "", ""));
+    let mut plain = plain.unwrap();
+    assert!(plain.cameras.is_empty());
+    assert_eq!(plain.camera, Camera::framing(plain.bounds()));
+    let e = format!("{:#}", plain.select_camera("0").unwrap_err());
+    assert!(e.contains("has no cameras"), "{e}");
 }
 
 #[test]
@@ -581,6 +647,38 @@ fn valid_samples_load() {
             scene.materials.len()
         );
     }
+}
+
+#[test]
+fn cameras_sample_has_a_perspective_and_an_orthographic_camera() {
+    let path = crate_root().join("../shared/gltf-samples/valid/Cameras.gltf");
+    if !path.exists() {
+        eprintln!("skipping: ../shared/gltf-samples not found");
+        return;
+    }
+    let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(scene.cameras.len(), 2);
+    assert_eq!(
+        scene.camera.projection,
+        Projection::Perspective {
+            yfov: 0.7,
+            aspect_ratio: Some(1.0)
+        }
+    );
+    // --camera 1: the orthographic one, on node 2.
+    scene.select_camera("1").unwrap();
+    let cam = scene.camera;
+    assert_eq!(
+        cam.projection,
+        Projection::Orthographic {
+            xmag: 1.0,
+            ymag: 1.0
+        }
+    );
+    assert_eq!(cam.znear, 0.01);
+    assert!(approx(cam.position, Vec3::new(0.5, 0.5, 3.0), 1e-6));
+    assert!(approx(cam.forward, Vec3::NEG_Z, 1e-6));
+    assert_eq!(scene.cameras[1].label, "cameras[1] on nodes[2]");
 }
 
 #[test]

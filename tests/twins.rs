@@ -15,14 +15,15 @@ use wavetrace::bsdf::{
     bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, BsdfFrame, TransportMode,
 };
 use wavetrace::bvh::Ray;
-use wavetrace::layout::GpuMaterial;
+use wavetrace::layout::{FrameParams, GpuMaterial};
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
+use wavetrace::scene::{camera_ray, Camera, Projection, ThinLens};
 use wavetrace::sobol::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 21;
+const OUTPUTS_PER_CASE: usize = 24;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -69,6 +70,63 @@ fn twin_material(i: u32) -> GpuMaterial {
     }
 }
 
+/// The camera set-ups of the camera-ray cases (twins.comp reads them as `frames[i % 3]`): a
+/// turned pinhole with a near plane on a 37×23 film, a thin lens on a 16×16 film, an
+/// orthographic camera on a 40×30 film.
+fn twin_frames() -> Vec<FrameParams> {
+    let forward = Vec3::new(0.3, -0.2, -1.0).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let camera = |projection, znear| Camera {
+        position: Vec3::new(0.5, 1.0, 3.0),
+        forward,
+        right,
+        up: right.cross(forward),
+        projection,
+        znear,
+    };
+    let perspective = Projection::Perspective {
+        yfov: 0.8,
+        aspect_ratio: None,
+    };
+    let setups = [
+        (camera(perspective, 0.05), ThinLens::default(), 37, 23),
+        (
+            camera(perspective, 0.1),
+            ThinLens {
+                radius: 0.25,
+                focus_distance: 3.5,
+            },
+            16,
+            16,
+        ),
+        (
+            camera(
+                Projection::Orthographic {
+                    xmag: 2.0,
+                    ymag: 1.5,
+                },
+                0.2,
+            ),
+            ThinLens::default(),
+            40,
+            30,
+        ),
+    ];
+    setups
+        .into_iter()
+        .map(|(camera, lens, width, height)| {
+            let mut f = FrameParams {
+                width,
+                height,
+                aspect: width as f32 / height as f32,
+                ..Default::default()
+            };
+            camera.write_frame_params(lens, &mut f);
+            f
+        })
+        .collect()
+}
+
 fn close(a: Vec4, b: Vec4, tol: f32) -> bool {
     (a - b)
         .abs()
@@ -91,6 +149,7 @@ fn glsl_functions_equal_their_rust_twins() {
         inputs.extend([c.u, c.n.extend(0.0), c.wo.extend(0.0), key]);
     }
     let outputs = vec![Vec4::ZERO; cases.len() * OUTPUTS_PER_CASE];
+    let frames = twin_frames();
     let Some(gpu) = common::gpu() else { return };
     let result = gpu
         .run_test_kernel(
@@ -101,6 +160,7 @@ fn glsl_functions_equal_their_rust_twins() {
                 bytemuck::cast_slice(&outputs).to_vec(),
                 bytemuck::cast_slice(&scene.bvh.nodes).to_vec(),
                 bytemuck::cast_slice(&scene.triangles).to_vec(),
+                bytemuck::cast_slice(&frames).to_vec(),
             ],
         )
         .unwrap_or_else(|e| panic!("{e:#}"));
@@ -391,6 +451,31 @@ fn glsl_functions_equal_their_rust_twins() {
             ),
             &same_bits,
         );
+        let disk = sample_concentric_disk(Vec2::new(c.u.x, c.u.y));
+        check(
+            21,
+            "sample_concentric_disk / uniform_disk_pdf",
+            Vec4::new(disk.x, disk.y, uniform_disk_pdf(), 0.0),
+            &|a, b| close(a, b, ANGLE_TOL),
+        );
+        // The lens point carries the disk's angle tolerance, scaled by the lens radius (< 1).
+        let frame = &frames[i % frames.len()];
+        let pixel = c.key.w % (frame.width * frame.height);
+        let ray = camera_ray(
+            frame,
+            pixel,
+            Vec2::new(c.u.x, c.u.y),
+            Vec2::new(c.u.z, c.u.w),
+        );
+        check(
+            22,
+            "camera_ray (origin)",
+            ray.origin.extend(0.0),
+            &|a, b| close(a, b, ANGLE_TOL),
+        );
+        check(23, "camera_ray (dir)", ray.dir.extend(0.0), &|a, b| {
+            close(a, b, ANGLE_TOL)
+        });
     }
     assert!(
         failures.is_empty(),

@@ -6,7 +6,7 @@
 #define WORKGROUP_SIZE 64
 
 // Random-number dimension blocks (src/layout.rs, mod dim).
-#define CAMERA_BLOCK 0u
+#define CAMERA_BLOCK 0u  // pixel jitter (x, y), point on the lens (z, w)
 #define BLOCKS_PER_BOUNCE 2u
 uint bounce_block(uint depth) { return 1u + depth * BLOCKS_PER_BOUNCE; }
 
@@ -108,10 +108,10 @@ struct LightEntry {
     uint pad;         // 4 bytes
 };
 
-// Constants of one render (std140 uniform). Total: 144 bytes.
+// Constants of one render (std140 uniform). Total: 160 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
-    float tan_half_fov_y; // 4 bytes
+    float tan_half_fov_y; // 4 bytes: perspective: tan(yfov / 2); orthographic: 0
     vec3 cam_right;       // 12 bytes
     float aspect;         // 4 bytes
     vec3 cam_up;          // 12 bytes
@@ -131,12 +131,18 @@ struct FrameParams {
     uint spp;               // 4 bytes: samples per pixel of the whole render
     uint sampler_mode;      // 4 bytes: SAMPLER_*
     uint rr_mode;           // 4 bytes: RR_*
-    uint pad;               // 4 bytes
+    uint cam_projection;    // 4 bytes: CAMERA_*
+    float cam_znear;        // 4 bytes: primary rays start on the near plane
+    float lens_radius;      // 4 bytes: thin lens; 0 = pinhole
+    float focus_distance;   // 4 bytes: thin lens: distance of the plane in focus
+    float cam_ymag;         // 4 bytes: orthographic: half-height of the view; else 0
     float cone_width;       // 4 bytes: ray cone at the camera (texture level of detail)
     float cone_spread;      // 4 bytes: its spread angle
     uint pad1;              // 4 bytes
     uint pad2;              // 4 bytes
 };
+#define CAMERA_PERSPECTIVE 0u
+#define CAMERA_ORTHOGRAPHIC 1u
 #define SAMPLER_INDEPENDENT 0u
 #define SAMPLER_STRATIFIED 1u
 #define SAMPLER_SOBOL 2u

@@ -40,6 +40,27 @@ vec2 invert_uniform_triangle_sample(vec2 b) {
     return vec2(su * su, su > 0.0 ? b.x / su : 0.0);
 }
 
+// Uniform point on the unit disk by Shirley and Chiu's concentric mapping ("A Low Distortion Map
+// Between Disk and Square", JGT 1997; pbrt-v3 13.6.2): twin of sampling::sample_concentric_disk.
+vec2 sample_concentric_disk(vec2 u) {
+    vec2 a = 2.0 * u - vec2(1.0);
+    if (a.x == 0.0 && a.y == 0.0) return vec2(0.0);
+    float r, phi;
+    if (abs(a.x) > abs(a.y)) {
+        r = a.x;
+        phi = (0.25 * PI) * (a.y / a.x);
+    } else {
+        r = a.y;
+        phi = 0.5 * PI - (0.25 * PI) * (a.x / a.y);
+    }
+    return r * vec2(cos(phi), sin(phi));
+}
+
+// Pdf of sample_concentric_disk with respect to area on the unit disk: 1 / pi.
+float uniform_disk_pdf() {
+    return INV_PI;
+}
+
 // Russian roulette for a single integral (lecture): survive with probability p, weight 1/p;
 // p >= 1 always survives with weight 1. Twin of mc::roulette_f32.
 bool roulette(float u, float p, out float weight) {

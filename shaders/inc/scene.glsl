@@ -1,4 +1,5 @@
-// Camera rays, emission and emitter selection: twin of src/scene/camera.rs, src/cpu/path.rs.
+// Path indexing, sample placement, emission and emitter selection: twin of src/cpu/path.rs
+// (camera rays: camera.glsl).
 #ifndef SCENE_GLSL
 #define SCENE_GLSL
 
@@ -19,15 +20,6 @@ vec2 sample_pair(uint pixel, uint sample_index, uint dimension, vec2 u) {
         return sobol_pair(frame.seed, pixel, sample_index, dimension);
     }
     return u;
-}
-
-// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
-vec3 camera_ray_direction(uint pixel, vec2 jitter) {
-    float px = float(pixel % frame.width) + jitter.x;
-    float py = float(pixel / frame.width) + jitter.y;
-    float sx = (2.0 * px / float(frame.width) - 1.0) * frame.tan_half_fov_y * frame.aspect;
-    float sy = (1.0 - 2.0 * py / float(frame.height)) * frame.tan_half_fov_y;
-    return normalize(frame.cam_forward + sx * frame.cam_right + sy * frame.cam_up);
 }
 
 // Radiance leaving a surface of material m towards a direction with cosine cos_out to its

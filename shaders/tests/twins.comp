@@ -1,14 +1,16 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Runs the GLSL twins of src/sampling.rs, src/sobol.rs, src/bsdf/, src/mis.rs and src/bvh.rs on
-// inputs the test chooses, so tests/twins.rs can compare each function with its Rust twin and
-// name the one that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
+// Runs the GLSL twins of src/sampling.rs, src/sobol.rs, src/bsdf/, src/mis.rs, src/bvh.rs and
+// src/scene/camera.rs on inputs the test chooses, so tests/twins.rs can compare each function
+// with its Rust twin and name the one that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
 #include "layout.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Inputs { vec4 inputs[]; };
 layout(std430, set = 0, binding = 1) buffer Outputs { vec4 outputs[]; };
 layout(std430, set = 0, binding = 2) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Triangles { GpuTriangle triangles[]; };
+// Camera set-ups (std430 gives FrameParams the offsets of its std140 uniform).
+layout(std430, set = 0, binding = 4) readonly buffer Frames { FrameParams frames[]; };
 layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
@@ -16,9 +18,10 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bsdf.glsl"
 #include "mis.glsl"
 #include "bvh.glsl"
+#include "camera.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 21u
+#define OUTPUTS_PER_CASE 24u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -103,4 +106,11 @@ void main() {
                                              nested_uniform_scramble(key.z, key.x),
                                              shuffled_scrambled_sobol2(i % 256u, keys)));
     outputs[o + 20u] = vec4(sobol_pair(key.x, i, i % 64u, key.y), uintBitsToFloat(keys.xw));
+    outputs[o + 21u] = vec4(sample_concentric_disk(u.xy), uniform_disk_pdf(), 0.0);
+    // A camera ray: set-up i % frames.length(), a pixel from the key, jitter u.xy, lens u.zw.
+    FrameParams f = frames[i % uint(frames.length())];
+    vec3 ray_origin, ray_dir;
+    camera_ray(f, key.w % (f.width * f.height), u.xy, u.zw, ray_origin, ray_dir);
+    outputs[o + 22u] = vec4(ray_origin, 0.0);
+    outputs[o + 23u] = vec4(ray_dir, 0.0);
 }

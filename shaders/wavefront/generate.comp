@@ -5,6 +5,8 @@
 #include "bindings.glsl"
 #include "rng.glsl"
 #include "scene.glsl"
+#include "sampling.glsl"
+#include "camera.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -27,9 +29,10 @@ void main() {
     paths[i] = state;
 
     QueuedRay ray;
-    ray.origin = frame.cam_position;
+    vec2 jitter = sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK, u.xy);
+    vec2 lens_u = sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK + 2u, u.zw);
+    camera_ray(frame, pixel, jitter, lens_u, ray.origin, ray.dir);
     ray.path = i;
-    ray.dir = camera_ray_direction(pixel, sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK, u.xy));
     ray.pad = 0u;
     rays[i] = ray;  // queue 0; its counter is set to batch_size by the host
 }

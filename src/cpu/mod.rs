@@ -3,9 +3,7 @@
 
 mod path;
 
-pub use path::{
-    camera_ray_direction, emitted_radiance, path_pixel_sample, sample_pair, trace_path, RayCounts,
-};
+pub use path::{emitted_radiance, path_pixel_sample, sample_pair, trace_path, RayCounts};
 
 use crate::film::Film;
 use crate::layout::FilmPixel;

@@ -14,6 +14,7 @@ use crate::render::PreparedScene;
 use crate::sampling::{
     offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
 };
+use crate::scene::camera_ray;
 use crate::surface::{
     alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, triangle_present,
     LOD_MAGNIFY,
@@ -63,18 +64,6 @@ pub fn sample_pair(frame: &FrameParams, pixel: u32, sample: u32, dimension: u32,
     }
 }
 
-/// Pinhole camera; jitter uniform in the pixel (box filter); row 0 is the top of the image.
-pub fn camera_ray_direction(frame: &FrameParams, pixel: u32, jitter: Vec2) -> Vec3 {
-    let px = (pixel % frame.width) as f32 + jitter.x;
-    let py = (pixel / frame.width) as f32 + jitter.y;
-    let sx = (2.0 * px / frame.width as f32 - 1.0) * frame.tan_half_fov_y * frame.aspect;
-    let sy = (1.0 - 2.0 * py / frame.height as f32) * frame.tan_half_fov_y;
-    (Vec3::from(frame.cam_forward)
-        + sx * Vec3::from(frame.cam_right)
-        + sy * Vec3::from(frame.cam_up))
-    .normalize()
-}
-
 /// Radiance leaving material `m` towards a direction with cosine `cos_out` to the front-face
 /// normal: one-sided unless the material is double-sided.
 pub fn emitted_radiance(m: &GpuMaterial, cos_out: f32) -> Vec3 {
@@ -104,20 +93,21 @@ pub fn trace_path(
 ) -> Vec3 {
     // generate
     let u = rng_uniform4(frame.seed, pixel, sample, dim::CAMERA_BLOCK);
-    let mut ray = Ray {
-        origin: Vec3::from(frame.cam_position),
-        dir: camera_ray_direction(
-            frame,
-            pixel,
-            sample_pair(
-                frame,
-                pixel,
-                sample,
-                4 * dim::CAMERA_BLOCK,
-                Vec2::new(u.x, u.y),
-            ),
-        ),
-    };
+    let jitter = sample_pair(
+        frame,
+        pixel,
+        sample,
+        4 * dim::CAMERA_BLOCK,
+        Vec2::new(u.x, u.y),
+    );
+    let lens_u = sample_pair(
+        frame,
+        pixel,
+        sample,
+        4 * dim::CAMERA_BLOCK + 2,
+        Vec2::new(u.z, u.w),
+    );
+    let mut ray = camera_ray(frame, pixel, jitter, lens_u);
     let mut state = PathState {
         throughput: [1.0; 3],
         prev_specular: 1,

@@ -13,7 +13,8 @@
 //! 4. every large allocation is reserved in the memory budget first (`limits.rs`).
 //!
 //! Supported: every node of the default scene (scene 0 if none is default), TRS or matrix
-//! transforms, triangle lists, strips and fans, u8/u16/u32 or no indices, sparse accessors.
+//! transforms, triangle lists, strips and fans, u8/u16/u32 or no indices, sparse accessors,
+//! perspective and orthographic cameras (every instance, in `Scene::cameras`).
 //! Point and line primitives are skipped (counted in `Scene::skipped_primitives`); skins,
 //! morph targets, textures and KHR_mesh_quantization are not supported (the first two are
 //! ignored, quantized positions are an error).
@@ -27,7 +28,10 @@ use super::json::{parse_value, split_container, typed_root, validation_message};
 use super::limits::{format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_TRIANGLE};
 use super::tangents::mikktspace_tangents;
 use super::validate::check_document;
-use super::{bounds_of, AlphaMode, Camera, Material, MaterialTextures, Scene, Triangle};
+use super::{
+    bounds_of, AlphaMode, Camera, Material, MaterialTextures, Projection, Scene, SceneCamera,
+    Triangle,
+};
 use crate::layout::{GpuVertex, TRIANGLE_ALPHA, TRIANGLE_FLAT};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -154,7 +158,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         needs,
         repairs: Repairs::default(),
         default_material: None,
-        camera: None,
+        cameras: Vec::new(),
         dropped_degenerate: 0,
         skipped_primitives: 0,
     };
@@ -178,9 +182,10 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         builder.triangles.len() as u64 * PREPARE_BYTES_PER_TRIANGLE,
     )?;
     let notes = notes(&document, &builder);
-    let camera = builder
-        .camera
-        .unwrap_or_else(|| Camera::framing(bounds_of(&builder.triangles)));
+    let camera = builder.cameras.first().map_or_else(
+        || Camera::framing(bounds_of(&builder.triangles)),
+        |c| c.camera,
+    );
     Ok(Scene {
         source: path.to_path_buf(),
         triangles: builder.triangles,
@@ -188,6 +193,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         vertices: builder.vertices,
         textures: textures.set,
         camera,
+        cameras: builder.cameras,
         dropped_degenerate: builder.dropped_degenerate,
         skipped_primitives: builder.skipped_primitives,
         notes,
@@ -209,7 +215,7 @@ fn notes(document: &Document, builder: &Builder) -> Vec<String> {
         .collect();
     if !ignored_textures.is_empty() {
         notes.push(format!(
-            "KHR_materials_specular's textures are not supported yet: {} use the factors only",
+            "KHR_materials_specular's specularTexture and specularColorTexture are ignored: {} use the specular factors only",
             ignored_textures.join(", ")
         ));
     }
@@ -221,8 +227,12 @@ fn notes(document: &Document, builder: &Builder) -> Vec<String> {
     if !ignored.is_empty() {
         notes.push(format!("ignored glTF extensions: {}", ignored.join(", ")));
     }
-    if builder.camera.is_none() && document.cameras().next().is_some() {
-        notes.push("the file has no perspective camera (orthographic ones are not supported): using a camera that frames the scene".into());
+    if builder.cameras.is_empty() && document.cameras().next().is_some() {
+        notes.push(
+            "no node of the scene carries one of the file's cameras: using a camera that frames \
+             the scene"
+                .into(),
+        );
     }
     if builder.dropped_degenerate > 0 {
         notes.push(format!(
@@ -554,7 +564,7 @@ struct Builder<'a> {
     needs: Vec<MaterialNeeds>,
     repairs: Repairs,
     default_material: Option<u32>,
-    camera: Option<Camera>,
+    cameras: Vec<SceneCamera>,
     dropped_degenerate: usize,
     skipped_primitives: usize,
 }
@@ -603,17 +613,8 @@ impl Builder<'_> {
             if !world.is_finite() {
                 bail!("{what}: its world transform overflows to non-finite values: {world}");
             }
-            if let (None, Some(camera)) = (&self.camera, node.camera()) {
-                if let gltf::camera::Projection::Perspective(p) = camera.projection() {
-                    let camera =
-                        Camera::from_node(&world, p.yfov(), p.aspect_ratio()).map_err(|e| {
-                            anyhow!(
-                                "{} on {what}: {e}",
-                                label("camera", camera.index(), camera.name())
-                            )
-                        })?;
-                    self.camera = Some(camera);
-                }
+            if let Some(camera) = node.camera() {
+                self.add_camera(&camera, &node, &world, &what)?;
             }
             if let Some(mesh) = node.mesh() {
                 for primitive in mesh.primitives() {
@@ -631,6 +632,47 @@ impl Builder<'_> {
             let children: Vec<_> = node.children().collect();
             stack.extend(children.into_iter().rev().map(|c| (c, world, Some(i))));
         }
+        Ok(())
+    }
+
+    /// A camera instance: glTF camera `camera` on `node` (labelled `what`) with world transform
+    /// `world`. Its numbers were checked with the document (`validate.rs`).
+    fn add_camera(
+        &mut self,
+        camera: &gltf::Camera,
+        node: &gltf::Node,
+        world: &Mat4,
+        what: &str,
+    ) -> Result<()> {
+        let (projection, znear) = match camera.projection() {
+            gltf::camera::Projection::Perspective(p) => (
+                Projection::Perspective {
+                    yfov: p.yfov(),
+                    aspect_ratio: p.aspect_ratio(),
+                },
+                p.znear(),
+            ),
+            gltf::camera::Projection::Orthographic(o) => (
+                Projection::Orthographic {
+                    xmag: o.xmag(),
+                    ymag: o.ymag(),
+                },
+                o.znear(),
+            ),
+        };
+        let label = format!(
+            "{} on {what}",
+            label("camera", camera.index(), camera.name())
+        );
+        let placed =
+            Camera::from_node(world, projection, znear).map_err(|e| anyhow!("{label}: {e}"))?;
+        self.cameras.push(SceneCamera {
+            camera: placed,
+            index: camera.index(),
+            name: camera.name().map(str::to_owned),
+            node_name: node.name().map(str::to_owned),
+            label,
+        });
         Ok(())
     }
 

@@ -1,5 +1,5 @@
 //! The scene as the renderer sees it: world-space triangles, Lambertian materials with emission,
-//! and a pinhole camera, loaded from glTF 2.0 (`.gltf` or `.glb`).
+//! and cameras, loaded from glTF 2.0 (`.gltf` or `.glb`).
 //!
 //! Conventions are glTF's (DESIGN.md): metres, right-handed, +Y up, cameras look down −Z. A
 //! triangle's front face is the one from which its vertices appear counter-clockwise, i.e. the
@@ -8,7 +8,9 @@
 //!
 //! - [`load`](Scene::load): glTF → [`Scene`] (`load.rs`), with errors that name the file, the
 //!   object and the problem.
-//! - [`Camera`] (`camera.rs`): the file's first perspective camera, or a framing default.
+//! - [`Camera`] (`camera.rs`): every perspective and orthographic camera instance of the file
+//!   ([`Scene::cameras`], the first the default), or a framing default; the thin lens and the
+//!   primary rays ([`camera_ray`]).
 //! - [`build_light_table`] (`lights.rs`): the emitter table sampled by next event estimation.
 
 mod accessors;
@@ -22,7 +24,7 @@ mod load;
 mod tangents;
 mod validate;
 
-pub use camera::Camera;
+pub use camera::{camera_ray, Camera, Projection, ThinLens};
 pub use lights::{build_light_table, emitted_power, luminance};
 pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
 
@@ -45,7 +47,13 @@ pub struct Scene {
     pub vertices: Vec<GpuVertex>,
     /// Decoded textures (mip chains) and the materials' references to them.
     pub textures: TextureSet,
+    /// The camera renders use: the first of `cameras` unless
+    /// [`select_camera`](Scene::select_camera) picked another, or, for a file without cameras,
+    /// [`Camera::framing`] of the scene's bounding box.
     pub camera: Camera,
+    /// Every camera instance of the default scene (a node with a camera), in node traversal
+    /// order.
+    pub cameras: Vec<SceneCamera>,
     /// Zero-area triangles dropped while loading.
     pub dropped_degenerate: usize,
     /// Point and line primitives skipped while loading (they have no surface to hit).
@@ -53,6 +61,19 @@ pub struct Scene {
     /// What the file holds that the render will not show (textures, unsupported extensions,
     /// dropped geometry), one sentence each, for the user.
     pub notes: Vec<String>,
+}
+
+/// A camera instance: a glTF camera on a node, placed by the node's world transform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneCamera {
+    pub camera: Camera,
+    /// Its index in the file's `cameras`.
+    pub index: usize,
+    /// The glTF camera's name and its node's name, where given.
+    pub name: Option<String>,
+    pub node_name: Option<String>,
+    /// For messages, e.g. `cameras[1] ("Ortho") on nodes[4] ("Side")`.
+    pub label: String,
 }
 
 /// A world-space triangle. Counter-clockwise (seen from the front) = front face.
@@ -196,6 +217,37 @@ impl Scene {
     /// scene lives, so the render can keep accounting in the same budget).
     pub fn load_with(path: &Path, options: &LoadOptions) -> anyhow::Result<Scene> {
         load::load(path, options)
+    }
+
+    /// Makes the camera instance `which` the one renders use (`--camera`): a number N picks the
+    /// first instance of glTF camera `cameras[N]`, anything else the first instance whose
+    /// camera or node has that name. An unknown camera is an error that lists the file's.
+    pub fn select_camera(&mut self, which: &str) -> anyhow::Result<()> {
+        let by_index = which.trim().parse::<usize>().ok();
+        let found = self.cameras.iter().find(|c| match by_index {
+            Some(n) => c.index == n,
+            None => c.name.as_deref() == Some(which) || c.node_name.as_deref() == Some(which),
+        });
+        match found {
+            Some(c) => {
+                self.camera = c.camera;
+                Ok(())
+            }
+            None if self.cameras.is_empty() => anyhow::bail!(
+                "--camera {which}: {} has no cameras (it is rendered with a camera that frames \
+                 the scene)",
+                self.source.display()
+            ),
+            None => anyhow::bail!(
+                "--camera {which}: {} has no camera of that index or name; its cameras are: {}",
+                self.source.display(),
+                self.cameras
+                    .iter()
+                    .map(|c| c.label.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
     }
 
     /// Axis-aligned bounds (min, max) of all triangles; (0, 0) for a scene without triangles.

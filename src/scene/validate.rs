@@ -6,6 +6,7 @@
 use super::json::{kind, printable};
 use anyhow::{bail, Result};
 use serde_json::Value;
+use std::f32::consts::PI;
 
 /// Every place in a glTF document (core 2.0 and the KHR material extensions) that holds an
 /// index, and the top-level array it refers to. `[]` is every element of an array, `*` every
@@ -139,7 +140,9 @@ fn check_animation_samplers(root: &Value) -> Result<()> {
 }
 
 /// A camera's `type` must name a projection object that is present (the `gltf` crate unwraps
-/// it).
+/// it), and the projection's numbers must mean a camera (glTF 2.0 §5.12–5.14): a perspective
+/// yfov in (0, π), positive aspectRatio and znear; an orthographic xmag and ymag that are
+/// positive (wavetrace renders no mirrored views) and a non-negative znear; a zfar beyond znear.
 fn check_cameras(root: &Value) -> Result<()> {
     let Some(Value::Array(cameras)) = root.get("cameras") else {
         return Ok(());
@@ -153,8 +156,8 @@ fn check_cameras(root: &Value) -> Result<()> {
                 "cameras[{i}].type: found {kind_name:?}, expected \"perspective\" or \"orthographic\""
             );
         }
-        match camera.get(kind_name) {
-            Some(Value::Object(_)) => {}
+        let projection = match camera.get(kind_name) {
+            Some(p @ Value::Object(_)) => p,
             None => bail!(
                 "cameras[{i}].{kind_name}: missing, expected an object since cameras[{i}].type is \
                  \"{kind_name}\""
@@ -163,9 +166,57 @@ fn check_cameras(root: &Value) -> Result<()> {
                 "cameras[{i}].{kind_name}: found {}, expected a JSON object",
                 kind(other)
             ),
+        };
+        let path = format!("cameras[{i}].{kind_name}");
+        let number = |key: &str, required: bool| camera_number(projection, &path, key, required);
+        let positive = |key: &str, value: Option<f32>| -> Result<()> {
+            match value {
+                Some(v) if !(v.is_finite() && v > 0.0) => {
+                    bail!("{path}.{key}: {v} must be positive and finite")
+                }
+                _ => Ok(()),
+            }
+        };
+        let znear = if kind_name == "perspective" {
+            let yfov = number("yfov", true)?;
+            if let Some(yfov) = yfov.filter(|y| !(y.is_finite() && *y > 0.0 && *y < PI)) {
+                bail!(
+                    "{path}.yfov: {yfov} must lie in (0, π) (a vertical field of view in radians)"
+                );
+            }
+            positive("aspectRatio", number("aspectRatio", false)?)?;
+            let znear = number("znear", true)?;
+            positive("znear", znear)?;
+            znear
+        } else {
+            positive("xmag", number("xmag", true)?)?;
+            positive("ymag", number("ymag", true)?)?;
+            let znear = number("znear", true)?;
+            if let Some(z) = znear.filter(|z| !(z.is_finite() && *z >= 0.0)) {
+                bail!("{path}.znear: {z} must be non-negative and finite");
+            }
+            znear
+        };
+        let zfar = number("zfar", kind_name == "orthographic")?;
+        if let (Some(zfar), Some(znear)) = (zfar, znear) {
+            if !(zfar.is_finite() && zfar > znear) {
+                bail!("{path}.zfar: {zfar} must be finite and greater than znear ({znear})");
+            }
         }
     }
     Ok(())
+}
+
+/// The number `key` of a camera's projection object at `path`, as the renderer's f32 (a value
+/// beyond f32's range becomes infinite and fails the finiteness checks); `None` if it is absent
+/// and optional.
+fn camera_number(projection: &Value, path: &str, key: &str, required: bool) -> Result<Option<f32>> {
+    match projection.get(key) {
+        None if required => bail!("{path}.{key}: missing, expected a number"),
+        None => Ok(None),
+        Some(Value::Number(n)) => Ok(n.as_f64().map(|v| v as f32)),
+        Some(other) => bail!("{path}.{key}: found {}, expected a number", kind(other)),
+    }
 }
 
 #[cfg(test)]
@@ -189,6 +240,72 @@ mod tests {
         );
         let doc = json!({"nodes": [{"children": [0]}], "scenes": [{"nodes": [0]}], "scene": 0});
         check_document(&doc).unwrap();
+    }
+
+    #[test]
+    fn camera_numbers_are_checked() {
+        let error = |camera: Value| {
+            check_document(&json!({"cameras": [{"type": "perspective", "perspective": {"yfov": 1, "znear": 0.1}}, camera]}))
+                .unwrap_err()
+                .to_string()
+        };
+        let ortho = |o: Value| json!({"type": "orthographic", "orthographic": o});
+        let persp = |p: Value| json!({"type": "perspective", "perspective": p});
+        for (camera, needle) in [
+            (
+                ortho(json!({"xmag": 0, "ymag": 1, "znear": 0, "zfar": 10})),
+                "cameras[1].orthographic.xmag: 0 must be positive and finite",
+            ),
+            (
+                ortho(json!({"xmag": 1, "ymag": -2, "znear": 0, "zfar": 10})),
+                "cameras[1].orthographic.ymag: -2 must be positive and finite",
+            ),
+            (
+                ortho(json!({"xmag": 1, "ymag": 1e39, "znear": 0, "zfar": 10})),
+                "cameras[1].orthographic.ymag: inf must be positive and finite",
+            ),
+            (
+                ortho(json!({"xmag": 1, "ymag": 1, "znear": -1, "zfar": 10})),
+                "cameras[1].orthographic.znear: -1 must be non-negative",
+            ),
+            (
+                ortho(json!({"xmag": 1, "ymag": 1, "znear": 0})),
+                "cameras[1].orthographic.zfar: missing, expected a number",
+            ),
+            (
+                ortho(json!({"xmag": "1", "ymag": 1, "znear": 0, "zfar": 1})),
+                "cameras[1].orthographic.xmag: found the string \"1\", expected a number",
+            ),
+            (
+                persp(json!({"yfov": 3.5, "znear": 0.1})),
+                "cameras[1].perspective.yfov: 3.5 must lie in (0, π)",
+            ),
+            (
+                persp(json!({"znear": 0.1})),
+                "cameras[1].perspective.yfov: missing",
+            ),
+            (
+                persp(json!({"yfov": 1, "znear": 0})),
+                "cameras[1].perspective.znear: 0 must be positive and finite",
+            ),
+            (
+                persp(json!({"yfov": 1, "znear": 0.1, "aspectRatio": 0})),
+                "cameras[1].perspective.aspectRatio: 0 must be positive and finite",
+            ),
+            (
+                persp(json!({"yfov": 1, "znear": 1, "zfar": 0.5})),
+                "cameras[1].perspective.zfar: 0.5 must be finite and greater than znear (1)",
+            ),
+        ] {
+            let e = error(camera);
+            assert!(e.contains(needle), "expected {needle:?} in: {e}");
+        }
+        check_document(&json!({"cameras": [
+            persp(json!({"yfov": 1, "znear": 0.1})),
+            persp(json!({"yfov": 0.5, "znear": 0.01, "zfar": 100, "aspectRatio": 1.5})),
+            ortho(json!({"xmag": 2, "ymag": 1, "znear": 0, "zfar": 100})),
+        ]}))
+        .unwrap();
     }
 
     #[test]
