@@ -193,7 +193,7 @@ fn the_corpus_matches_its_generator() {
     assert!(status.success(), "tools/gen_hostile.py failed");
     let expect: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("expect.json")).unwrap()).unwrap();
-    let mut names: Vec<String> = vec!["expect.json".into(), "quad.bin".into()];
+    let mut names: Vec<String> = vec!["expect.json".into(), "quad.bin".into(), "texel.png".into()];
     names.extend(
         expect
             .as_array()

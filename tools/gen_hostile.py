@@ -17,6 +17,7 @@ import json
 import os
 import struct
 import sys
+import zlib
 
 FLOAT, UNSIGNED_BYTE, UNSIGNED_SHORT = 5126, 5121, 5123
 TWO_32 = 2**32
@@ -68,6 +69,91 @@ def glb(doc, bin_chunk, buffers_without_uri=1):
     chunks = struct.pack("<II", len(text), 0x4E4F534A) + text
     chunks += struct.pack("<II", len(bin_chunk), 0x004E4942) + bin_chunk
     return struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks
+
+
+def png(width, height, rows=None):
+    """An RGBA8 PNG; `rows` (bytes per row, default opaque mid-grey) may be fewer than `height`
+    (a header that claims more than the data holds). The image data is zlib with stored
+    (uncompressed) deflate blocks, so the bytes do not depend on the zlib library's version."""
+    if rows is None:
+        rows = [bytes([128, 128, 128, 255]) * width] * height
+    raw = b"".join(b"\0" + row for row in rows)
+    stored = b""
+    for k in range(0, max(len(raw), 1), 65535):
+        block = raw[k:k + 65535]
+        final = k + 65535 >= len(raw)
+        stored += struct.pack("<BHH", final, len(block), len(block) ^ 0xFFFF) + block
+    idat = b"\x78\x01" + stored + struct.pack(">I", zlib.adler32(raw))
+
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
+
+
+def jpeg_header(width, height):
+    """The headers of a greyscale baseline JPEG (SOI, DQT, SOF0, DHT with one one-bit code for DC
+    and AC each, SOS), then a few bytes of scan data and EOI: a file that states a size and holds
+    almost no image data."""
+    dqt = b"\xff\xdb" + struct.pack(">HB", 67, 0) + bytes([1] * 64)
+    sof = b"\xff\xc0" + struct.pack(">HBHHB", 11, 8, height, width, 1) + bytes([1, 0x11, 0])
+    one_code = bytes([1] + [0] * 15) + b"\0"
+    dht = b"\xff\xc4" + struct.pack(">H", 2 + 2 * 18) + b"\x00" + one_code + b"\x10" + one_code
+    sos = b"\xff\xda" + struct.pack(">HB", 8, 1) + bytes([1, 0x00, 0, 63, 0])
+    return b"\xff\xd8" + dqt + sof + dht + sos + bytes(4) + b"\xff\xd9"
+
+
+def floats(*values):
+    return struct.pack("<%df" % len(values), *values)
+
+
+NORMALS = floats(*[0, 0, 1] * 4)
+UVS = floats(0, 0, 1, 0, 1, 1, 0, 1)
+TEXTURED = {"baseColorTexture": {"index": 0}}
+
+
+def textured_quad(attributes=None, material=None, image=None, glb_bin=False):
+    """The quad with extra vertex `attributes` ({semantic: (type, componentType, bytes, count,
+    normalized)}, NORMAL and TEXCOORD_0 by default), `material` as materials[0] (a white
+    baseColorTexture of textures[0] by default) and `image` as images[0] (a 1 × 1 PNG in a
+    buffer view by default; a "bytes" key is moved into a buffer view). With `glb_bin` the
+    document and its buffer are returned for `glb`."""
+    if attributes is None:
+        attributes = {"NORMAL": ("VEC3", FLOAT, NORMALS, 4, False),
+                      "TEXCOORD_0": ("VEC2", FLOAT, UVS, 4, False)}
+    if material is None:
+        material = {"pbrMetallicRoughness": dict(TEXTURED)}
+    if image is None:
+        image = {"bytes": png(1, 1), "mimeType": "image/png"}
+    doc = quad()
+    data = bytearray(quad_bytes())
+
+    def view(body):
+        data.extend(b"\0" * (-len(data) % 4))
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": len(data), "byteLength": len(body)})
+        data.extend(body)
+        return len(doc["bufferViews"]) - 1
+
+    primitive = doc["meshes"][0]["primitives"][0]
+    for semantic, (kind, component, body, count, normalized) in attributes.items():
+        accessor = {"bufferView": view(body), "componentType": component, "count": count, "type": kind}
+        if normalized:
+            accessor["normalized"] = True
+        doc["accessors"].append(accessor)
+        primitive["attributes"][semantic] = len(doc["accessors"]) - 1
+    doc["materials"] = [material]
+    primitive["material"] = 0
+    image = dict(image)
+    if "bytes" in image:
+        image["bufferView"] = view(image.pop("bytes"))
+    doc["images"] = [image]
+    doc["textures"] = [{"source": 0}]
+    data.extend(b"\0" * (-len(data) % 4))
+    doc["buffers"] = [{"byteLength": len(data), "uri": data_uri(bytes(data))}]
+    if glb_bin:
+        return doc, bytes(data)
+    return doc
 
 
 def instancing_bomb(nodes, strip):
@@ -196,6 +282,87 @@ def cases():
     yield "mode_invalid.gltf", set_("meshes.0.primitives.0.mode", 99), 1, ["meshes[0].primitives[0].mode"], []
     yield "node_loop.gltf", edit(q, lambda d: d["nodes"].append({"children": [0]}) or d["nodes"][0].update(children=[1])), 1, \
         ["nodes[0]", "loop"], []
+    # 5. Textures, vertex attributes, extensions and alpha.
+    nan = float("nan")
+    yield "texture_valid.gltf", textured_quad(), 0, [], []
+    doc, data = textured_quad(glb_bin=True)
+    yield "texture_valid.glb", glb(doc, data), 0, [], []
+    yield "texture_valid_file.gltf", textured_quad(image={"uri": "texel.png"}), 0, [], []
+    yield "image_file_missing.gltf", textured_quad(image={"uri": "missing.png"}), 1, \
+        ["images[0].uri", "missing.png", "No such file"], []
+    yield "image_garbage_png.gltf", textured_quad(image={"bytes": bytes(range(7, 250, 3)), "mimeType": "image/png"}), 1, \
+        ["images[0]", "not PNG or JPEG", "image/png"], []
+    ktx2 = b"\xabKTX 20\xbb\r\n\x1a\n" + bytes(72)
+    webp = b"RIFF" + struct.pack("<I", 20) + b"WEBPVP8L" + struct.pack("<I", 8) + bytes(8)
+    yield "image_ktx2.gltf", textured_quad(image={"bytes": ktx2, "mimeType": "image/ktx2"}), 1, \
+        ["images[0]", "not PNG or JPEG", "image/ktx2"], []
+    yield "image_webp.gltf", textured_quad(image={"uri": data_uri(webp).replace("application/octet-stream", "image/webp")}), 1, \
+        ["images[0]", "WebP", "not PNG or JPEG"], []
+    yield "image_png_100000_square.gltf", textured_quad(image={"bytes": png(100000, 100000, [bytes(64)]), "mimeType": "image/png"}), 1, \
+        ["images[0]", "100000 × 100000 texels", "1 to 16384"], []
+    # Within the size limit but not the budget: refused before decoding.
+    yield "image_png_16384_square.gltf", textured_quad(image={"bytes": png(16384, 16384, [bytes(64)]), "mimeType": "image/png"}), 1, \
+        ["images[0]", "16384 × 16384", "memory budget"], []
+    yield "image_jpeg_65535_square.gltf", textured_quad(image={"bytes": jpeg_header(65535, 65535), "mimeType": "image/jpeg"}), 1, \
+        ["images[0]", "65535 × 65535 texels", "1 to 16384"], []
+    truncated = png(16, 16)
+    yield "image_png_truncated.gltf", textured_quad(image={"bytes": truncated[:len(truncated) // 2], "mimeType": "image/png"}), 1, \
+        ["images[0]", "cannot decode"], []
+    doc, data = textured_quad(glb_bin=True)
+    doc["bufferViews"][-1]["byteLength"] = 1 << 20
+    yield "image_view_outside_buffer.glb", glb(doc, data), 1, \
+        ["images[0].bufferView", "bufferViews[4]", "outside buffers[0]"], []
+    yield "texture_index_out_of_range.gltf", textured_quad(material={"pbrMetallicRoughness": {"baseColorTexture": {"index": 5}}}), 1, \
+        ["materials[0].pbrMetallicRoughness.baseColorTexture.index", "out of range"], []
+    yield "texture_texcoord_2.gltf", textured_quad(material={"name": "Tiles", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 2}}}), 1, \
+        ["materials[0].pbrMetallicRoughness.baseColorTexture.texCoord", "\"Tiles\"", "sets 0 and 1"], []
+    yield "texture_texcoord1_absent.gltf", textured_quad(material={"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1}}}), 1, \
+        ["meshes[0].primitives[0]", "attributes.TEXCOORD_1", "missing"], []
+    yield "texture_transform_rotation_string.gltf", edit(textured_quad(material={"name": "Bumpy", "normalTexture": {"index": 0, "extensions": {
+        "KHR_texture_transform": {"rotation": "quarter"}}}}), lambda d: d.update(extensionsUsed=["KHR_texture_transform"])), 1, \
+        ["materials[0].normalTexture.extensions.KHR_texture_transform.rotation", "\"Bumpy\"", "expected a number"], []
+    yield "texture_transform_rotation_string_base.gltf", edit(textured_quad(material={"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {
+        "KHR_texture_transform": {"rotation": "quarter"}}}}}), lambda d: d.update(extensionsUsed=["KHR_texture_transform"])), 1, \
+        ["materials[0].pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform.rotation"], []
+    yield "texture_transform_texcoord_5.gltf", edit(textured_quad(material={"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {
+        "KHR_texture_transform": {"texCoord": 5}}}}}), lambda d: d.update(extensionsUsed=["KHR_texture_transform"])), 1, \
+        ["materials[0].pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform.texCoord", "5", "sets 0 and 1"], []
+    yield "sampler_wrap_invalid.gltf", edit(textured_quad(), lambda d: (
+        d.update(samplers=[{"wrapS": 12345}]), d["textures"][0].update(sampler=0))), 1, \
+        ["samplers[0].wrapS", "invalid value"], []
+    uv = ("TEXCOORD_0", ("VEC2", FLOAT, UVS, 4, False))
+    normal = ("NORMAL", ("VEC3", FLOAT, NORMALS, 4, False))
+    yield "normal_vec2.gltf", textured_quad(attributes=dict([uv, ("NORMAL", ("VEC2", FLOAT, UVS, 4, False))])), 1, \
+        ["attributes.NORMAL", "accessors[3]", "Vec2"], []
+    yield "texcoord_count_short.gltf", textured_quad(attributes=dict([normal, ("TEXCOORD_0", ("VEC2", FLOAT, UVS[:24], 3, False))])), 1, \
+        ["attributes.TEXCOORD_0", "3 elements", "POSITION has 4"], []
+    yield "color_u8_unnormalized.gltf", textured_quad(attributes=dict([normal, uv, ("COLOR_0", ("VEC4", UNSIGNED_BYTE, bytes([255] * 16), 4, False))])), 1, \
+        ["attributes.COLOR_0", "not allowed", "normalized"], []
+    yield "texcoord_nan.gltf", textured_quad(attributes=dict([normal, ("TEXCOORD_0", ("VEC2", FLOAT, floats(0, 0, nan, 0, 1, 1, 0, nan), 4, False))])), 0, \
+        ["note:", "2 vertex attributes (TEXCOORD, COLOR_0, TANGENT) were not finite"], []
+    yield "normal_nan.gltf", textured_quad(attributes=dict([uv, ("NORMAL", ("VEC3", FLOAT, floats(0, 0, 1, nan, 0, 1, 0, 0, 1, 0, 0, nan), 4, False))])), 0, \
+        ["note:", "2 vertex normals were not finite or zero"], []
+    tangents = floats(1, 0, 0, 1, 1, nan, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1)
+    yield "tangent_nan.gltf", textured_quad(attributes=dict([normal, uv, ("TANGENT", ("VEC4", FLOAT, tangents, 4, False))]),
+                                            material={"normalTexture": {"index": 0}}), 0, \
+        ["note:", "1 vertex attributes (TEXCOORD, COLOR_0, TANGENT) were not finite"], []
+    required = lambda doc, ext: edit(doc, lambda d: d.update(extensionsUsed=[ext], extensionsRequired=[ext]))
+    yield "ext_draco.gltf", required(edit(q, lambda d: d["meshes"][0]["primitives"][0].update(extensions={
+        "KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}})), "KHR_draco_mesh_compression"), 1, \
+        ["extensionsRequired", "KHR_draco_mesh_compression", "does not support"], []
+    yield "ext_meshopt.gltf", required(edit(q, lambda d: d["bufferViews"][0].update(extensions={
+        "EXT_meshopt_compression": {"buffer": 0, "byteLength": 48, "byteStride": 12, "count": 4, "mode": "ATTRIBUTES"}})),
+        "EXT_meshopt_compression"), 1, ["extensionsRequired", "EXT_meshopt_compression", "does not support"], []
+    yield "ext_basisu.gltf", required(edit(textured_quad(image={"bytes": ktx2, "mimeType": "image/ktx2"}), lambda d: d.update(
+        textures=[{"extensions": {"KHR_texture_basisu": {"source": 0}}}])), "KHR_texture_basisu"), 1, \
+        ["extensionsRequired", "KHR_texture_basisu", "does not support"], []
+    yield "ext_webp.gltf", required(edit(textured_quad(image={"bytes": webp, "mimeType": "image/webp"}), lambda d: d.update(
+        textures=[{"extensions": {"EXT_texture_webp": {"source": 0}}}])), "EXT_texture_webp"), 1, \
+        ["extensionsRequired", "EXT_texture_webp", "does not support"], []
+    yield "alpha_cutoff_negative.gltf", textured_quad(material={"alphaMode": "MASK", "alphaCutoff": -0.5}), 1, \
+        ["materials[0].alphaCutoff", "-0.5"], []
+    yield "alpha_above_one.gltf", textured_quad(material={"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 2]}}), 1, \
+        ["materials[0].pbrMetallicRoughness.baseColorFactor", "alpha 2", "outside [0, 1]"], []
 
 
 def set_path(doc, path, value):
@@ -211,6 +378,8 @@ def main():
     os.makedirs(os.path.join(out, "sub"), exist_ok=True)
     with open(os.path.join(out, "quad.bin"), "wb") as f:
         f.write(quad_bytes())
+    with open(os.path.join(out, "texel.png"), "wb") as f:
+        f.write(png(1, 1))
     link = os.path.join(out, "link-out.bin")
     if os.path.lexists(link):
         os.remove(link)

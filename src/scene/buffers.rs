@@ -76,8 +76,8 @@ fn describe_uri(uri: &str) -> String {
     }
 }
 
-/// Images are never read (textures are ignored), but their URIs obey the same rules as
-/// buffers', so that a file that names something outside its folder is refused, not ignored.
+/// Every image URI obeys the same rules as buffers', checked before anything is read, so that a
+/// file that names something outside its folder is refused even where no material uses it.
 pub(super) fn check_image_uris(
     document: &Document,
     base: &Path,
@@ -92,7 +92,8 @@ pub(super) fn check_image_uris(
         }
         let refuse = |e: anyhow::Error| anyhow!("images[{i}].uri: {}: {e:#}", describe_uri(uri));
         let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy();
-        // A missing texture inside the folder is no error: it would not be shown anyway.
+        // A missing file inside the folder is no error here: an image no material uses is never
+        // read, and one that is used fails when it is read (images.rs).
         let relative = Path::new(decoded.as_ref());
         let has_scheme = uri.split_once(':').is_some_and(|(s, _)| !s.contains('/'));
         if !has_scheme

@@ -10,7 +10,7 @@
 
 use super::buffers::read_image_uri;
 use super::limits::LoadOptions;
-use super::load::label;
+use super::load::{json_path, label};
 use super::TextureSet;
 use crate::layout::{
     GpuTexture, GpuTextureRef, FILTER_LINEAR, FILTER_NEAREST, MIN_LINEAR, MIN_LINEAR_MIPMAP_LINEAR,
@@ -26,10 +26,12 @@ use std::path::Path;
 /// The largest image side wavetrace decodes (larger images are refused, not resized).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
-/// Where a material's texture reference came from, for messages: e.g.
-/// `materials[3].normalTexture`.
+/// Where a material's texture reference came from, for messages.
 pub(super) struct TextureUse<'a> {
+    /// The textureInfo's JSON path, e.g. `materials[3].normalTexture`.
     pub what: String,
+    /// What follows a JSON path below `what` in messages: ` (material "Brick")`, or nothing.
+    pub owner: String,
     pub info: TextureInfo<'a>,
     pub srgb: bool,
 }
@@ -70,16 +72,25 @@ impl<'a> TextureBuilder<'a> {
 
     /// The `GpuTextureRef` index of one use of a texture by a material.
     pub fn reference(&mut self, usage: TextureUse) -> Result<u32> {
-        let TextureUse { what, info, srgb } = usage;
-        let texture = self
-            .texture(&info.texture, srgb)
-            .with_context(|| format!("{what}: index {}", info.texture.index()))?;
+        let TextureUse {
+            what,
+            owner,
+            info,
+            srgb,
+        } = usage;
+        let texture = self.texture(&info.texture, srgb).with_context(|| {
+            format!(
+                "{what}{owner}: {}",
+                label("texture", info.texture.index(), info.texture.name())
+            )
+        })?;
         let (mut tex_coord, mut transform, mut offset) =
             (info.tex_coord, [1.0, 0.0, 0.0, 1.0], [0.0; 2]);
+        let mut tex_coord_path = "texCoord";
         if let Some((o, rotation, scale, coord)) = info.transform {
             let finite = o.iter().chain(&scale).all(|v| v.is_finite()) && rotation.is_finite();
             if !finite {
-                bail!("{what}.extensions.KHR_texture_transform: offset, rotation and scale must be finite");
+                bail!("{what}.extensions.KHR_texture_transform{owner}: offset, rotation and scale must be finite");
             }
             // uv' = T · R · S · uv (KHR_texture_transform, "Transformation").
             let (s, c) = rotation.sin_cos();
@@ -87,10 +98,13 @@ impl<'a> TextureBuilder<'a> {
             offset = o;
             if let Some(coord) = coord {
                 tex_coord = coord;
+                tex_coord_path = "extensions.KHR_texture_transform.texCoord";
             }
         }
         if tex_coord > 1 {
-            bail!("{what}.texCoord: {tex_coord}, wavetrace reads texture coordinate sets 0 and 1");
+            bail!(
+                "{what}.{tex_coord_path}{owner}: {tex_coord}, wavetrace reads texture coordinate sets 0 and 1"
+            );
         }
         self.max_tex_coord = self.max_tex_coord.max(tex_coord);
         self.set.refs.push(GpuTextureRef {
@@ -111,9 +125,7 @@ impl<'a> TextureBuilder<'a> {
             match self.images.get(&(image.index(), srgb)) {
                 Some(&found) => found,
                 None => {
-                    let decoded = self
-                        .image(&image, srgb)
-                        .with_context(|| label("image", image.index(), image.name()))?;
+                    let decoded = self.image(&image, srgb)?;
                     self.images.insert((image.index(), srgb), decoded);
                     decoded
                 }
@@ -152,28 +164,48 @@ impl<'a> TextureBuilder<'a> {
         Ok(index)
     }
 
-    /// Decodes an image and appends its mip chain to the texels.
+    /// Reads and decodes an image and appends its mip chain to the texels; errors name the
+    /// image's JSON path.
     fn image(&mut self, image: &gltf::Image, srgb: bool) -> Result<([u32; 4], [f32; 4])> {
+        let path = json_path("image", image.index());
+        let owner = match image.name() {
+            Some(name) if !name.is_empty() => format!(" (image {name:?})"),
+            _ => String::new(),
+        };
         let (bytes, mime) = match image.source() {
             gltf::image::Source::View { view, mime_type } => {
                 let buffer = &self.buffers[view.buffer().index()];
                 let range = view.offset()..view.offset().saturating_add(view.length());
                 let bytes = buffer.get(range.clone()).ok_or_else(|| {
                     anyhow!(
-                        "bufferView {}: bytes {}..{} lie outside its buffer of {} bytes",
-                        view.index(),
+                        "{path}.bufferView{owner} = {}: bytes {}..{} lie outside {} of {} bytes",
+                        label("bufferView", view.index(), view.name()),
                         range.start,
                         range.end,
+                        label("buffer", view.buffer().index(), view.buffer().name()),
                         buffer.len()
                     )
                 })?;
                 (bytes.to_vec(), Some(mime_type.to_owned()))
             }
             gltf::image::Source::Uri { uri, mime_type } => (
-                read_image_uri(uri, self.base, self.options).context("uri")?,
+                read_image_uri(uri, self.base, self.options)
+                    .with_context(|| format!("{path}.uri{owner}"))?,
                 mime_type.map(str::to_owned),
             ),
         };
+        self.decode(bytes, mime, srgb)
+            .with_context(|| format!("{path}{owner}"))
+    }
+
+    /// Decodes PNG or JPEG bytes (`mime` as declared, for messages) and appends the mip chain
+    /// to the texels.
+    fn decode(
+        &mut self,
+        bytes: Vec<u8>,
+        mime: Option<String>,
+        srgb: bool,
+    ) -> Result<([u32; 4], [f32; 4])> {
         let format = image::guess_format(&bytes).ok();
         let format = match format {
             Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg)) => f,
@@ -189,10 +221,9 @@ impl<'a> TextureBuilder<'a> {
                 );
             }
         };
+        // The header alone: its size is checked below, in a message that states it.
         let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
         let mut limits = image::Limits::default();
-        limits.max_image_width = Some(MAX_IMAGE_SIDE);
-        limits.max_image_height = Some(MAX_IMAGE_SIDE);
         limits.max_alloc = Some(
             self.options
                 .budget

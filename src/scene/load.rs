@@ -8,16 +8,16 @@
 //!    validates references, and a panic it still raises becomes an error;
 //! 3. buffers are read without `gltf::import` (`buffers.rs`): base64 `data:` URIs, files inside
 //!    the scene's folder (or `--allow-path` folders), the GLB binary chunk for `buffers[0]`
-//!    only; images are never decoded (textures are ignored), but their URIs obey the same
-//!    rules; accessors are read with every offset, stride and index checked (`accessors.rs`);
+//!    only; images (`images.rs`) are read by the same rules and decoded only where a material
+//!    uses them; accessors are read with every offset, stride and index checked (`accessors.rs`);
 //! 4. every large allocation is reserved in the memory budget first (`limits.rs`).
 //!
 //! Supported: every node of the default scene (scene 0 if none is default), TRS or matrix
 //! transforms, triangle lists, strips and fans, u8/u16/u32 or no indices, sparse accessors,
 //! perspective and orthographic cameras (every instance, in `Scene::cameras`).
 //! Point and line primitives are skipped (counted in `Scene::skipped_primitives`); skins,
-//! morph targets, textures and KHR_mesh_quantization are not supported (the first two are
-//! ignored, quantized positions are an error).
+//! morph targets and KHR_mesh_quantization are not supported (the first two are ignored,
+//! quantized positions are an error).
 
 use super::accessors::{
     element_bytes, read_attribute, read_indices, read_positions, triangle_corners,
@@ -291,11 +291,13 @@ fn texture_info<'a>(info: gltf::texture::Info<'a>) -> TextureInfo<'a> {
     }
 }
 
-/// KHR_texture_transform of a textureInfo the `gltf` crate does not type (normalTexture).
+/// KHR_texture_transform of a textureInfo the `gltf` crate does not type (normalTexture);
+/// `what` is the textureInfo's JSON path, `owner` what follows a path in messages.
 #[allow(clippy::type_complexity)]
 fn untyped_transform(
     value: Option<&serde_json::Value>,
     what: &str,
+    owner: &str,
 ) -> Result<Option<([f32; 2], f32, [f32; 2], Option<u32>)>> {
     let Some(value) = value else {
         return Ok(None);
@@ -310,20 +312,22 @@ fn untyped_transform(
                 Some(a) if a.len() == 2 && a.iter().all(Option::is_some) => {
                     Ok([a[0].unwrap() as f32, a[1].unwrap() as f32])
                 }
-                _ => bail!("{what}.extensions.KHR_texture_transform.{key}: expected two numbers"),
+                _ => bail!(
+                    "{what}.extensions.KHR_texture_transform.{key}{owner}: expected two numbers"
+                ),
             },
         }
     };
     let rotation = match value.get("rotation") {
         None => 0.0,
         Some(v) => v.as_f64().ok_or_else(|| {
-            anyhow!("{what}.extensions.KHR_texture_transform.rotation: expected a number")
+            anyhow!("{what}.extensions.KHR_texture_transform.rotation{owner}: expected a number")
         })? as f32,
     };
     let tex_coord = match value.get("texCoord") {
         None => None,
         Some(v) => Some(v.as_u64().filter(|&c| c <= u32::MAX as u64).ok_or_else(|| {
-            anyhow!("{what}.extensions.KHR_texture_transform.texCoord: expected a non-negative integer")
+            anyhow!("{what}.extensions.KHR_texture_transform.texCoord{owner}: expected a non-negative integer")
         })? as u32),
     };
     Ok(Some((
@@ -339,14 +343,13 @@ fn convert_material(
     material: &gltf::Material,
     builder: &mut TextureBuilder,
 ) -> Result<(Material, MaterialNeeds)> {
-    // The JSON path of one property of this material, with the material's name after it.
-    let at = |property: &str| {
-        let path = format!("{}.{property}", json_path("material", index));
-        match material.name() {
-            Some(name) if !name.is_empty() => format!("{path} (material {name:?})"),
-            _ => path,
-        }
+    // The JSON path of one property of this material, and the material's name to follow it.
+    let path = |property: &str| format!("{}.{property}", json_path("material", index));
+    let owner = match material.name() {
+        Some(name) if !name.is_empty() => format!(" (material {name:?})"),
+        _ => String::new(),
     };
+    let at = |property: &str| format!("{}{owner}", path(property));
     let [r, g, b, _] = material.pbr_metallic_roughness().base_color_factor();
     let base_color = Vec3::new(r, g, b);
     // The spec bounds factors to [0, 1]; forgive rounding just above 1.
@@ -428,8 +431,12 @@ fn convert_material(
     // Textures: each use becomes a reference (set, transform) to a decoded texture.
     let mut needs = MaterialNeeds::default();
     let mut reference = |property: &str, info: TextureInfo, srgb: bool| -> Result<u32> {
-        let what = at(property);
-        let r = builder.reference(TextureUse { what, info, srgb })?;
+        let r = builder.reference(TextureUse {
+            what: path(property),
+            owner: owner.clone(),
+            info,
+            srgb,
+        })?;
         let set = builder.set.refs[r as usize].texcoord as usize;
         needs.tex_coords[set] = true;
         Ok(r)
@@ -476,7 +483,8 @@ fn convert_material(
             tex_coord: normal.tex_coord(),
             transform: untyped_transform(
                 normal.extension_value("KHR_texture_transform"),
-                &at("normalTexture"),
+                &path("normalTexture"),
+                &owner,
             )?,
         };
         let r = reference("normalTexture", info, false)?;
