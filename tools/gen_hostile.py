@@ -339,13 +339,13 @@ def cases():
     yield "color_u8_unnormalized.gltf", textured_quad(attributes=dict([normal, uv, ("COLOR_0", ("VEC4", UNSIGNED_BYTE, bytes([255] * 16), 4, False))])), 1, \
         ["attributes.COLOR_0", "not allowed", "normalized"], []
     yield "texcoord_nan.gltf", textured_quad(attributes=dict([normal, ("TEXCOORD_0", ("VEC2", FLOAT, floats(0, 0, nan, 0, 1, 1, 0, nan), 4, False))])), 0, \
-        ["note:", "2 vertex attributes (TEXCOORD, COLOR_0, TANGENT) were not finite"], []
+        ["note:", "non-finite TEXCOORD, COLOR_0 or TANGENT values replaced by their defaults (vertices repaired: 2)"], []
     yield "normal_nan.gltf", textured_quad(attributes=dict([uv, ("NORMAL", ("VEC3", FLOAT, floats(0, 0, 1, nan, 0, 1, 0, 0, 1, 0, 0, nan), 4, False))])), 0, \
-        ["note:", "2 vertex normals were not finite or zero"], []
+        ["note:", "non-finite or zero vertex normals: their triangles are shaded with face normals (vertices: 2)"], []
     tangents = floats(1, 0, 0, 1, 1, nan, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1)
     yield "tangent_nan.gltf", textured_quad(attributes=dict([normal, uv, ("TANGENT", ("VEC4", FLOAT, tangents, 4, False))]),
                                             material={"normalTexture": {"index": 0}}), 0, \
-        ["note:", "1 vertex attributes (TEXCOORD, COLOR_0, TANGENT) were not finite"], []
+        ["note:", "non-finite TEXCOORD, COLOR_0 or TANGENT values replaced by their defaults (vertices repaired: 1)"], []
     required = lambda doc, ext: edit(doc, lambda d: d.update(extensionsUsed=[ext], extensionsRequired=[ext]))
     yield "ext_draco.gltf", required(edit(q, lambda d: d["meshes"][0]["primitives"][0].update(extensions={
         "KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}})), "KHR_draco_mesh_compression"), 1, \

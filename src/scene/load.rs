@@ -543,13 +543,13 @@ impl Repairs {
         let mut notes = Vec::new();
         if self.normals > 0 {
             notes.push(format!(
-                "{} vertex normals were not finite or zero: their triangles are shaded with face normals",
+                "non-finite or zero vertex normals: their triangles are shaded with face normals (vertices: {})",
                 self.normals
             ));
         }
         if self.attributes > 0 {
             notes.push(format!(
-                "{} vertex attributes (TEXCOORD, COLOR_0, TANGENT) were not finite: replaced by their defaults",
+                "non-finite TEXCOORD, COLOR_0 or TANGENT values replaced by their defaults (vertices repaired: {})",
                 self.attributes
             ));
         }
