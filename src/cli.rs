@@ -67,6 +67,35 @@ impl SamplerArg {
     }
 }
 
+/// What a render records.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AovArg {
+    /// Radiance: the rendering.
+    Radiance,
+    /// The first hit's base colour (factor × texture × vertex colour, linear RGB); black where
+    /// the camera ray leaves the scene.
+    BaseColor,
+    /// The first hit's shading normal with its normal map, as n/2 + 1/2.
+    Normal,
+    /// The first hit's TEXCOORD_0 as (u, v, 0).
+    Uv,
+    /// The first hit's emitted radiance (emissive factor × texture × strength).
+    Emission,
+}
+
+impl AovArg {
+    pub fn code(self) -> u32 {
+        use wavetrace::layout::*;
+        match self {
+            AovArg::Radiance => AOV_RADIANCE,
+            AovArg::BaseColor => AOV_BASE_COLOR,
+            AovArg::Normal => AOV_NORMAL,
+            AovArg::Uv => AOV_UV,
+            AovArg::Emission => AOV_EMISSION,
+        }
+    }
+}
+
 /// The seed's combined-sampling weightings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MisArg {
@@ -192,6 +221,10 @@ pub struct RenderOptions {
     /// BSDF direction): N-rooks stratified, independent, or Owen-scrambled Sobol.
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     pub sampler: SamplerArg,
+    /// Record radiance, or a property of the surface each camera ray hits first (averaged over
+    /// the pixel's samples): for checking textures, normal maps and texture coordinates.
+    #[arg(long, value_enum, default_value_t = AovArg::Radiance)]
+    pub aov: AovArg,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,

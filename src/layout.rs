@@ -245,9 +245,21 @@ pub struct FrameParams {
     /// angle per unit distance, for texture level of detail.
     pub cone_width: f32, // 4 bytes
     pub cone_spread: f32,       // 4 bytes
-    pub pad1: u32,              // 4 bytes
+    /// `AOV_*`: what the render records (radiance, or a surface property at the first hit).
+    pub aov: u32, // 4 bytes
     pub pad2: u32,              // 4 bytes
 }
+
+/// `FrameParams::aov`: radiance (a normal render).
+pub const AOV_RADIANCE: u32 = 0;
+/// The first hit's base colour (factor × texture × vertex colour, linear), black on a miss.
+pub const AOV_BASE_COLOR: u32 = 1;
+/// The first hit's shading normal (normal map applied), n/2 + 1/2.
+pub const AOV_NORMAL: u32 = 2;
+/// The first hit's TEXCOORD_0 (u, v, 0).
+pub const AOV_UV: u32 = 3;
+/// The first hit's emitted radiance (emissive factor × texture), whatever the side.
+pub const AOV_EMISSION: u32 = 4;
 
 /// `FrameParams::cam_projection`: rays from one point (or a thin lens) through the film.
 pub const CAMERA_PERSPECTIVE: u32 = 0;
@@ -488,7 +500,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         cam_ymag,
         cone_width,
         cone_spread,
-        pad1,
+        aov,
         pad2
     }),
     struct_layout!(DispatchParams {

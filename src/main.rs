@@ -199,6 +199,7 @@ fn prepare(
         rr_mode: opts.rr.code(),
         rr_start_depth: opts.rr_depth,
         debug_flags: opts.debug_flags,
+        aov: opts.aov.code(),
         aperture: opts.aperture,
         focus_distance: opts.focus_distance,
     };

@@ -34,6 +34,8 @@ pub struct RenderSettings {
     pub sampler: u32,
     /// `layout::DEBUG_*` bits; 0 except in tests.
     pub debug_flags: u32,
+    /// `layout::AOV_*`: radiance, or a property of the first hit (`--aov`).
+    pub aov: u32,
     /// Thin-lens diameter in scene units (`--aperture`); 0 is a pinhole. Perspective cameras
     /// only: check with [`PreparedScene::thin_lens`].
     pub aperture: f32,
@@ -56,6 +58,7 @@ impl Default for RenderSettings {
             mis: Heuristic::Power(2.0),
             sampler: SAMPLER_SOBOL,
             debug_flags: 0,
+            aov: crate::layout::AOV_RADIANCE,
             aperture: 0.0,
             focus_distance: None,
         }
@@ -215,6 +218,7 @@ impl PreparedScene {
             rr_start_depth: settings.rr_start_depth,
             environment: settings.environment.to_array(),
             debug_flags: settings.debug_flags,
+            aov: settings.aov,
             band_first_pixel: 0,
             band_pixel_count: settings.width * settings.height,
             mis_heuristic: settings.mis.code_and_beta().0,

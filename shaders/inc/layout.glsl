@@ -138,9 +138,14 @@ struct FrameParams {
     float cam_ymag;         // 4 bytes: orthographic: half-height of the view; else 0
     float cone_width;       // 4 bytes: ray cone at the camera (texture level of detail)
     float cone_spread;      // 4 bytes: its spread angle
-    uint pad1;              // 4 bytes
+    uint aov;               // 4 bytes: AOV_*
     uint pad2;              // 4 bytes
 };
+#define AOV_RADIANCE 0u
+#define AOV_BASE_COLOR 1u
+#define AOV_NORMAL 2u
+#define AOV_UV 3u
+#define AOV_EMISSION 4u
 #define CAMERA_PERSPECTIVE 0u
 #define CAMERA_ORTHOGRAPHIC 1u
 #define SAMPLER_INDEPENDENT 0u

@@ -28,7 +28,7 @@ void main() {
 
     // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
     if (hit.triangle == NO_HIT) {
-        state.radiance += state.throughput * frame.environment;
+        if (frame.aov == AOV_RADIANCE) state.radiance += state.throughput * frame.environment;
         paths[ray.path] = state;
         return;
     }
@@ -43,6 +43,16 @@ void main() {
     vec2 lod = surface_lod_base(sp, cone_width, cos_out);
     GpuMaterial raw = materials[tri.material];
     GpuMaterial mat = surface_material(raw, sp, lod);
+    // --aov: a property of the first hit instead of radiance.
+    if (frame.aov != AOV_RADIANCE) {
+        vec3 value = mat.emission;
+        if (frame.aov == AOV_BASE_COLOR) value = mat.base_color;
+        if (frame.aov == AOV_NORMAL) value = surface_normal(raw, sp, lod) * 0.5 + 0.5;
+        if (frame.aov == AOV_UV) value = vec3(sp.uv0, 0.0);
+        state.radiance = value;
+        paths[ray.path] = state;
+        return;
+    }
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     vec3 le = emitted_radiance(mat, cos_out);

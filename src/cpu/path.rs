@@ -5,8 +5,8 @@
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, PathState, DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED, RR_ALBEDO,
-    RR_OFF, SAMPLER_STRATIFIED,
+    dim, FrameParams, GpuMaterial, PathState, AOV_BASE_COLOR, AOV_NORMAL, AOV_RADIANCE, AOV_UV,
+    DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
 };
 use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
@@ -183,7 +183,9 @@ fn shade(
 
     // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
     let Some(hit) = hit else {
-        state.radiance = (radiance + throughput * Vec3::from(frame.environment)).to_array();
+        if frame.aov == AOV_RADIANCE {
+            state.radiance = (radiance + throughput * Vec3::from(frame.environment)).to_array();
+        }
         return (None, None);
     };
     let tri = &scene.triangles[hit.triangle as usize];
@@ -203,6 +205,17 @@ fn shade(
     let lod = surface_lod_base(&sp, cone_width, cos_out);
     let raw = &scene.materials[tri.material as usize];
     let mat = &surface_material(&textures, raw, &sp, lod);
+    // --aov: a property of the first hit instead of radiance.
+    if frame.aov != AOV_RADIANCE {
+        let value = match frame.aov {
+            AOV_BASE_COLOR => Vec3::from(mat.base_color),
+            AOV_NORMAL => surface_normal(&textures, raw, &sp, lod) * 0.5 + Vec3::splat(0.5),
+            AOV_UV => sp.uv[0].extend(0.0),
+            _ => Vec3::from(mat.emission),
+        };
+        state.radiance = value.to_array();
+        return (None, None);
+    }
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     let le = emitted_radiance(mat, cos_out);
