@@ -102,13 +102,27 @@ impl Bvh {
         if self.is_empty() {
             return None;
         }
+        self.intersect_closest_from(0, triangles, ray, t_min, t_max, accept)
+    }
+
+    /// Closest hit in the subtree rooted at node `root` (a bottom-level BVH of the two-level
+    /// structure, `tlas.rs`), whose node and triangle indices are absolute.
+    pub fn intersect_closest_from(
+        &self,
+        root: u32,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: impl Fn(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
         let slab_ray = SlabRay::new(ray);
         let mut closest: Option<Hit> = None;
         let mut t_far = t_max;
         // Deferred nodes with the distance at which the ray enters them.
         let mut stack = [(0u32, 0f32); MAX_DEPTH];
         let mut sp = 0;
-        let (mut index, mut node) = (0u32, self.nodes[0]);
+        let (mut index, mut node) = (root, self.nodes[root as usize]);
         bvh_slab(&node, &slab_ray, t_min, t_far)?;
         loop {
             if node.is_leaf() {
@@ -196,10 +210,23 @@ impl Bvh {
         if self.is_empty() {
             return false;
         }
+        self.intersect_any_from(0, triangles, ray, t_min, t_max, accept)
+    }
+
+    /// [`intersect_any`](Bvh::intersect_any) in the subtree rooted at node `root`.
+    pub fn intersect_any_from(
+        &self,
+        root: u32,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: impl Fn(u32, f32, f32) -> bool,
+    ) -> bool {
         let slab_ray = SlabRay::new(ray);
         let mut stack = [0u32; MAX_DEPTH];
         let mut sp = 0;
-        let (mut index, mut node) = (0u32, self.nodes[0]);
+        let (mut index, mut node) = (root, self.nodes[root as usize]);
         if bvh_slab(&node, &slab_ray, t_min, t_max).is_none() {
             return false;
         }
@@ -239,14 +266,14 @@ impl Bvh {
 
 /// A ray prepared for slab tests: inverse direction, with axes it does not move along
 /// (zero or subnormal components, `still`) handled exactly instead of through ∞ and 0·∞ = NaN.
-struct SlabRay {
+pub(crate) struct SlabRay {
     origin: Vec3,
     inv_dir: Vec3,
     still: BVec3,
 }
 
 impl SlabRay {
-    fn new(ray: &Ray) -> SlabRay {
+    pub(crate) fn new(ray: &Ray) -> SlabRay {
         let still = ray.dir.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE));
         let inv_dir = Vec3::select(still, Vec3::ZERO, ray.dir.recip());
         SlabRay {
@@ -259,7 +286,7 @@ impl SlabRay {
 
 /// Slab test (Kay & Kajiya 1986): the distance at which the ray enters `node`'s box, if the box
 /// overlaps (t_min, t_max), with [`SLAB_SLACK`] of tolerance. No NaN arises: `inv_dir` is finite.
-fn bvh_slab(node: &BvhNode, ray: &SlabRay, t_min: f32, t_max: f32) -> Option<f32> {
+pub(crate) fn bvh_slab(node: &BvhNode, ray: &SlabRay, t_min: f32, t_max: f32) -> Option<f32> {
     let (bmin, bmax) = (Vec3::from(node.bounds_min), Vec3::from(node.bounds_max));
     let t0 = (bmin - ray.origin) * ray.inv_dir;
     let t1 = (bmax - ray.origin) * ray.inv_dir;

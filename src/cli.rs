@@ -239,6 +239,10 @@ pub struct RenderOptions {
     /// 512M or 4G (default: half the machine's physical memory).
     #[arg(long, value_parser = wavetrace::scene::parse_size, value_name = "SIZE")]
     pub max_memory: Option<u64>,
+    /// Bake every placement of a shared mesh into world space instead of storing the mesh once
+    /// and instancing it (memory grows with placements × triangles; for comparisons).
+    #[arg(long)]
+    pub no_instancing: bool,
     /// Test-only `layout::DEBUG_*` bits for the GPU side (e.g. 1 drops next event estimation).
     #[arg(long, default_value_t = 0, hide = true)]
     pub debug_flags: u32,

@@ -247,7 +247,8 @@ pub struct FrameParams {
     pub cone_spread: f32,       // 4 bytes
     /// `AOV_*`: what the render records (radiance, or a surface property at the first hit).
     pub aov: u32, // 4 bytes
-    pub pad2: u32,              // 4 bytes
+    /// Index in the BVH nodes of the top level's root (over `GpuInstance`s, `tlas.rs`).
+    pub tlas_root: u32, // 4 bytes
 }
 
 /// `FrameParams::aov`: radiance (a normal render).
@@ -337,7 +338,7 @@ pub struct QueuedRay {
     pub pad: u32,         // 4 bytes
 }
 
-/// Closest hit of a queued ray (`triangle` = `NO_HIT` on a miss). Total: 16 bytes.
+/// Closest hit of a queued ray (`triangle` = `NO_HIT` on a miss). Total: 32 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct HitRecord {
@@ -345,7 +346,31 @@ pub struct HitRecord {
     pub triangle: u32, // 4 bytes
     pub u: f32,        // 4 bytes: barycentric weight of p1
     pub v: f32,        // 4 bytes: barycentric weight of p2
+    pub instance: u32, // 4 bytes: the `GpuInstance` whose bottom level holds the triangle
+    pub pad0: u32,     // 4 bytes
+    pub pad1: u32,     // 4 bytes
+    pub pad2: u32,     // 4 bytes
 }
+
+/// One placement of a bottom-level BVH in the world: the top level's leaves (`tlas.rs`).
+/// Total: 112 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuInstance {
+    /// Rows of the 3×4 affine object → world transform.
+    pub object_to_world: [[f32; 4]; 3], // 48 bytes
+    /// Rows of its inverse, world → object.
+    pub world_to_object: [[f32; 4]; 3], // 48 bytes
+    pub blas_root: u32, // 4 bytes: BVH node of the bottom level's root
+    pub flags: u32,     // 4 bytes: INSTANCE_* bits
+    pub pad0: u32,      // 4 bytes
+    pub pad1: u32,      // 4 bytes
+}
+
+/// `GpuInstance::flags`: the transform is the identity (the baked world-space geometry).
+pub const INSTANCE_IDENTITY: u32 = 1;
+/// `GpuInstance::flags`: the transform mirrors (negative determinant): front faces flip.
+pub const INSTANCE_MIRRORED: u32 = 2;
 
 pub const NO_HIT: u32 = u32::MAX;
 
@@ -501,7 +526,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         cone_width,
         cone_spread,
         aov,
-        pad2
+        tlas_root
     }),
     struct_layout!(DispatchParams {
         first_sample,
@@ -529,7 +554,24 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         dir,
         pad
     }),
-    struct_layout!(HitRecord { t, triangle, u, v }),
+    struct_layout!(HitRecord {
+        t,
+        triangle,
+        u,
+        v,
+        instance,
+        pad0,
+        pad1,
+        pad2
+    }),
+    struct_layout!(GpuInstance {
+        object_to_world,
+        world_to_object,
+        blas_root,
+        flags,
+        pad0,
+        pad1
+    }),
     struct_layout!(ShadowRay {
         origin,
         path,

@@ -17,6 +17,7 @@ pub mod sobol;
 pub mod stats;
 pub mod surface;
 pub mod texture;
+pub mod tlas;
 pub mod verify;
 
 /// The SPIR-V of every wavefront kernel, compiled from `shaders/` by build.rs.

@@ -168,6 +168,7 @@ fn prepare(
             opts.max_memory
                 .unwrap_or_else(wavetrace::scene::default_memory_budget),
         ),
+        instancing: !opts.no_instancing,
     };
     let mut scene = Scene::load_with(path, &options)?;
     if let Some(which) = &opts.camera {
@@ -239,9 +240,10 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let b = &prepared.bvh.stats;
     println!(
-        "{}: {} triangles, {} emitting, {} materials; BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
+        "{}: {} triangles stored, {} placements, {} emitting, {} materials; BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
         path.display(),
         prepared.triangles.len(),
+        prepared.instances.len(),
         prepared.lights.len(),
         prepared.materials.len(),
         b.nodes,

@@ -2,16 +2,22 @@
 //! in BVH order, materials, emitter table), the per-render constants and the render's output.
 
 use crate::bvh::{gpu_triangles, Bvh};
+use crate::bvh::{Hit, Ray};
 use crate::film::Film;
 use crate::layout::{
-    FrameParams, GpuMaterial, GpuTexture, GpuTextureRef, GpuTriangle, GpuVertex, LightEntry,
-    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_TEXTURE, RR_THROUGHPUT,
-    SAMPLER_SOBOL,
+    FrameParams, GpuInstance, GpuMaterial, GpuTexture, GpuTextureRef, GpuTriangle, GpuVertex,
+    LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_TEXTURE,
+    RR_THROUGHPUT, SAMPLER_SOBOL,
 };
 use crate::mis::Heuristic;
 use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX};
+use crate::surface::triangle_present;
 use crate::texture::TextureData;
-use glam::{UVec4, Vec3};
+use crate::tlas::{
+    append_blas, gpu_instance, instance_bounds, instance_key, scene_intersect_any,
+    scene_intersect_closest,
+};
+use glam::{Mat4, UVec4, Vec3};
 
 /// What to render and how.
 #[derive(Clone, Debug)]
@@ -74,10 +80,16 @@ impl RenderSettings {
     }
 }
 
-/// The scene in the form both integrators trace: flattened BVH and triangles in BVH order,
-/// with their shading data (`surface.rs`).
+/// The scene in the form both integrators trace: the two-level BVH (`tlas.rs`) and triangles
+/// in BVH order, with their shading data (`surface.rs`).
 pub struct PreparedScene {
+    /// Every level's nodes: bottom levels first (the baked world-space triangles at root 0),
+    /// the top level last; `order` and `stats` are the baked level's.
     pub bvh: Bvh,
+    /// The top level's root node in `bvh.nodes`.
+    pub tlas_root: u32,
+    /// The top level's leaves, in its order.
+    pub instances: Vec<GpuInstance>,
     pub triangles: Vec<GpuTriangle>,
     pub materials: Vec<GpuMaterial>,
     pub lights: Vec<LightEntry>,
@@ -126,10 +138,6 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
 
 impl PreparedScene {
     pub fn new(scene: &Scene) -> PreparedScene {
-        let positions: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
-        let material_ids: Vec<u32> = scene.triangles.iter().map(|t| t.material).collect();
-        let bvh = Bvh::build(&positions);
-        let mut triangles = gpu_triangles(&positions, &material_ids, &bvh.order);
         let materials: Vec<GpuMaterial> = scene.materials.iter().map(gpu_material).collect();
         let mut vertices = scene.vertices.clone();
         let blank = vertices.len() as u32;
@@ -137,16 +145,52 @@ impl PreparedScene {
             color: [1.0; 4],
             ..Default::default()
         });
-        let triangle_vertices = bvh
-            .order
-            .iter()
-            .map(|&i| {
-                let t = &scene.triangles[i as usize];
+        // Bottom levels: the baked world-space triangles (root 0), then each instanced mesh.
+        let mut triangles = Vec::new();
+        let mut triangle_vertices = Vec::new();
+        let mut add_blas = |nodes: &mut Vec<crate::layout::BvhNode>,
+                            tris: &[crate::scene::Triangle]| {
+            let positions: Vec<[Vec3; 3]> = tris.iter().map(|t| t.p).collect();
+            let material_ids: Vec<u32> = tris.iter().map(|t| t.material).collect();
+            let bvh = Bvh::build(&positions);
+            let root = append_blas(nodes, &bvh, triangles.len() as u32);
+            triangles.extend(gpu_triangles(&positions, &material_ids, &bvh.order));
+            triangle_vertices.extend(bvh.order.iter().map(|&i| {
+                let t = &tris[i as usize];
                 let [a, b, c] = t.vertices.map(|v| if v == NO_VERTEX { blank } else { v });
                 UVec4::new(a, b, c, t.flags)
-            })
+            }));
+            (root, bvh)
+        };
+        let mut nodes = Vec::new();
+        let (_, baked) = add_blas(&mut nodes, &scene.triangles);
+        let baked_triangles = scene.triangles.len();
+        let mesh_roots: Vec<u32> = scene
+            .meshes
+            .iter()
+            .map(|mesh| add_blas(&mut nodes, &mesh.triangles).0)
             .collect();
-        // Emitters are chosen by power; an emissive texture scales it by its mean.
+        // The top level over every placement: the baked geometry (identity), then the instances.
+        let mut placed: Vec<GpuInstance> = Vec::new();
+        if !scene.triangles.is_empty() {
+            placed.push(gpu_instance(&Mat4::IDENTITY, 0));
+        }
+        placed.extend(
+            scene
+                .instances
+                .iter()
+                .map(|i| gpu_instance(&i.transform, mesh_roots[i.mesh as usize])),
+        );
+        let boxes: Vec<(Vec3, Vec3)> = placed
+            .iter()
+            .map(|i| instance_bounds(&nodes[i.blas_root as usize], i))
+            .collect();
+        let tlas = Bvh::build_boxes(&boxes);
+        let instances: Vec<GpuInstance> = tlas.order.iter().map(|&k| placed[k as usize]).collect();
+        let tlas_root = append_blas(&mut nodes, &tlas, 0);
+        // Emitters are chosen by power; an emissive texture scales it by its mean. Emitting
+        // meshes are always baked (the loader never instances them), so the table covers the
+        // bottom level at root 0 only.
         let emitting: Vec<GpuMaterial> = materials
             .iter()
             .map(|m| {
@@ -161,9 +205,15 @@ impl PreparedScene {
                 m
             })
             .collect();
-        let lights = build_light_table(&mut triangles, &emitting);
+        let lights = build_light_table(&mut triangles[..baked_triangles], &emitting);
         PreparedScene {
-            bvh,
+            bvh: Bvh {
+                nodes,
+                order: baked.order,
+                stats: baked.stats,
+            },
+            tlas_root,
+            instances,
             triangles,
             materials,
             lights,
@@ -185,15 +235,67 @@ impl PreparedScene {
         }
     }
 
-    /// Axis-aligned bounds (min, max) of the scene's triangles, from the BVH's root; (0, 0)
-    /// for an empty scene.
+    /// Axis-aligned bounds (min, max) of the scene's triangles, from the top level's root;
+    /// (0, 0) for an empty scene.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        match self.bvh.nodes.first() {
-            Some(root) if !self.bvh.is_empty() => {
+        match self.bvh.nodes.get(self.tlas_root as usize) {
+            Some(root) if !self.instances.is_empty() => {
                 (Vec3::from(root.bounds_min), Vec3::from(root.bounds_max))
             }
             _ => (Vec3::ZERO, Vec3::ZERO),
         }
+    }
+
+    /// Closest hit with t in (t_min, t_max) over every instance (`tlas.rs`) with its instance,
+    /// honouring alpha for the ray with alpha key `key` (`surface::alpha_key`).
+    pub fn intersect_closest(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        key: UVec4,
+    ) -> Option<(Hit, u32)> {
+        let data = self.texture_data();
+        scene_intersect_closest(
+            &self.bvh,
+            self.tlas_root,
+            &self.instances,
+            &self.triangles,
+            ray,
+            t_min,
+            t_max,
+            |i, u, v, k| self.present(&data, i, u, v, instance_key(key, k)),
+        )
+    }
+
+    /// True if anything is hit with t in (t_min, t_max) (alpha as in `intersect_closest`).
+    pub fn intersect_any(&self, ray: &Ray, t_min: f32, t_max: f32, key: UVec4) -> bool {
+        let data = self.texture_data();
+        scene_intersect_any(
+            &self.bvh,
+            self.tlas_root,
+            &self.instances,
+            &self.triangles,
+            ray,
+            t_min,
+            t_max,
+            |i, u, v, k| self.present(&data, i, u, v, instance_key(key, k)),
+        )
+    }
+
+    /// The any-hit test of both traversals (`surface::triangle_present`).
+    pub fn present(&self, data: &TextureData, index: u32, u: f32, v: f32, key: UVec4) -> bool {
+        triangle_present(
+            data,
+            &self.triangles,
+            &self.triangle_vertices,
+            &self.vertices,
+            &self.materials,
+            index,
+            u,
+            v,
+            key,
+        )
     }
 
     /// The thin lens `settings` ask of this scene's camera (`Camera::thin_lens`); errors name
@@ -219,6 +321,7 @@ impl PreparedScene {
             environment: settings.environment.to_array(),
             debug_flags: settings.debug_flags,
             aov: settings.aov,
+            tlas_root: self.tlas_root,
             band_first_pixel: 0,
             band_pixel_count: settings.width * settings.height,
             mis_heuristic: settings.mis.code_and_beta().0,

@@ -15,11 +15,12 @@
 //!   image is the alpha-blended one, and both closest-hit and shadow rays obey it.
 
 use crate::layout::{
-    GpuMaterial, GpuTriangle, GpuVertex, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE,
-    TRIANGLE_ALPHA, TRIANGLE_FLAT,
+    GpuInstance, GpuMaterial, GpuTriangle, GpuVertex, INSTANCE_IDENTITY, INSTANCE_MIRRORED,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_ALPHA, TRIANGLE_FLAT,
 };
 use crate::sampling::{pcg4d, uint_to_unit_float};
 use crate::texture::{sample_texture_ref, TextureData};
+use crate::tlas::{transform_normal, transform_point, transform_vector};
 use glam::{UVec4, Vec2, Vec3, Vec4};
 
 /// The attributes of one hit point.
@@ -90,6 +91,40 @@ pub fn surface_point(
         uv_density: [density(0), density(1)],
         flags: tv.w,
     }
+}
+
+/// A surface point of an instanced (object-space) triangle `tri` moved to world space by its
+/// instance: position by the transform, normals by its inverse transpose, the tangent by its
+/// linear part with the bitangent sign flipped by a mirroring transform, and the uv density
+/// against the world-space area. The identity instance changes nothing.
+pub fn surface_to_world(sp: &mut SurfacePoint, tri: &GpuTriangle, inst: &GpuInstance) {
+    if inst.flags & INSTANCE_IDENTITY != 0 {
+        return;
+    }
+    let (m, w) = (&inst.object_to_world, &inst.world_to_object);
+    sp.p = transform_point(m, sp.p);
+    let flat = sp.ns == sp.ng;
+    sp.ng = transform_normal(w, sp.ng).normalize();
+    sp.ns = if flat {
+        sp.ng
+    } else {
+        transform_normal(w, sp.ns).normalize()
+    };
+    let t = transform_vector(m, sp.tangent.truncate());
+    let sign = if inst.flags & INSTANCE_MIRRORED != 0 {
+        -1.0
+    } else {
+        1.0
+    };
+    sp.tangent = t.extend(sp.tangent.w * sign);
+    let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let object = e1.cross(e2).length().max(1e-30);
+    let world = transform_vector(m, e1)
+        .cross(transform_vector(m, e2))
+        .length()
+        .max(1e-30);
+    let shift = 0.5 * (world / object).log2();
+    sp.uv_density = [sp.uv_density[0] - shift, sp.uv_density[1] - shift];
 }
 
 /// The texture-independent part of the level of detail for each coordinate set:

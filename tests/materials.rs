@@ -55,6 +55,8 @@ fn scene(triangles: Vec<Triangle>, material: Material, camera: Camera) -> Prepar
         materials: vec![material],
         vertices: Vec::new(),
         textures: Default::default(),
+        meshes: Vec::new(),
+        instances: Vec::new(),
         camera,
         cameras: Vec::new(),
         dropped_degenerate: 0,

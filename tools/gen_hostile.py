@@ -156,9 +156,10 @@ def textured_quad(attributes=None, material=None, image=None, glb_bin=False):
     return doc
 
 
-def instancing_bomb(nodes, strip):
+def instancing_bomb(nodes, strip, emissive=False):
     """One triangle strip of `strip` u8 indices over a quad, instanced by `nodes` nodes: a
-    small file that asks for nodes × (strip − 2) world-space triangles."""
+    small file that asks for nodes × (strip − 2) world-space triangles if the mesh is baked
+    (`emissive`), or strip − 2 triangles and `nodes` instances if it is not."""
     positions = struct.pack("<12f", -1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0)
     indices = bytes(i % 4 for i in range(strip))
     data = positions + indices
@@ -166,7 +167,9 @@ def instancing_bomb(nodes, strip):
         "asset": {"version": "2.0"},
         "scenes": [{"nodes": list(range(nodes))}],
         "nodes": [{"mesh": 0} for _ in range(nodes)],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": 5}]}],
+        "meshes": [{"primitives": [dict({"attributes": {"POSITION": 0}, "indices": 1, "mode": 5},
+                                        **({"material": 0} if emissive else {}))]}],
+        **({"materials": [{"emissiveFactor": [1, 1, 1]}]} if emissive else {}),
         "accessors": [
             {"bufferView": 0, "componentType": FLOAT, "count": 4, "type": "VEC3",
              "min": [-1, -1, 0], "max": [1, 1, 0]},
@@ -226,10 +229,13 @@ def cases():
     yield "uri_short_file.gltf", edit(quad("quad.bin"), lambda d: d["buffers"][0].update(byteLength=1000)), 1, \
         ["buffers[0].uri", "fewer than the declared byteLength"], []
     # 3. Memory.
-    yield "memory_instancing.gltf", instancing_bomb(400, 60000), 1, \
+    # An emitting mesh is baked once per node (the emitter table needs world-space triangles).
+    yield "memory_instancing.gltf", instancing_bomb(400, 60000, emissive=True), 1, \
         ["meshes[0].primitives[0]", "memory budget", "triangles"], []
     # Just inside the budget: it renders, and the process stays within budget + footprint.
-    yield "memory_instancing_fits.gltf", instancing_bomb(12, 60000), 0, [], []
+    yield "memory_instancing_fits.gltf", instancing_bomb(12, 60000, emissive=True), 0, [], []
+    # A mesh that does not emit is stored once for all its nodes: 1000 placements fit.
+    yield "memory_instancing_shared.gltf", instancing_bomb(1000, 60000), 0, [], []
     yield "memory_zero_accessor.gltf", edit(q, lambda d: (
         d["accessors"][0].pop("bufferView"),
         d["accessors"][0].update(count=1 << 26, sparse={

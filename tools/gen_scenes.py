@@ -20,6 +20,9 @@ KHR_materials_emissive_strength.
 - cornell-materials.gltf: the same box and light, the tall box rough copper (metallicFactor 1,
   roughnessFactor 0.3) and, in place of the short box, a smooth glass sphere (radius 0.3,
   KHR_materials_transmission 1, KHR_materials_ior 1.5) resting on the floor.
+- instances.gltf: 1000 placements of two meshes stored once (600 nodes sharing a copper
+  icosphere, 400 glass cubes through EXT_mesh_gpu_instancing), with rotations, non-uniform
+  scales and mirroring, on a floor under a square light.
 - furnace.gltf: a closed unit icosphere (subdivision 3, watertight) facing inwards with albedo
   0.5 and emission 0.5, camera at the centre: the exact radiance everywhere is
   Le / (1 - a) = 1.
@@ -159,8 +162,10 @@ class Gltf:
     def _view(self, data, target):
         while len(self.blob) % 4:
             self.blob.append(0)
-        self.doc["bufferViews"].append(
-            {"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data), "target": target})
+        view = {"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data)}
+        if target is not None:
+            view["target"] = target
+        self.doc["bufferViews"].append(view)
         self.blob += data
         return len(self.doc["bufferViews"]) - 1
 
@@ -377,8 +382,64 @@ def veach_mis():
     return g
 
 
+def instances():
+    """1000 placements of two meshes stored once: 600 nodes share a rough-copper icosphere
+    (subdivision 3, 1280 triangles) and a node with EXT_mesh_gpu_instancing places 400 glass
+    cubes (KHR_materials_transmission). Rotations, non-uniform scales and mirroring (negative
+    determinants, every third placement) exercise the instance transforms; a floor and a square
+    light are baked. Flattened, the placements would be 600 * 1280 + 400 * 12 = 772,800
+    triangles; the loader stores 1280 + 12 + 4.
+    """
+    g = Gltf()
+    white = g.lambertian("floor", (0.6, 0.6, 0.6))
+    light = g.lambertian("light", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 12.0)
+    copper = g.material("rough copper", (0.95, 0.64, 0.54), metallic=1.0, roughness=0.4)
+    glass = g.material("glass", (0.9, 1.0, 0.95), metallic=0.0, roughness=0.1, extensions={
+        "KHR_materials_transmission": {"transmissionFactor": 1.0}})
+    rect = g.geometry(*rectangle())
+    # The floor: the unit rectangle (z = 0, front +Z) turned to face +Y and scaled to 24 x 24.
+    g.node({"name": "floor", "mesh": g.mesh("floor", rect, white),
+            "matrix": column_major([[12, 0, 0, 0], [0, 0, 12, 0], [0, -12, 0, 0]])})
+    # The light: facing down (-Y) at y = 9.
+    g.node({"name": "light", "mesh": g.mesh("light", rect, light),
+            "matrix": column_major([[3, 0, 0, 0], [0, 0, -3, 9], [0, 3, 0, 0]])})
+    sphere = g.mesh("copper sphere", g.geometry(*icosphere(3)), copper)
+    for k in range(600):
+        i, j = k % 30, k // 30
+        x, z = -9.5 + i * 0.65, -9.5 + j * 0.95
+        r = 0.18 + 0.1 * ((k * 7) % 5) / 4
+        sx = -r if k % 3 == 0 else r
+        angle = 0.3 * k
+        c, s_ = math.cos(angle), math.sin(angle)
+        # Rotation about Y, then a non-uniform scale (squashed in y), mirrored in x every third.
+        rows = [[sx * c, 0, s_ * r, x], [0, 0.7 * r, 0, 0.7 * r], [-sx * s_, 0, c * r, z]]
+        g.node({"name": "sphere %d" % k, "mesh": sphere, "matrix": column_major(rows)})
+    cube_mesh = g.mesh("glass cube", g.geometry(*cube()), glass)
+    translations, rotations, scales = [], [], []
+    for k in range(400):
+        i, j = k % 20, k // 20
+        half = 0.12 + 0.05 * (k % 4)
+        translations += [-9.0 + i * 0.95, 2.2 + 0.3 * (k % 3), -9.0 + j * 0.95]
+        angle = 0.45 * k
+        rotations += [0.0, math.sin(angle / 2), 0.0, math.cos(angle / 2)]
+        scales += [-half if k % 3 == 1 else half, half, half]
+    views = []
+    for values in (translations, rotations, scales):
+        views.append(g._view(struct.pack("<%df" % len(values), *values), None))
+    for view, kind, count in zip(views, ("VEC3", "VEC4", "VEC3"), (400, 400, 400)):
+        g.doc["accessors"].append({"bufferView": view, "componentType": FLOAT, "count": count,
+                                   "type": kind})
+    n = len(g.doc["accessors"])
+    g.node({"name": "glass cubes", "mesh": cube_mesh, "extensions": {"EXT_mesh_gpu_instancing": {
+        "attributes": {"TRANSLATION": n - 3, "ROTATION": n - 2, "SCALE": n - 1}}}})
+    used = set(g.doc.get("extensionsUsed", [])) | {"EXT_mesh_gpu_instancing"}
+    g.doc["extensionsUsed"] = sorted(used)
+    g.camera("camera", math.radians(50.0), (0.0, 9.0, 14.0), aspect_ratio=1.5, pitch=math.radians(-35.0))
+    return g
+
+
 SCENES = [("cornell-box.gltf", cornell_box), ("cornell-materials.gltf", cornell_materials),
-          ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis)]
+          ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis), ("instances.gltf", instances)]
 
 
 def main():

@@ -22,6 +22,8 @@ layout(std430, set = 0, binding = 13) readonly buffer Vertices { GpuVertex verti
 layout(std430, set = 0, binding = 14) readonly buffer Textures { GpuTexture textures[]; };
 layout(std430, set = 0, binding = 15) readonly buffer TextureRefs { GpuTextureRef texture_refs[]; };
 layout(std430, set = 0, binding = 16) readonly buffer Texels { uint texels[]; };
+// The top level's leaves: placements of the bottom-level BVHs (tlas.glsl), in top-level order.
+layout(std430, set = 0, binding = 17) readonly buffer Instances { GpuInstance instances[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -81,18 +81,19 @@ bool bvh_is_empty() {
 }
 
 // Closest hit with t in (t_min, t_max). On a miss returns false with hit.triangle = NO_HIT.
-// key: the ray's alpha key (surface.glsl, alpha_key).
-bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
-    hit = HitRecord(t_max, NO_HIT, 0.0, 0.0);
-    if (bvh_is_empty()) return false;
+// Closest hit in the subtree rooted at node `root` (node and triangle indices absolute) with t in
+// (t_min, hit.t): updates hit.t, triangle, u, v and returns true if it finds one. key: the ray's
+// alpha key (surface.glsl, alpha_key).
+bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     // Deferred nodes with the distance at which the ray enters them.
     uint stack[BVH_STACK_SIZE];
     float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint index = 0u;
-    BvhNode node = bvh_nodes[0];
-    float t_far = t_max;
+    uint index = root;
+    BvhNode node = bvh_nodes[root];
+    float t_far = hit.t;
+    bool found = false;
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_far, t_enter)) return false;
     for (;;) {
@@ -102,7 +103,11 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec
                 float t, u, v;
                 if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v) && bvh_accept(i, u, v, key)) {
                     t_far = t;
-                    hit = HitRecord(t, i, u, v);
+                    hit.t = t;
+                    hit.triangle = i;
+                    hit.u = u;
+                    hit.v = v;
+                    found = true;
                 }
             }
         } else {
@@ -130,29 +135,37 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec
             }
         }
         // Pop the next node the ray enters before the closest hit so far.
-        bool found = false;
+        bool popped = false;
         while (sp > 0u) {
             --sp;
             if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= t_far) {
                 index = stack[sp];
                 node = bvh_nodes[index];
-                found = true;
+                popped = true;
                 break;
             }
         }
-        if (!found) break;
+        if (!popped) break;
     }
-    return hit.triangle != NO_HIT;
+    return found;
 }
 
-// True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
-bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+// Closest hit with t in (t_min, t_max) in the BVH rooted at node 0. On a miss returns false with
+// hit.triangle = NO_HIT.
+bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
+    hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
     if (bvh_is_empty()) return false;
+    return bvh_closest_from(0u, origin, dir, t_min, key, hit);
+}
+
+// True if anything in the subtree rooted at `root` is hit with t in (t_min, t_max) (shadow rays;
+// exits at the first hit).
+bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint index = 0u;
-    BvhNode node = bvh_nodes[0];
+    uint index = root;
+    BvhNode node = bvh_nodes[root];
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
     for (;;) {
@@ -182,6 +195,12 @@ bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 ke
         node = bvh_nodes[index];
     }
     return false;
+}
+
+// bvh_any_from the BVH rooted at node 0.
+bool bvh_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+    if (bvh_is_empty()) return false;
+    return bvh_any_from(0u, origin, dir, t_min, t_max, key);
 }
 
 #endif

@@ -139,7 +139,7 @@ struct FrameParams {
     float cone_width;       // 4 bytes: ray cone at the camera (texture level of detail)
     float cone_spread;      // 4 bytes: its spread angle
     uint aov;               // 4 bytes: AOV_*
-    uint pad2;              // 4 bytes
+    uint tlas_root;         // 4 bytes: BVH node of the top level's root (tlas.glsl)
 };
 #define AOV_RADIANCE 0u
 #define AOV_BASE_COLOR 1u
@@ -188,13 +188,29 @@ struct QueuedRay {
     uint pad;     // 4 bytes
 };
 
-// Closest hit; triangle == NO_HIT on a miss. Total: 16 bytes.
+// Closest hit; triangle == NO_HIT on a miss. Total: 32 bytes.
 struct HitRecord {
     float t;        // 4 bytes
     uint triangle;  // 4 bytes
     float u;        // 4 bytes
     float v;        // 4 bytes
+    uint instance;  // 4 bytes: GpuInstance whose bottom level holds the triangle
+    uint pad0;      // 4 bytes
+    uint pad1;      // 4 bytes
+    uint pad2;      // 4 bytes
 };
+
+// One placement of a bottom-level BVH (tlas.glsl). Total: 112 bytes.
+struct GpuInstance {
+    vec4 object_to_world[3];  // 48 bytes: rows of the 3x4 affine transform
+    vec4 world_to_object[3];  // 48 bytes: rows of its inverse
+    uint blas_root;           // 4 bytes
+    uint flags;               // 4 bytes: INSTANCE_*
+    uint pad0;                // 4 bytes
+    uint pad1;                // 4 bytes
+};
+#define INSTANCE_IDENTITY 1u
+#define INSTANCE_MIRRORED 2u
 #define NO_HIT 0xffffffffu
 
 // Shadow ray and the contribution it carries. Total: 48 bytes.

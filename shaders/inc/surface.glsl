@@ -3,6 +3,7 @@
 // Needs bindings.glsl, rng.glsl and texture.glsl.
 #ifndef SURFACE_GLSL
 #define SURFACE_GLSL
+#include "transform.glsl"
 
 struct SurfacePoint {
     vec3 p;
@@ -48,6 +49,23 @@ SurfacePoint surface_point(GpuTriangle tri, uvec4 tv, float u, float v) {
                          surface_uv_density(a.uv.zw, b.uv.zw, d.uv.zw, world));
     sp.flags = tv.w;
     return sp;
+}
+
+// The surface point of an instanced triangle moved to world space (surface_to_world).
+void surface_to_world(inout SurfacePoint sp, GpuTriangle tri, GpuInstance inst) {
+    if ((inst.flags & INSTANCE_IDENTITY) != 0u) return;
+    sp.p = transform_point(inst.object_to_world, sp.p);
+    bool flat_normal = all(equal(sp.ns, sp.ng));
+    sp.ng = normalize(transform_normal(inst.world_to_object, sp.ng));
+    sp.ns = flat_normal ? sp.ng : normalize(transform_normal(inst.world_to_object, sp.ns));
+    vec3 t = transform_vector(inst.object_to_world, sp.tangent.xyz);
+    float sign_w = (inst.flags & INSTANCE_MIRRORED) != 0u ? -1.0 : 1.0;
+    sp.tangent = vec4(t, sp.tangent.w * sign_w);
+    float object_area = max(length(cross(tri.e1, tri.e2)), 1e-30);
+    float world_area = max(length(cross(transform_vector(inst.object_to_world, tri.e1),
+                                        transform_vector(inst.object_to_world, tri.e2))), 1e-30);
+    float shift = 0.5 * log2(world_area / object_area);
+    sp.uv_density -= vec2(shift);
 }
 
 // log2(W / |cos|) + the uv density, per set (Akenine-Moller et al. 2021, eq. 34).

@@ -11,6 +11,7 @@
 #include "texture.glsl"
 #include "surface.glsl"
 #include "bvh.glsl"
+#include "tlas.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -21,7 +22,7 @@ void main() {
     uint pixel, sample_index;
     path_pixel_sample(shadow.path, pixel, sample_index);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, params.depth, true);
-    if (!bvh_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
+    if (!scene_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
         paths[shadow.path].radiance += shadow.contribution;
     }
 }

@@ -10,6 +10,7 @@
 #include "texture.glsl"
 #include "surface.glsl"
 #include "bvh.glsl"
+#include "tlas.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -22,6 +23,6 @@ void main() {
     path_pixel_sample(ray.path, pixel, sample_index);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, params.depth, false);
     HitRecord hit;
-    bvh_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, key, hit);
+    scene_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, key, hit);
     hits[i] = hit;
 }

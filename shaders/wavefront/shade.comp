@@ -34,6 +34,7 @@ void main() {
     }
     GpuTriangle tri = triangles[hit.triangle];
     SurfacePoint sp = surface_point(tri, triangle_vertices[hit.triangle], hit.u, hit.v);
+    surface_to_world(sp, tri, instances[hit.instance]);
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     float cos_out = dot(ng, wo);

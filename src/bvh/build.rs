@@ -158,13 +158,23 @@ impl Bvh {
     /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
     /// for millions (work stack, bounded depth).
     pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+        Bvh::build_boxes(
+            &triangles
+                .iter()
+                .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+                .collect::<Vec<_>>(),
+        )
+    }
+
+    /// The same build over axis-aligned boxes (min, max): the top level over instances.
+    pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> Bvh {
         let start_time = Instant::now();
-        let mut refs: Vec<PrimRef> = triangles
+        let mut refs: Vec<PrimRef> = boxes
             .iter()
             .enumerate()
-            .map(|(i, t)| PrimRef {
-                min: t[0].min(t[1]).min(t[2]),
-                max: t[0].max(t[1]).max(t[2]),
+            .map(|(i, &(min, max))| PrimRef {
+                min,
+                max,
                 id: i as u32,
             })
             .collect();

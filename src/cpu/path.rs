@@ -16,10 +16,10 @@ use crate::sampling::{
 };
 use crate::scene::camera_ray;
 use crate::surface::{
-    alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, triangle_present,
+    alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, surface_to_world,
     LOD_MAGNIFY,
 };
-use glam::{UVec4, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 /// Extension and shadow rays traced.
 #[derive(Clone, Copy, Debug, Default)]
@@ -119,25 +119,13 @@ pub fn trace_path(
         // extend
         counts.extension += 1;
         let key = alpha_key(frame.seed, pixel, sample, depth, false);
-        let hit = scene.bvh.intersect_closest_filtered(
-            &scene.triangles,
-            &ray,
-            0.0,
-            f32::MAX,
-            |i, u, v| present(scene, i, u, v, key),
-        );
+        let hit = scene.intersect_closest(&ray, 0.0, f32::MAX, key);
         let (next, shadow) = shade(scene, frame, pixel, sample, depth, &ray, hit, &mut state);
         // connect
         if let Some(s) = shadow {
             counts.shadow += 1;
             let key = alpha_key(frame.seed, pixel, sample, depth, true);
-            if !scene.bvh.intersect_any_filtered(
-                &scene.triangles,
-                &s.ray,
-                0.0,
-                s.t_max,
-                |i, u, v| present(scene, i, u, v, key),
-            ) {
+            if !scene.intersect_any(&s.ray, 0.0, s.t_max, key) {
                 state.radiance = (Vec3::from(state.radiance) + s.contribution).to_array();
             }
         }
@@ -147,21 +135,6 @@ pub fn trace_path(
         }
         depth += 1;
     }
-}
-
-/// The any-hit test of both traversals (`surface::triangle_present`).
-fn present(scene: &PreparedScene, index: u32, u: f32, v: f32, key: UVec4) -> bool {
-    triangle_present(
-        &scene.texture_data(),
-        &scene.triangles,
-        &scene.triangle_vertices,
-        &scene.vertices,
-        &scene.materials,
-        index,
-        u,
-        v,
-        key,
-    )
 }
 
 /// One vertex of the path (shade.comp): MIS-weighted emission, one emitter sample, the BSDF
@@ -174,7 +147,7 @@ fn shade(
     sample: u32,
     depth: u32,
     ray: &Ray,
-    hit: Option<crate::bvh::Hit>,
+    hit: Option<(crate::bvh::Hit, u32)>,
     state: &mut PathState,
 ) -> (Option<Ray>, Option<ShadowRay>) {
     let wo = -ray.dir;
@@ -182,7 +155,7 @@ fn shade(
     let mut radiance = Vec3::from(state.radiance);
 
     // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
-    let Some(hit) = hit else {
+    let Some((hit, instance)) = hit else {
         if frame.aov == AOV_RADIANCE {
             state.radiance = (radiance + throughput * Vec3::from(frame.environment)).to_array();
         }
@@ -190,13 +163,14 @@ fn shade(
     };
     let tri = &scene.triangles[hit.triangle as usize];
     let textures = scene.texture_data();
-    let sp = surface_point(
+    let mut sp = surface_point(
         tri,
         scene.triangle_vertices[hit.triangle as usize],
         &scene.vertices,
         hit.u,
         hit.v,
     );
+    surface_to_world(&mut sp, tri, &scene.instances[instance as usize]);
     let (p, ng) = (sp.p, sp.ng);
     let cos_out = ng.dot(wo);
     // The ray cone's width at the hit sets the textures' level of detail.
@@ -277,7 +251,7 @@ fn shade(
         let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
         let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
         let key = alpha_key(frame.seed, pixel, sample, depth, true);
-        let light_le = if present(scene, entry.triangle, b.x, b.y, key) {
+        let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key) {
             emitted_radiance(&light_mat, cos_light)
         } else {
             Vec3::ZERO

@@ -29,10 +29,11 @@ pub enum Binding {
     Textures = 14,
     TextureRefs = 15,
     Texels = 16,
+    Instances = 17,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 17] = [
+    pub const ALL: [Binding; 18] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -50,6 +51,7 @@ impl Binding {
         Binding::Textures,
         Binding::TextureRefs,
         Binding::Texels,
+        Binding::Instances,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

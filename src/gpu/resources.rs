@@ -85,6 +85,7 @@ impl RenderBuffers {
         let textures = device("textures", size_of_val(scene.textures.as_slice()))?;
         let texture_refs = device("texture_refs", size_of_val(scene.texture_refs.as_slice()))?;
         let texels = device("texels", size_of_val(scene.texels.as_slice()))?;
+        let instances = device("instances", size_of_val(scene.instances.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
         let hits = device("hits", cap * size_of::<HitRecord>())?;
@@ -118,6 +119,7 @@ impl RenderBuffers {
             (Binding::Textures, textures.buffer),
             (Binding::TextureRefs, texture_refs.buffer),
             (Binding::Texels, texels.buffer),
+            (Binding::Instances, instances.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -134,6 +136,7 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&scene.textures), &textures),
             (bytemuck::cast_slice(&scene.texture_refs), &texture_refs),
             (bytemuck::cast_slice(&scene.texels), &texels),
+            (bytemuck::cast_slice(&scene.instances), &instances),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -172,6 +175,7 @@ impl RenderBuffers {
                 textures,
                 texture_refs,
                 texels,
+                instances,
             ],
         })
     }

@@ -21,6 +21,11 @@ pub const PREPARE_BYTES_PER_TRIANGLE: u64 = (size_of::<Triangle>()
     + size_of::<LightEntry>()
     + 4) as u64;
 
+/// Memory one instance takes while prepared: its `GpuInstance`, its box in the top level's
+/// build (bounds and id), up to two top-level nodes and the order entry.
+pub const PREPARE_BYTES_PER_INSTANCE: u64 =
+    (size_of::<crate::layout::GpuInstance>() + 28 + 2 * size_of::<BvhNode>() + 4) as u64;
+
 /// The budget when the machine's memory cannot be determined.
 const FALLBACK_MEMORY: u64 = 4 << 30;
 
@@ -32,6 +37,9 @@ pub struct LoadOptions {
     pub allow_paths: Vec<PathBuf>,
     /// Memory accounting for the load and everything the render derives from the scene.
     pub budget: Budget,
+    /// Store meshes that several placements share once and instance them (`tlas.rs`); false
+    /// bakes every placement into world space (for tests that compare the two).
+    pub instancing: bool,
 }
 
 impl Default for LoadOptions {
@@ -39,6 +47,7 @@ impl Default for LoadOptions {
         LoadOptions {
             allow_paths: Vec::new(),
             budget: Budget::new(default_memory_budget()),
+            instancing: true,
         }
     }
 }

@@ -25,11 +25,13 @@ use super::accessors::{
 use super::buffers::{check_image_uris, load_buffers, open_regular};
 use super::images::{TextureBuilder, TextureInfo, TextureUse};
 use super::json::{parse_value, split_container, typed_root, validation_message};
-use super::limits::{format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_TRIANGLE};
+use super::limits::{
+    format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_INSTANCE, PREPARE_BYTES_PER_TRIANGLE,
+};
 use super::tangents::mikktspace_tangents;
 use super::validate::check_document;
 use super::{
-    bounds_of, AlphaMode, Camera, Material, MaterialTextures, Projection, Scene, SceneCamera,
+    AlphaMode, Camera, Instance, Material, MaterialTextures, Mesh, Projection, Scene, SceneCamera,
     Triangle,
 };
 use crate::layout::{GpuVertex, TRIANGLE_ALPHA, TRIANGLE_FLAT};
@@ -50,6 +52,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_specular",
     "KHR_texture_transform",
+    "EXT_mesh_gpu_instancing",
 ];
 
 /// Memory a parsed JSON value may take per structural character (`,` `:` `[` `{`) of its text:
@@ -161,9 +164,15 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         cameras: Vec::new(),
         dropped_degenerate: 0,
         skipped_primitives: 0,
+        mesh_uses: mesh_uses(&document),
+        instancing: options.instancing,
+        meshes: Vec::new(),
+        mesh_ids: std::collections::HashMap::new(),
+        instances: Vec::new(),
     };
     builder.walk(&document, &scene)?;
-    if builder.triangles.is_empty() {
+    let instanced_triangles: usize = builder.meshes.iter().map(|m| m.triangles.len()).sum();
+    if builder.triangles.is_empty() && builder.instances.is_empty() {
         bail!(
             "{} has no triangles to render ({} zero-area triangles dropped, {} point/line \
              primitives skipped)",
@@ -177,21 +186,25 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         &format!(
             "{}: the BVH and render data of {} triangles",
             label("scene", scene.index(), scene.name()),
-            builder.triangles.len()
+            builder.triangles.len() + instanced_triangles
         ),
-        builder.triangles.len() as u64 * PREPARE_BYTES_PER_TRIANGLE,
+        (builder.triangles.len() + instanced_triangles) as u64 * PREPARE_BYTES_PER_TRIANGLE
+            + builder.instances.len() as u64 * PREPARE_BYTES_PER_INSTANCE,
     )?;
     let notes = notes(&document, &builder);
-    let camera = builder.cameras.first().map_or_else(
-        || Camera::framing(bounds_of(&builder.triangles)),
-        |c| c.camera,
-    );
+    let bounds = super::scene_bounds(&builder.triangles, &builder.meshes, &builder.instances);
+    let camera = builder
+        .cameras
+        .first()
+        .map_or_else(|| Camera::framing(bounds), |c| c.camera);
     Ok(Scene {
         source: path.to_path_buf(),
         triangles: builder.triangles,
         materials: builder.materials,
         vertices: builder.vertices,
         textures: textures.set,
+        meshes: builder.meshes,
+        instances: builder.instances,
         camera,
         cameras: builder.cameras,
         dropped_degenerate: builder.dropped_degenerate,
@@ -575,6 +588,47 @@ struct Builder<'a> {
     cameras: Vec<SceneCamera>,
     dropped_degenerate: usize,
     skipped_primitives: usize,
+    /// LoadOptions::instancing.
+    instancing: bool,
+    /// How many nodes of the document use each mesh.
+    mesh_uses: Vec<usize>,
+    /// Meshes stored once for their instances, and which glTF mesh each is.
+    meshes: Vec<Mesh>,
+    mesh_ids: std::collections::HashMap<usize, u32>,
+    instances: Vec<Instance>,
+}
+
+/// Triangles a mesh must save by being instanced rather than baked (placements − 1 times
+/// its triangles) for the loader to instance it.
+pub const INSTANCING_MIN_SAVED: u64 = 4096;
+
+/// The triangles a mesh's primitives declare (index or vertex counts), before any is read.
+fn mesh_triangle_estimate(mesh: &gltf::Mesh) -> u64 {
+    mesh.primitives()
+        .map(|p| {
+            let count = p
+                .indices()
+                .map(|a| a.count())
+                .or_else(|| p.get(&Semantic::Positions).map(|a| a.count()))
+                .unwrap_or(0) as u64;
+            match p.mode() {
+                Mode::Triangles => count / 3,
+                Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
+                _ => 0,
+            }
+        })
+        .sum()
+}
+
+/// How many nodes use each mesh.
+fn mesh_uses(document: &Document) -> Vec<usize> {
+    let mut uses = vec![0; document.meshes().len()];
+    for node in document.nodes() {
+        if let Some(mesh) = node.mesh() {
+            uses[mesh.index()] += 1;
+        }
+    }
+    uses
 }
 
 impl Builder<'_> {
@@ -625,22 +679,180 @@ impl Builder<'_> {
                 self.add_camera(&camera, &node, &world, &what)?;
             }
             if let Some(mesh) = node.mesh() {
-                for primitive in mesh.primitives() {
-                    self.add_primitive(&primitive, &world).with_context(|| {
-                        format!(
-                            "{}.primitives[{}] ({}instanced by {what})",
-                            json_path("mesh", mesh.index()),
-                            primitive.index(),
-                            mesh.name()
-                                .map_or_else(String::new, |n| format!("mesh {n:?}, "))
-                        )
-                    })?;
+                let gpu_instancing = node
+                    .extension_value("EXT_mesh_gpu_instancing")
+                    .map(|value| self.gpu_instances(document, value, &world, &what))
+                    .transpose()?;
+                let transforms = gpu_instancing.clone().unwrap_or_else(|| vec![world]);
+                // Meshes several placements share are stored once and instanced when that saves
+                // at least INSTANCING_MIN_SAVED triangles (smaller ones are cheaper to trace
+                // baked, in the one-level fast path), unless they emit (the emitter table
+                // needs world-space triangles) or a placement is singular.
+                let placements = if gpu_instancing.is_some() {
+                    transforms.len()
+                } else {
+                    self.mesh_uses[mesh.index()]
+                };
+                let saved = (placements.saturating_sub(1) as u64)
+                    .saturating_mul(mesh_triangle_estimate(&mesh));
+                let shared = self.instancing && placements > 1 && saved >= INSTANCING_MIN_SAVED;
+                let emits = mesh.primitives().any(|p| {
+                    p.material()
+                        .index()
+                        .is_some_and(|m| self.materials[m].is_emissive())
+                });
+                let singular = transforms
+                    .iter()
+                    .any(|t| Mat3::from_mat4(*t).determinant().abs() < 1e-30);
+                if shared && !emits && !singular {
+                    let id = self.instanced_mesh(&mesh, &what)?;
+                    self.budget.reserve(
+                        &format!(
+                            "{} instances of {}",
+                            transforms.len(),
+                            json_path("mesh", mesh.index())
+                        ),
+                        transforms.len() as u64 * std::mem::size_of::<Instance>() as u64,
+                    )?;
+                    self.instances
+                        .extend(transforms.iter().map(|&transform| Instance {
+                            mesh: id,
+                            transform,
+                        }));
+                    let children: Vec<_> = node.children().collect();
+                    stack.extend(children.into_iter().rev().map(|c| (c, world, Some(i))));
+                    continue;
+                }
+                for world in &transforms {
+                    for primitive in mesh.primitives() {
+                        self.add_primitive(&primitive, world).with_context(|| {
+                            format!(
+                                "{}.primitives[{}] ({}instanced by {what})",
+                                json_path("mesh", mesh.index()),
+                                primitive.index(),
+                                mesh.name()
+                                    .map_or_else(String::new, |n| format!("mesh {n:?}, "))
+                            )
+                        })?;
+                    }
                 }
             }
             let children: Vec<_> = node.children().collect();
             stack.extend(children.into_iter().rev().map(|c| (c, world, Some(i))));
         }
         Ok(())
+    }
+
+    /// The index in `meshes` of glTF mesh `mesh` stored once in object space, built on first
+    /// use (`what` names the node that first uses it).
+    fn instanced_mesh(&mut self, mesh: &gltf::Mesh, what: &str) -> Result<u32> {
+        if let Some(&id) = self.mesh_ids.get(&mesh.index()) {
+            return Ok(id);
+        }
+        let baked = std::mem::take(&mut self.triangles);
+        let mut result = Ok(());
+        for primitive in mesh.primitives() {
+            result = self
+                .add_primitive(&primitive, &Mat4::IDENTITY)
+                .with_context(|| {
+                    format!(
+                        "{}.primitives[{}] ({}instanced by {what})",
+                        json_path("mesh", mesh.index()),
+                        primitive.index(),
+                        mesh.name()
+                            .map_or_else(String::new, |n| format!("mesh {n:?}, "))
+                    )
+                });
+            if result.is_err() {
+                break;
+            }
+        }
+        let triangles = std::mem::replace(&mut self.triangles, baked);
+        result?;
+        self.meshes.push(Mesh {
+            label: label("mesh", mesh.index(), mesh.name()),
+            triangles,
+        });
+        let id = self.meshes.len() as u32 - 1;
+        self.mesh_ids.insert(mesh.index(), id);
+        Ok(id)
+    }
+
+    /// The world transforms of EXT_mesh_gpu_instancing's instances on a node with world
+    /// transform `world`: world · T · R · S per instance (the extension's attributes
+    /// TRANSLATION, ROTATION and SCALE, each optional).
+    fn gpu_instances(
+        &self,
+        document: &Document,
+        value: &serde_json::Value,
+        world: &Mat4,
+        what: &str,
+    ) -> Result<Vec<Mat4>> {
+        let at = |s: &str| format!("{what}.extensions.EXT_mesh_gpu_instancing{s}");
+        let attributes = value
+            .get("attributes")
+            .and_then(|a| a.as_object())
+            .ok_or_else(|| anyhow!("{}: missing, expected an object", at(".attributes")))?;
+        let read = |name: &str,
+                    dims: Dimensions,
+                    normalized: &[DataType]|
+         -> Result<Option<Vec<[f32; 4]>>> {
+            let Some(index) = attributes.get(name) else {
+                return Ok(None);
+            };
+            let path = at(&format!(".attributes.{name}"));
+            let index = index
+                .as_u64()
+                .ok_or_else(|| anyhow!("{path}: expected an accessor index"))?;
+            let accessor = document
+                .accessors()
+                .nth(index as usize)
+                .ok_or_else(|| anyhow!("{path}: accessor {index} does not exist"))?;
+            let values = read_attribute(&accessor, self.buffers, self.budget, &[dims], normalized)
+                .with_context(|| {
+                    format!(
+                        "{path} = {}",
+                        label("accessor", accessor.index(), accessor.name())
+                    )
+                })?;
+            if values.iter().flatten().any(|v| !v.is_finite()) {
+                bail!("{path}: non-finite values");
+            }
+            Ok(Some(values))
+        };
+        let translation = read("TRANSLATION", Dimensions::Vec3, &[])?;
+        let rotation = read("ROTATION", Dimensions::Vec4, &[DataType::I8, DataType::I16])?;
+        let scale = read("SCALE", Dimensions::Vec3, &[])?;
+        let counts: Vec<usize> = [&translation, &rotation, &scale]
+            .iter()
+            .filter_map(|a| a.as_ref().map(Vec::len))
+            .collect();
+        let Some(&count) = counts.first() else {
+            bail!(
+                "{}: none of TRANSLATION, ROTATION, SCALE",
+                at(".attributes")
+            );
+        };
+        if counts.iter().any(|&c| c != count) {
+            bail!(
+                "{}: the attributes have different counts {counts:?}",
+                at(".attributes")
+            );
+        }
+        Ok((0..count)
+            .map(|k| {
+                let t = translation
+                    .as_ref()
+                    .map_or(Vec3::ZERO, |v| Vec3::from_slice(&v[k]));
+                let r = rotation.as_ref().map_or(glam::Quat::IDENTITY, |v| {
+                    glam::Quat::from_array(v[k]).normalize()
+                });
+                let s = scale
+                    .as_ref()
+                    .map_or(Vec3::ONE, |v| Vec3::from_slice(&v[k]));
+                *world * Mat4::from_scale_rotation_translation(s, r, t)
+            })
+            .collect())
     }
 
     /// A camera instance: glTF camera `camera` on `node` (labelled `what`) with world transform

@@ -43,7 +43,13 @@ pub struct Scene {
     /// Indexed by `Triangle::material`: the file's materials in file order, then
     /// [`Material::default_white`] if some primitive has no material.
     pub materials: Vec<Material>,
-    /// World-space shading attributes that `Triangle::vertices` index.
+    /// Meshes that several nodes instance, in object space, stored once (`instances` place
+    /// them); every other mesh is baked into `triangles` in world space.
+    pub meshes: Vec<Mesh>,
+    /// Placements of `meshes` in the world.
+    pub instances: Vec<Instance>,
+    /// Shading attributes that `Triangle::vertices` index: world space for `triangles`, object
+    /// space for `meshes`.
     pub vertices: Vec<GpuVertex>,
     /// Decoded textures (mip chains) and the materials' references to them.
     pub textures: TextureSet,
@@ -86,6 +92,21 @@ pub struct Triangle {
     pub vertices: [u32; 3],
     /// `layout::TRIANGLE_*` bits.
     pub flags: u32,
+}
+
+/// A glTF mesh stored once for all the nodes that use it (object space).
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// E.g. `meshes[2] ("Tree")`, for messages.
+    pub label: String,
+    pub triangles: Vec<Triangle>,
+}
+
+/// One placement of a [`Mesh`]: its object → world transform.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    pub mesh: u32,
+    pub transform: glam::Mat4,
 }
 
 /// A triangle corner without attributes (texture coordinates 0, colour 1, face normal).
@@ -250,9 +271,20 @@ impl Scene {
         }
     }
 
-    /// Axis-aligned bounds (min, max) of all triangles; (0, 0) for a scene without triangles.
+    /// Axis-aligned bounds (min, max) of all triangles, instances included; (0, 0) for a
+    /// scene without triangles.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        bounds_of(&self.triangles)
+        scene_bounds(&self.triangles, &self.meshes, &self.instances)
+    }
+
+    /// Triangles as rendered: the baked ones plus every instance's.
+    pub fn rendered_triangles(&self) -> u64 {
+        self.triangles.len() as u64
+            + self
+                .instances
+                .iter()
+                .map(|i| self.meshes[i.mesh as usize].triangles.len() as u64)
+                .sum::<u64>()
     }
 }
 
@@ -267,4 +299,36 @@ pub(crate) fn bounds_of(triangles: &[Triangle]) -> (Vec3, Vec3) {
         hi = hi.max(p);
     }
     (lo, hi)
+}
+
+/// Bounds of the baked triangles and of every instance's transformed mesh bounds.
+pub(crate) fn scene_bounds(
+    triangles: &[Triangle],
+    meshes: &[Mesh],
+    instances: &[Instance],
+) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = if triangles.is_empty() {
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY))
+    } else {
+        bounds_of(triangles)
+    };
+    let mesh_bounds: Vec<(Vec3, Vec3)> = meshes.iter().map(|m| bounds_of(&m.triangles)).collect();
+    for instance in instances {
+        let (a, b) = mesh_bounds[instance.mesh as usize];
+        for k in 0..8 {
+            let c = Vec3::new(
+                if k & 1 == 0 { a.x } else { b.x },
+                if k & 2 == 0 { a.y } else { b.y },
+                if k & 4 == 0 { a.z } else { b.z },
+            );
+            let w = instance.transform.transform_point3(c);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    if lo.x > hi.x {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (lo, hi)
+    }
 }

@@ -1,0 +1,124 @@
+// The two-level structure: a top-level BVH over instances (GpuInstance), each placing a
+// bottom-level BVH in the world. Twin of src/tlas.rs. Needs bvh.glsl, the instances buffer and
+// frame.tlas_root. A scene with one identity instance (no instancing) skips the top level.
+#ifndef TLAS_GLSL
+#define TLAS_GLSL
+#include "transform.glsl"
+
+// The alpha key of a ray inside instance k (the same triangle in two instances decides apart).
+uvec4 instance_key(uvec4 key, uint k) {
+    return uvec4(key.xyz, key.w ^ (k * 0x85ebca6bu));
+}
+
+// Closest hit with t in (t_min, t_max) over every instance; hit.instance names the instance.
+// Directions are not normalised in object space, so t is the same in both spaces.
+bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
+    hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
+    uint count = instances.length();
+    if (count == 0u) return false;
+    if (count == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u) {
+        return bvh_closest_from(instances[0].blas_root, origin, dir, t_min, key, hit);
+    }
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    uint stack[BVH_STACK_SIZE];
+    float stack_enter[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint index = frame.tlas_root;
+    BvhNode node = bvh_nodes[index];
+    float t_enter;
+    if (!bvh_slab(node, ray, t_min, hit.t, t_enter)) return false;
+    for (;;) {
+        if (bvh_node_is_leaf(node)) {
+            uint first = bvh_node_first_triangle(node);
+            for (uint k = first; k < first + node.count; ++k) {
+                GpuInstance inst = instances[k];
+                bool identity = (inst.flags & INSTANCE_IDENTITY) != 0u;
+                vec3 o = identity ? origin : transform_point(inst.world_to_object, origin);
+                vec3 d = identity ? dir : transform_vector(inst.world_to_object, dir);
+                if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
+            }
+        } else {
+            uint li = index + 1u;
+            uint ri = bvh_node_right_child(node);
+            BvhNode left = bvh_nodes[li];
+            BvhNode right = bvh_nodes[ri];
+            float dl, dr;
+            bool hit_left = bvh_slab(left, ray, t_min, hit.t, dl);
+            bool hit_right = bvh_slab(right, ray, t_min, hit.t, dr);
+            if (hit_left && hit_right) {
+                bool left_first = dl <= dr;
+                stack[sp] = left_first ? ri : li;
+                stack_enter[sp] = left_first ? dr : dl;
+                ++sp;
+                index = left_first ? li : ri;
+                node = left_first ? left : right;
+                continue;
+            }
+            if (hit_left || hit_right) {
+                index = hit_left ? li : ri;
+                node = hit_left ? left : right;
+                continue;
+            }
+        }
+        bool popped = false;
+        while (sp > 0u) {
+            --sp;
+            if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= hit.t) {
+                index = stack[sp];
+                node = bvh_nodes[index];
+                popped = true;
+                break;
+            }
+        }
+        if (!popped) break;
+    }
+    return hit.triangle != NO_HIT;
+}
+
+// True if anything of any instance is hit with t in (t_min, t_max).
+bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+    uint count = instances.length();
+    if (count == 0u) return false;
+    if (count == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u) {
+        return bvh_any_from(instances[0].blas_root, origin, dir, t_min, t_max, key);
+    }
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    uint stack[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint index = frame.tlas_root;
+    BvhNode node = bvh_nodes[index];
+    float t_enter;
+    if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
+    for (;;) {
+        if (bvh_node_is_leaf(node)) {
+            uint first = bvh_node_first_triangle(node);
+            for (uint k = first; k < first + node.count; ++k) {
+                GpuInstance inst = instances[k];
+                bool identity = (inst.flags & INSTANCE_IDENTITY) != 0u;
+                vec3 o = identity ? origin : transform_point(inst.world_to_object, origin);
+                vec3 d = identity ? dir : transform_vector(inst.world_to_object, dir);
+                if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
+            }
+        } else {
+            uint li = index + 1u;
+            uint ri = bvh_node_right_child(node);
+            BvhNode left = bvh_nodes[li];
+            BvhNode right = bvh_nodes[ri];
+            float dl, dr;
+            bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
+            bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
+            if (hit_left && hit_right) stack[sp++] = ri;
+            if (hit_left || hit_right) {
+                index = hit_left ? li : ri;
+                node = hit_left ? left : right;
+                continue;
+            }
+        }
+        if (sp == 0u) return false;
+        index = stack[--sp];
+        node = bvh_nodes[index];
+    }
+    return false;
+}
+
+#endif

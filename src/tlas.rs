@@ -1,0 +1,276 @@
+//! The two-level structure: bottom-level BVHs (one over the baked world-space triangles, one
+//! per mesh that several nodes instance) and a top-level BVH over their instances, each a
+//! `GpuInstance` with its object ↔ world transforms. Twin of `shaders/inc/tlas.glsl`.
+//!
+//! All BVH nodes share one array (bottom levels first, each with absolute node and triangle
+//! indices, the top level last, its leaves indexing the instances in top-level order). Rays
+//! enter an instance through its world → object transform without normalising the direction,
+//! so t is the same in both spaces. A scene with one identity instance (no instancing) skips
+//! the top level: its traversal is exactly the one-level traversal.
+
+use crate::bvh::{bvh_slab, Bvh, Hit, Ray, SlabRay, MAX_DEPTH};
+use crate::layout::{BvhNode, GpuInstance, GpuTriangle, INSTANCE_IDENTITY, INSTANCE_MIRRORED};
+use glam::{Mat4, UVec4, Vec3, Vec4};
+
+/// An affine point through the rows of a 3×4 transform.
+pub fn transform_point(rows: &[[f32; 4]; 3], p: Vec3) -> Vec3 {
+    let r = |k: usize| Vec4::from(rows[k]);
+    Vec3::new(
+        r(0).truncate().dot(p) + rows[0][3],
+        r(1).truncate().dot(p) + rows[1][3],
+        r(2).truncate().dot(p) + rows[2][3],
+    )
+}
+
+/// A direction through the linear part of a 3×4 transform.
+pub fn transform_vector(rows: &[[f32; 4]; 3], v: Vec3) -> Vec3 {
+    let r = |k: usize| Vec4::from(rows[k]).truncate();
+    Vec3::new(r(0).dot(v), r(1).dot(v), r(2).dot(v))
+}
+
+/// A normal through the inverse transpose: the transpose of the world → object rows.
+pub fn transform_normal(world_to_object: &[[f32; 4]; 3], n: Vec3) -> Vec3 {
+    let r = |k: usize| Vec4::from(world_to_object[k]).truncate();
+    r(0) * n.x + r(1) * n.y + r(2) * n.z
+}
+
+/// The alpha key of a ray inside instance `k` (the same triangle in two instances decides
+/// apart).
+pub fn instance_key(key: UVec4, k: u32) -> UVec4 {
+    UVec4::new(key.x, key.y, key.z, key.w ^ k.wrapping_mul(0x85eb_ca6b))
+}
+
+/// The instance placing the bottom level rooted at `blas_root` by `transform` (object → world).
+pub fn gpu_instance(transform: &Mat4, blas_root: u32) -> GpuInstance {
+    let rows = |m: &Mat4| {
+        let t = m.transpose();
+        [
+            t.x_axis.to_array(),
+            t.y_axis.to_array(),
+            t.z_axis.to_array(),
+        ]
+    };
+    let identity = *transform == Mat4::IDENTITY;
+    let mut flags = if identity { INSTANCE_IDENTITY } else { 0 };
+    if glam::Mat3::from_mat4(*transform).determinant() < 0.0 {
+        flags |= INSTANCE_MIRRORED;
+    }
+    GpuInstance {
+        object_to_world: rows(transform),
+        world_to_object: rows(&transform.inverse()),
+        blas_root,
+        flags,
+        pad0: 0,
+        pad1: 0,
+    }
+}
+
+/// World-space bounds of a bottom level's root box under an instance: the box of its eight
+/// transformed corners.
+pub fn instance_bounds(root: &BvhNode, instance: &GpuInstance) -> (Vec3, Vec3) {
+    let (lo, hi) = (Vec3::from(root.bounds_min), Vec3::from(root.bounds_max));
+    let mut min = Vec3::splat(f32::INFINITY);
+    let mut max = Vec3::splat(f32::NEG_INFINITY);
+    for k in 0..8 {
+        let c = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let w = transform_point(&instance.object_to_world, c);
+        min = min.min(w);
+        max = max.max(w);
+    }
+    (min, max)
+}
+
+/// Appends `blas` (its nodes with triangle indices offset by `first_triangle`) to `nodes`;
+/// returns the index of its root.
+pub fn append_blas(nodes: &mut Vec<BvhNode>, blas: &Bvh, first_triangle: u32) -> u32 {
+    let base = nodes.len() as u32;
+    nodes.extend(blas.nodes.iter().map(|n| {
+        let mut n = *n;
+        n.offset += if n.is_leaf() { first_triangle } else { base };
+        n
+    }));
+    base
+}
+
+fn object_ray(instance: &GpuInstance, ray: &Ray) -> Ray {
+    if instance.flags & INSTANCE_IDENTITY != 0 {
+        *ray
+    } else {
+        Ray {
+            origin: transform_point(&instance.world_to_object, ray.origin),
+            dir: transform_vector(&instance.world_to_object, ray.dir),
+        }
+    }
+}
+
+/// Closest hit with t in (t_min, t_max) over every instance, with the instance's index;
+/// `accept(triangle, u, v, instance)` is the any-hit test.
+#[allow(clippy::too_many_arguments)]
+pub fn scene_intersect_closest(
+    nodes: &Bvh,
+    tlas_root: u32,
+    instances: &[GpuInstance],
+    triangles: &[GpuTriangle],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    accept: impl Fn(u32, f32, f32, u32) -> bool,
+) -> Option<(Hit, u32)> {
+    if instances.is_empty() {
+        return None;
+    }
+    if instances.len() == 1 && instances[0].flags & INSTANCE_IDENTITY != 0 {
+        return nodes
+            .intersect_closest_from(
+                instances[0].blas_root,
+                triangles,
+                ray,
+                t_min,
+                t_max,
+                |i, u, v| accept(i, u, v, 0),
+            )
+            .map(|h| (h, 0));
+    }
+    let slab_ray = SlabRay::new(ray);
+    let mut closest: Option<(Hit, u32)> = None;
+    let mut t_far = t_max;
+    let mut stack = [(0u32, 0f32); MAX_DEPTH];
+    let mut sp = 0;
+    let (mut index, mut node) = (tlas_root, nodes.nodes[tlas_root as usize]);
+    bvh_slab(&node, &slab_ray, t_min, t_far)?;
+    loop {
+        if node.is_leaf() {
+            let first = node.first_triangle();
+            for k in first..first + node.count {
+                let inst = &instances[k as usize];
+                let r = object_ray(inst, ray);
+                if let Some(hit) = nodes.intersect_closest_from(
+                    inst.blas_root,
+                    triangles,
+                    &r,
+                    t_min,
+                    t_far,
+                    |i, u, v| accept(i, u, v, k),
+                ) {
+                    t_far = hit.t;
+                    closest = Some((hit, k));
+                }
+            }
+        } else {
+            let (li, ri) = (index + 1, node.right_child());
+            let (left, right) = (nodes.nodes[li as usize], nodes.nodes[ri as usize]);
+            let dl = bvh_slab(&left, &slab_ray, t_min, t_far);
+            let dr = bvh_slab(&right, &slab_ray, t_min, t_far);
+            match (dl, dr) {
+                (Some(a), Some(b)) => {
+                    let (near, far) = if a <= b {
+                        ((li, left), (ri, b))
+                    } else {
+                        ((ri, right), (li, a))
+                    };
+                    stack[sp] = far;
+                    sp += 1;
+                    (index, node) = near;
+                    continue;
+                }
+                (Some(_), None) => {
+                    (index, node) = (li, left);
+                    continue;
+                }
+                (None, Some(_)) => {
+                    (index, node) = (ri, right);
+                    continue;
+                }
+                (None, None) => {}
+            }
+        }
+        loop {
+            if sp == 0 {
+                return closest;
+            }
+            sp -= 1;
+            let (deferred, t_enter) = stack[sp];
+            if t_enter - t_enter.abs() * crate::bvh::SLAB_SLACK <= t_far {
+                index = deferred;
+                node = nodes.nodes[index as usize];
+                break;
+            }
+        }
+    }
+}
+
+/// True if anything of any instance is hit with t in (t_min, t_max).
+#[allow(clippy::too_many_arguments)]
+pub fn scene_intersect_any(
+    nodes: &Bvh,
+    tlas_root: u32,
+    instances: &[GpuInstance],
+    triangles: &[GpuTriangle],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    accept: impl Fn(u32, f32, f32, u32) -> bool,
+) -> bool {
+    if instances.is_empty() {
+        return false;
+    }
+    if instances.len() == 1 && instances[0].flags & INSTANCE_IDENTITY != 0 {
+        return nodes.intersect_any_from(
+            instances[0].blas_root,
+            triangles,
+            ray,
+            t_min,
+            t_max,
+            |i, u, v| accept(i, u, v, 0),
+        );
+    }
+    let slab_ray = SlabRay::new(ray);
+    let mut stack = [0u32; MAX_DEPTH];
+    let mut sp = 0;
+    let (mut index, mut node) = (tlas_root, nodes.nodes[tlas_root as usize]);
+    if bvh_slab(&node, &slab_ray, t_min, t_max).is_none() {
+        return false;
+    }
+    loop {
+        if node.is_leaf() {
+            let first = node.first_triangle();
+            for k in first..first + node.count {
+                let inst = &instances[k as usize];
+                let r = object_ray(inst, ray);
+                if nodes.intersect_any_from(
+                    inst.blas_root,
+                    triangles,
+                    &r,
+                    t_min,
+                    t_max,
+                    |i, u, v| accept(i, u, v, k),
+                ) {
+                    return true;
+                }
+            }
+        } else {
+            let (li, ri) = (index + 1, node.right_child());
+            let (left, right) = (nodes.nodes[li as usize], nodes.nodes[ri as usize]);
+            let hit_left = bvh_slab(&left, &slab_ray, t_min, t_max).is_some();
+            let hit_right = bvh_slab(&right, &slab_ray, t_min, t_max).is_some();
+            if hit_left && hit_right {
+                stack[sp] = ri;
+                sp += 1;
+            }
+            if hit_left || hit_right {
+                (index, node) = if hit_left { (li, left) } else { (ri, right) };
+                continue;
+            }
+        }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        index = stack[sp];
+        node = nodes.nodes[index as usize];
+    }
+}

@@ -1,0 +1,86 @@
+//! Meshes shared by many placements are stored once and traced through the two-level BVH
+//! (src/tlas.rs): scenes/instances.gltf (tools/gen_scenes.py) places two meshes 1000 times —
+//! 600 nodes and one EXT_mesh_gpu_instancing node with 400 instances — with rotations,
+//! non-uniform scales and mirroring. Its memory grows with the placements, not placements ×
+//! triangles; its instanced render has the expectation of the same scene baked into world
+//! space (an independent path: the baked loader swaps mirrored winding, the instanced one
+//! transforms normals), and the GPU agrees with the CPU on it.
+
+mod common;
+
+use common::{assert_agree_at, gpu_agrees_with_cpu, render_cpu, scene_path};
+use glam::Vec3;
+use wavetrace::render::{PreparedScene, RenderSettings};
+use wavetrace::scene::{Budget, LoadOptions, Scene};
+
+fn load(instancing: bool, budget: u64) -> anyhow::Result<Scene> {
+    Scene::load_with(
+        &scene_path("instances.gltf"),
+        &LoadOptions {
+            allow_paths: Vec::new(),
+            budget: Budget::new(budget),
+            instancing,
+        },
+    )
+}
+
+fn settings(seed: u32) -> RenderSettings {
+    RenderSettings {
+        width: 48,
+        height: 32,
+        spp: 64,
+        max_depth: 4,
+        seed,
+        environment: Vec3::splat(0.2),
+        ..RenderSettings::default()
+    }
+}
+
+#[test]
+fn a_thousand_placements_are_stored_once() {
+    let scene = load(true, 1 << 30).unwrap();
+    assert_eq!(scene.meshes.len(), 2);
+    assert_eq!(scene.instances.len(), 1000);
+    // Floor and light are baked (the light emits; each is used once).
+    assert_eq!(scene.triangles.len(), 4);
+    assert_eq!(
+        scene
+            .meshes
+            .iter()
+            .map(|m| m.triangles.len())
+            .sum::<usize>(),
+        1280 + 12
+    );
+    assert_eq!(scene.rendered_triangles(), 4 + 600 * 1280 + 400 * 12);
+    assert!(scene.notes.is_empty(), "{:?}", scene.notes);
+}
+
+/// The budget the loader reserves is what the scene and its preparation will take: 16 MiB
+/// holds the instanced scene, while baking its 772,804 triangles needs several times more.
+#[test]
+fn memory_grows_with_placements_not_placements_times_triangles() {
+    const BUDGET: u64 = 16 << 20;
+    let scene = load(true, BUDGET).unwrap_or_else(|e| panic!("{e:#}"));
+    let prepared = PreparedScene::new(&scene);
+    assert_eq!(prepared.instances.len(), 1001);
+    let baked = load(false, BUDGET).expect_err("baking 772,804 triangles fits in 16 MiB");
+    assert!(format!("{baked:#}").contains("memory budget"), "{baked:#}");
+}
+
+#[test]
+fn instanced_render_has_the_expectation_of_the_baked_scene() {
+    let instanced = PreparedScene::new(&load(true, 1 << 30).unwrap());
+    let baked_scene = load(false, 4 << 30).unwrap();
+    assert!(baked_scene.meshes.is_empty() && baked_scene.instances.is_empty());
+    let baked = PreparedScene::new(&baked_scene);
+    let a = render_cpu(&instanced, &settings(1));
+    let b = render_cpu(&baked, &settings(2));
+    assert_eq!(a.film.dropped + b.film.dropped, 0);
+    assert_agree_at(&a.film, &b.film, 0.01, "instanced vs baked (CPU)");
+}
+
+#[test]
+fn gpu_agrees_with_cpu_on_instances() {
+    let scene = PreparedScene::new(&load(true, 1 << 30).unwrap());
+    gpu_agrees_with_cpu(&scene, &settings(3), &settings(4), "instances.gltf");
+}
