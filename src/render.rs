@@ -99,7 +99,8 @@ pub struct PreparedScene {
     pub vertices: Vec<GpuVertex>,
     pub textures: Vec<GpuTexture>,
     pub texture_refs: Vec<GpuTextureRef>,
-    pub texels: Vec<u32>,
+    /// Shared with the `Scene`, not copied.
+    pub texels: std::sync::Arc<Vec<u32>>,
     pub camera: Camera,
 }
 
@@ -221,7 +222,7 @@ impl PreparedScene {
             vertices,
             textures: scene.textures.textures.clone(),
             texture_refs: scene.textures.refs.clone(),
-            texels: scene.textures.texels.clone(),
+            texels: std::sync::Arc::clone(&scene.textures.texels),
             camera: scene.camera,
         }
     }

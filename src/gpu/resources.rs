@@ -135,7 +135,7 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&scene.vertices), &vertices),
             (bytemuck::cast_slice(&scene.textures), &textures),
             (bytemuck::cast_slice(&scene.texture_refs), &texture_refs),
-            (bytemuck::cast_slice(&scene.texels), &texels),
+            (bytemuck::cast_slice(scene.texels.as_slice()), &texels),
             (bytemuck::cast_slice(&scene.instances), &instances),
         ]
         .into_iter()

@@ -259,12 +259,13 @@ impl<'a> TextureBuilder<'a> {
         let level0: Vec<u32> = decoded.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
         drop(decoded);
         self.options.budget.release(texels_level0 * 16);
-        let first = self.set.texels.len();
+        let texels = std::sync::Arc::make_mut(&mut self.set.texels);
+        let first = texels.len();
         if first as u64 + texels_level0 * 2 > u32::MAX as u64 {
             bail!("the scene's textures exceed 2³² texels");
         }
         let mean = mean_texel(&level0, srgb);
-        let levels = push_mip_chain(&mut self.set.texels, level0, width, height, srgb);
+        let levels = push_mip_chain(texels, level0, width, height, srgb);
         Ok(([first as u32, width, height, levels], mean))
     }
 }

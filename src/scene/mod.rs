@@ -140,7 +140,8 @@ impl Triangle {
 pub struct TextureSet {
     pub textures: Vec<GpuTexture>,
     pub refs: Vec<GpuTextureRef>,
-    pub texels: Vec<u32>,
+    /// Shared with the prepared scene, not copied.
+    pub texels: std::sync::Arc<Vec<u32>>,
     /// Mean RGBA of each texture's level 0 (linear), for the emitters' power.
     pub means: Vec<[f32; 4]>,
 }
