@@ -300,6 +300,9 @@ pub struct BenchArgs {
     /// Skip the CPU integrator.
     #[arg(long)]
     pub gpu_only: bool,
+    /// Radiance of rays that leave the scene (for scenes lit by their surroundings).
+    #[arg(long, value_parser = parse_radiance, default_value = "0")]
+    pub environment: glam::Vec3,
 }
 
 /// "v" or "r,g,b": finite, non-negative radiance.

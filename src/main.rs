@@ -335,6 +335,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
         height: args.height,
         spp: args.spp,
         max_depth: args.max_depth,
+        environment: args.environment,
         ..RenderSettings::default()
     };
     let gpu = GpuRenderer::new(&GpuOptions {
