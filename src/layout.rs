@@ -141,6 +141,9 @@ pub struct GpuVertex {
 pub const TRIANGLE_FLAT: u32 = 1;
 /// The triangle's material is alpha-tested (MASK or BLEND): traversal consults its alpha.
 pub const TRIANGLE_ALPHA: u32 = 2;
+/// The triangle's material is single-sided and opaque (not transmissive): rays that reach its
+/// back face pass through (glTF `doubleSided: false`, back-face culling).
+pub const TRIANGLE_CULL_BACK: u32 = 4;
 
 /// A texture as a sampler sees it: a mip chain of RGBA8 texels in the texel buffer (level k
 /// follows level k − 1; level k is max(1, ⌊w/2ᵏ⌋) × max(1, ⌊h/2ᵏ⌋), rows top to bottom) and

@@ -7,7 +7,7 @@ use crate::film::Film;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuTexture, GpuTextureRef, GpuTriangle, GpuVertex,
     LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_TEXTURE,
-    RR_THROUGHPUT, SAMPLER_SOBOL,
+    RR_THROUGHPUT, SAMPLER_SOBOL, TRIANGLE_CULL_BACK,
 };
 use crate::mis::Heuristic;
 use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX};
@@ -149,6 +149,13 @@ impl PreparedScene {
         // Bottom levels: the baked world-space triangles (root 0), then each instanced mesh.
         let mut triangles = Vec::new();
         let mut triangle_vertices = Vec::new();
+        // glTF: doubleSided false enables back-face culling. Transmissive surfaces keep both
+        // faces: their back face is how light leaves a solid of glass.
+        let cull: Vec<bool> = scene
+            .materials
+            .iter()
+            .map(|m| !m.double_sided && m.transmission == 0.0 && m.textures.transmission.is_none())
+            .collect();
         let mut add_blas = |nodes: &mut Vec<crate::layout::BvhNode>,
                             tris: &[crate::scene::Triangle]| {
             let positions: Vec<[Vec3; 3]> = tris.iter().map(|t| t.p).collect();
@@ -159,7 +166,13 @@ impl PreparedScene {
             triangle_vertices.extend(bvh.order.iter().map(|&i| {
                 let t = &tris[i as usize];
                 let [a, b, c] = t.vertices.map(|v| if v == NO_VERTEX { blank } else { v });
-                UVec4::new(a, b, c, t.flags)
+                let cull_back = cull.get(t.material as usize).copied().unwrap_or(false);
+                UVec4::new(
+                    a,
+                    b,
+                    c,
+                    t.flags | if cull_back { TRIANGLE_CULL_BACK } else { 0 },
+                )
             }));
             (root, bvh)
         };
@@ -265,7 +278,7 @@ impl PreparedScene {
             ray,
             t_min,
             t_max,
-            |i, u, v, k| self.present(&data, i, u, v, instance_key(key, k)),
+            |i, u, v, k, dir| self.present(&data, i, u, v, instance_key(key, k), dir),
         )
     }
 
@@ -280,12 +293,20 @@ impl PreparedScene {
             ray,
             t_min,
             t_max,
-            |i, u, v, k| self.present(&data, i, u, v, instance_key(key, k)),
+            |i, u, v, k, dir| self.present(&data, i, u, v, instance_key(key, k), dir),
         )
     }
 
     /// The any-hit test of both traversals (`surface::triangle_present`).
-    pub fn present(&self, data: &TextureData, index: u32, u: f32, v: f32, key: UVec4) -> bool {
+    pub fn present(
+        &self,
+        data: &TextureData,
+        index: u32,
+        u: f32,
+        v: f32,
+        key: UVec4,
+        dir: Vec3,
+    ) -> bool {
         triangle_present(
             data,
             &self.triangles,
@@ -296,6 +317,7 @@ impl PreparedScene {
             u,
             v,
             key,
+            dir,
         )
     }
 

@@ -16,7 +16,8 @@
 
 use crate::layout::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuVertex, INSTANCE_IDENTITY, INSTANCE_MIRRORED,
-    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_ALPHA, TRIANGLE_FLAT,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_ALPHA, TRIANGLE_CULL_BACK,
+    TRIANGLE_FLAT,
 };
 use crate::sampling::{pcg4d, uint_to_unit_float};
 use crate::texture::{sample_texture_ref, TextureData};
@@ -235,8 +236,10 @@ pub fn alpha_present(flags: u32, alpha: f32, cutoff: f32, u: f32) -> bool {
     }
 }
 
-/// Whether triangle `index`'s surface exists at (u, v) for the ray with alpha key `key`: the
-/// any-hit test of both traversals. Triangles without TRIANGLE_ALPHA always exist.
+/// Whether triangle `index`'s surface exists at (u, v) for the ray with direction `dir` (in the
+/// triangle's space) and alpha key `key`: the any-hit test of both traversals. A back face of a
+/// TRIANGLE_CULL_BACK triangle (dir·(e1 × e2) > 0) does not exist; TRIANGLE_ALPHA triangles
+/// exist by their alpha; all others always exist.
 #[allow(clippy::too_many_arguments)]
 pub fn triangle_present(
     data: &TextureData,
@@ -248,12 +251,20 @@ pub fn triangle_present(
     u: f32,
     v: f32,
     key: UVec4,
+    dir: Vec3,
 ) -> bool {
     let tv = triangle_vertices[index as usize];
-    if tv.w & TRIANGLE_ALPHA == 0 {
+    if tv.w & (TRIANGLE_ALPHA | TRIANGLE_CULL_BACK) == 0 {
         return true;
     }
     let tri = &triangles[index as usize];
+    if tv.w & TRIANGLE_CULL_BACK != 0 && dir.dot(Vec3::from(tri.e1).cross(Vec3::from(tri.e2))) > 0.0
+    {
+        return false;
+    }
+    if tv.w & TRIANGLE_ALPHA == 0 {
+        return true;
+    }
     let m = &materials[tri.material as usize];
     let sp = surface_point(tri, tv, vertices, u, v);
     let mut alpha = m.alpha * sp.color.w;

@@ -108,7 +108,7 @@ fn object_ray(instance: &GpuInstance, ray: &Ray) -> Ray {
 }
 
 /// Closest hit with t in (t_min, t_max) over every instance, with the instance's index;
-/// `accept(triangle, u, v, instance)` is the any-hit test.
+/// `accept(triangle, u, v, instance, object-space direction)` is the any-hit test.
 #[allow(clippy::too_many_arguments)]
 pub fn scene_intersect_closest(
     nodes: &Bvh,
@@ -118,7 +118,7 @@ pub fn scene_intersect_closest(
     ray: &Ray,
     t_min: f32,
     t_max: f32,
-    accept: impl Fn(u32, f32, f32, u32) -> bool,
+    accept: impl Fn(u32, f32, f32, u32, Vec3) -> bool,
 ) -> Option<(Hit, u32)> {
     if instances.is_empty() {
         return None;
@@ -131,7 +131,7 @@ pub fn scene_intersect_closest(
                 ray,
                 t_min,
                 t_max,
-                |i, u, v| accept(i, u, v, 0),
+                |i, u, v| accept(i, u, v, 0, ray.dir),
             )
             .map(|h| (h, 0));
     }
@@ -154,7 +154,7 @@ pub fn scene_intersect_closest(
                     &r,
                     t_min,
                     t_far,
-                    |i, u, v| accept(i, u, v, k),
+                    |i, u, v| accept(i, u, v, k, r.dir),
                 ) {
                     t_far = hit.t;
                     closest = Some((hit, k));
@@ -213,7 +213,7 @@ pub fn scene_intersect_any(
     ray: &Ray,
     t_min: f32,
     t_max: f32,
-    accept: impl Fn(u32, f32, f32, u32) -> bool,
+    accept: impl Fn(u32, f32, f32, u32, Vec3) -> bool,
 ) -> bool {
     if instances.is_empty() {
         return false;
@@ -225,7 +225,7 @@ pub fn scene_intersect_any(
             ray,
             t_min,
             t_max,
-            |i, u, v| accept(i, u, v, 0),
+            |i, u, v| accept(i, u, v, 0, ray.dir),
         );
     }
     let slab_ray = SlabRay::new(ray);
@@ -247,7 +247,7 @@ pub fn scene_intersect_any(
                     &r,
                     t_min,
                     t_max,
-                    |i, u, v| accept(i, u, v, k),
+                    |i, u, v| accept(i, u, v, k, r.dir),
                 ) {
                     return true;
                 }

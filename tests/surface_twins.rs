@@ -449,6 +449,7 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             in2.x,
             in2.y,
             key,
+            Vec3::ZERO,
         );
         // Alpha tests read level 0: a coordinate on a texel boundary or an alpha on the cutoff
         // may flip.

@@ -16,9 +16,9 @@
 
 // The any-hit test: a kernel that defines BVH_ANY_HIT (and includes surface.glsl) honours
 // alpha cut-outs and stochastic transparency (surface.rs); others accept every hit.
-bool bvh_accept(uint i, float u, float v, uvec4 key) {
+bool bvh_accept(uint i, float u, float v, uvec4 key, vec3 dir) {
 #ifdef BVH_ANY_HIT
-    return triangle_present(i, u, v, key);
+    return triangle_present(i, u, v, key, dir);
 #else
     return true;
 #endif
@@ -101,7 +101,7 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v) && bvh_accept(i, u, v, key)) {
+                if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v) && bvh_accept(i, u, v, key, dir)) {
                     t_far = t;
                     hit.t = t;
                     hit.triangle = i;
@@ -173,7 +173,7 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                if (intersect_triangle(triangles[i], origin, dir, t_min, t_max, t, u, v) && bvh_accept(i, u, v, key)) return true;
+                if (intersect_triangle(triangles[i], origin, dir, t_min, t_max, t, u, v) && bvh_accept(i, u, v, key, dir)) return true;
             }
         } else {
             uint li = index + 1u;

@@ -68,6 +68,7 @@ struct GpuVertex {
 };
 #define TRIANGLE_FLAT 1u
 #define TRIANGLE_ALPHA 2u
+#define TRIANGLE_CULL_BACK 4u
 
 // A mip chain of RGBA8 texels and glTF's sampler settings (src/layout.rs). Total: 32 bytes.
 struct GpuTexture {

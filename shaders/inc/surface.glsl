@@ -131,11 +131,15 @@ bool alpha_present(uint flags, float alpha, float cutoff, float u) {
     return true;
 }
 
-// The any-hit test of both traversals: whether triangle `index` exists at (u, v) for the ray.
-bool triangle_present(uint index, float u, float v, uvec4 key) {
+// The any-hit test of both traversals: whether triangle `index` exists at (u, v) for the ray of
+// direction dir (triangle space): back faces of TRIANGLE_CULL_BACK triangles do not, alpha-tested
+// ones by their alpha.
+bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
     uvec4 tv = triangle_vertices[index];
-    if ((tv.w & TRIANGLE_ALPHA) == 0u) return true;
+    if ((tv.w & (TRIANGLE_ALPHA | TRIANGLE_CULL_BACK)) == 0u) return true;
     GpuTriangle tri = triangles[index];
+    if ((tv.w & TRIANGLE_CULL_BACK) != 0u && dot(dir, cross(tri.e1, tri.e2)) > 0.0) return false;
+    if ((tv.w & TRIANGLE_ALPHA) == 0u) return true;
     GpuMaterial m = materials[tri.material];
     SurfacePoint sp = surface_point(tri, tv, u, v);
     float alpha = m.alpha * sp.color.w;

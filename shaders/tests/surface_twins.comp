@@ -72,5 +72,5 @@ void main() {
     vec3 ng_wo = dot(ng, wo) > 0.0 ? ng : -ng;
     vec3 ns_side = dot(ns, ng_wo) > 0.0 ? ns : -ns;
     outputs[o + 8u] = vec4(bend_shading_normal(ns_side, ng_wo, wo),
-                           triangle_present(tri_index, in2.x, in2.y, key) ? 1.0 : 0.0);
+                           triangle_present(tri_index, in2.x, in2.y, key, vec3(0.0)) ? 1.0 : 0.0);
 }

@@ -94,7 +94,7 @@ void main() {
         SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
         GpuMaterial light_mat = surface_material(materials[light.material], light_sp, LOD_MAGNIFY);
         uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
-        vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key)
+        vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
             ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
         // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
         float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);

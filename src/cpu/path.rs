@@ -251,7 +251,8 @@ fn shade(
         let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
         let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
         let key = alpha_key(frame.seed, pixel, sample, depth, true);
-        let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key) {
+        // (Culling does not apply: the light's own sidedness is its emission's.)
+        let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
             emitted_radiance(&light_mat, cos_light)
         } else {
             Vec3::ZERO
