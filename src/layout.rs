@@ -137,13 +137,30 @@ pub struct GpuVertex {
     pub color: [f32; 4],  // 16 bytes: COLOR_0 (RGBA, 1 when absent)
 }
 
-/// `triangle_vertices[i].w` bits: the triangle has no vertex normals (shade with its face normal).
+/// `Triangle::flags` and `triangle_vertices[i].w` bit: the triangle has no vertex normals
+/// (shade with its face normal).
 pub const TRIANGLE_FLAT: u32 = 1;
-/// The triangle's material is alpha-tested (MASK or BLEND): traversal consults its alpha.
+/// `Triangle::flags` bit: the triangle's material is alpha-tested (MASK or BLEND).
 pub const TRIANGLE_ALPHA: u32 = 2;
-/// The triangle's material is single-sided and opaque (not transmissive): rays that reach its
-/// back face pass through (glTF `doubleSided: false`, back-face culling).
-pub const TRIANGLE_CULL_BACK: u32 = 4;
+/// `Triangle::flags` and `triangle_vertices[i].w` bit: the triangle has no vertex attributes at
+/// all (flat, texture coordinates 0, colour 1): shading reads no vertex.
+pub const TRIANGLE_PLAIN: u32 = 4;
+
+/// `GpuTriangle::material` holds the material index in its low 30 bits and the any-hit tests
+/// traversal must run in its top two, so that a hit needs no other read to know it counts.
+pub const TRIANGLE_MATERIAL_MASK: u32 = 0x3fff_ffff;
+/// Alpha-tested: traversal consults the material's alpha (`surface::triangle_present`).
+pub const TRIANGLE_TEST_ALPHA: u32 = 1 << 31;
+/// Single-sided and opaque (not transmissive): rays that reach its back face pass through
+/// (glTF `doubleSided: false`, back-face culling).
+pub const TRIANGLE_TEST_CULL: u32 = 1 << 30;
+
+impl GpuTriangle {
+    /// The material index, without the any-hit test bits.
+    pub fn material_index(&self) -> u32 {
+        self.material & TRIANGLE_MATERIAL_MASK
+    }
+}
 
 /// A texture as a sampler sees it: a mip chain of RGBA8 texels in the texel buffer (level k
 /// follows level k − 1; level k is max(1, ⌊w/2ᵏ⌋) × max(1, ⌊h/2ᵏ⌋), rows top to bottom) and

@@ -7,7 +7,8 @@ use crate::film::Film;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuTexture, GpuTextureRef, GpuTriangle, GpuVertex,
     LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_TEXTURE,
-    RR_THROUGHPUT, SAMPLER_SOBOL, TRIANGLE_CULL_BACK,
+    RR_THROUGHPUT, SAMPLER_SOBOL, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN,
+    TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::mis::Heuristic;
 use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX};
@@ -162,17 +163,26 @@ impl PreparedScene {
             let material_ids: Vec<u32> = tris.iter().map(|t| t.material).collect();
             let bvh = Bvh::build(&positions);
             let root = append_blas(nodes, &bvh, triangles.len() as u32);
-            triangles.extend(gpu_triangles(&positions, &material_ids, &bvh.order));
+            // The any-hit tests ride in the material's top bits (`TRIANGLE_TEST_*`).
+            triangles.extend(
+                gpu_triangles(&positions, &material_ids, &bvh.order)
+                    .into_iter()
+                    .zip(&bvh.order)
+                    .map(|(mut g, &i)| {
+                        let t = &tris[i as usize];
+                        if t.flags & TRIANGLE_ALPHA != 0 {
+                            g.material |= TRIANGLE_TEST_ALPHA;
+                        }
+                        if cull.get(t.material as usize).copied().unwrap_or(false) {
+                            g.material |= TRIANGLE_TEST_CULL;
+                        }
+                        g
+                    }),
+            );
             triangle_vertices.extend(bvh.order.iter().map(|&i| {
                 let t = &tris[i as usize];
                 let [a, b, c] = t.vertices.map(|v| if v == NO_VERTEX { blank } else { v });
-                let cull_back = cull.get(t.material as usize).copied().unwrap_or(false);
-                UVec4::new(
-                    a,
-                    b,
-                    c,
-                    t.flags | if cull_back { TRIANGLE_CULL_BACK } else { 0 },
-                )
+                UVec4::new(a, b, c, t.flags & (TRIANGLE_FLAT | TRIANGLE_PLAIN))
             }));
             (root, bvh)
         };

@@ -16,8 +16,8 @@
 
 use crate::layout::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuVertex, INSTANCE_IDENTITY, INSTANCE_MIRRORED,
-    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_ALPHA, TRIANGLE_CULL_BACK,
-    TRIANGLE_FLAT,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_FLAT, TRIANGLE_PLAIN,
+    TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::sampling::{pcg4d, uint_to_unit_float};
 use crate::texture::{sample_texture_ref, TextureData};
@@ -36,8 +36,10 @@ pub struct SurfacePoint {
     pub tangent: Vec4,
     pub uv: [Vec2; 2],
     pub color: Vec4,
-    /// ½·log2(uv area / world area) of the triangle for each texture coordinate set.
-    pub uv_density: [f32; 2],
+    /// |Δuv₁ × Δuv₂| of the triangle for each texture coordinate set, and |e1 × e2| in world
+    /// space: the areas of the level of detail (`surface_lod_base`).
+    pub uv_area: [f32; 2],
+    pub world_area: f32,
     /// `TRIANGLE_*` bits.
     pub flags: u32,
 }
@@ -54,6 +56,19 @@ pub fn surface_point(
     let p = Vec3::from(tri.p0) + u * e1 + v * e2;
     let cross = e1.cross(e2);
     let ng = cross.normalize();
+    if tv.w & TRIANGLE_PLAIN != 0 {
+        return SurfacePoint {
+            p,
+            ng,
+            ns: ng,
+            tangent: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            uv: [Vec2::ZERO; 2],
+            color: Vec4::ONE,
+            uv_area: [0.0; 2],
+            world_area: cross.length(),
+            flags: tv.w,
+        };
+    }
     let [a, b, c] = [tv.x, tv.y, tv.z].map(|i| vertices[i as usize]);
     let w = 1.0 - u - v;
     let mix4 = |x: [f32; 4], y: [f32; 4], z: [f32; 4]| {
@@ -72,15 +87,13 @@ pub fn surface_point(
         }
     };
     // Areas for the level of detail: |Δuv₁ × Δuv₂| against |e1 × e2|.
-    let world = cross.length().max(1e-30);
-    let density = |s: usize| {
+    let uv_area = |s: usize| {
         let (t0, t1, t2) = (
             Vec2::from_slice(&a.uv[2 * s..]),
             Vec2::from_slice(&b.uv[2 * s..]),
             Vec2::from_slice(&c.uv[2 * s..]),
         );
-        let area = (t1 - t0).perp_dot(t2 - t0).abs();
-        0.5 * (area.max(1e-30) / world).log2()
+        (t1 - t0).perp_dot(t2 - t0).abs()
     };
     SurfacePoint {
         p,
@@ -89,7 +102,8 @@ pub fn surface_point(
         tangent: mix4(a.tangent, b.tangent, c.tangent),
         uv: [uv.truncate().truncate().into(), Vec2::new(uv.z, uv.w)],
         color: mix4(a.color, b.color, c.color),
-        uv_density: [density(0), density(1)],
+        uv_area: [uv_area(0), uv_area(1)],
+        world_area: cross.length(),
         flags: tv.w,
     }
 }
@@ -119,13 +133,9 @@ pub fn surface_to_world(sp: &mut SurfacePoint, tri: &GpuTriangle, inst: &GpuInst
     };
     sp.tangent = t.extend(sp.tangent.w * sign);
     let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
-    let object = e1.cross(e2).length().max(1e-30);
-    let world = transform_vector(m, e1)
+    sp.world_area = transform_vector(m, e1)
         .cross(transform_vector(m, e2))
-        .length()
-        .max(1e-30);
-    let shift = 0.5 * (world / object).log2();
-    sp.uv_density = [sp.uv_density[0] - shift, sp.uv_density[1] - shift];
+        .length();
 }
 
 /// The texture-independent part of the level of detail for each coordinate set:
@@ -133,7 +143,21 @@ pub fn surface_to_world(sp: &mut SurfacePoint, tri: &GpuTriangle, inst: &GpuInst
 /// angle between the ray and the geometric normal (Akenine-Möller et al. 2021, eq. 34).
 pub fn surface_lod_base(sp: &SurfacePoint, cone_width: f32, cos_view: f32) -> [f32; 2] {
     let footprint = (cone_width / cos_view.abs().max(1e-6)).max(1e-30).log2();
-    [footprint + sp.uv_density[0], footprint + sp.uv_density[1]]
+    let density = |s: usize| 0.5 * (sp.uv_area[s].max(1e-30) / sp.world_area.max(1e-30)).log2();
+    [footprint + density(0), footprint + density(1)]
+}
+
+/// Whether any of the material's slots reads a texture (else no level of detail is needed).
+pub fn material_textured(m: &GpuMaterial) -> bool {
+    [
+        m.base_color_texture,
+        m.metallic_roughness_texture,
+        m.emissive_texture,
+        m.normal_texture,
+        m.transmission_texture,
+    ]
+    .iter()
+    .any(|&t| t != NO_TEXTURE)
 }
 
 /// A level of detail that always magnifies (alpha tests read level 0).
@@ -238,8 +262,8 @@ pub fn alpha_present(flags: u32, alpha: f32, cutoff: f32, u: f32) -> bool {
 
 /// Whether triangle `index`'s surface exists at (u, v) for the ray with direction `dir` (in the
 /// triangle's space) and alpha key `key`: the any-hit test of both traversals. A back face of a
-/// TRIANGLE_CULL_BACK triangle (dir·(e1 × e2) > 0) does not exist; TRIANGLE_ALPHA triangles
-/// exist by their alpha; all others always exist.
+/// TRIANGLE_TEST_CULL triangle (dir·(e1 × e2) > 0) does not exist; TRIANGLE_TEST_ALPHA
+/// triangles exist by their alpha; all others always exist.
 #[allow(clippy::too_many_arguments)]
 pub fn triangle_present(
     data: &TextureData,
@@ -253,19 +277,20 @@ pub fn triangle_present(
     key: UVec4,
     dir: Vec3,
 ) -> bool {
-    let tv = triangle_vertices[index as usize];
-    if tv.w & (TRIANGLE_ALPHA | TRIANGLE_CULL_BACK) == 0 {
+    let tri = &triangles[index as usize];
+    if tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL) == 0 {
         return true;
     }
-    let tri = &triangles[index as usize];
-    if tv.w & TRIANGLE_CULL_BACK != 0 && dir.dot(Vec3::from(tri.e1).cross(Vec3::from(tri.e2))) > 0.0
+    if tri.material & TRIANGLE_TEST_CULL != 0
+        && dir.dot(Vec3::from(tri.e1).cross(Vec3::from(tri.e2))) > 0.0
     {
         return false;
     }
-    if tv.w & TRIANGLE_ALPHA == 0 {
+    if tri.material & TRIANGLE_TEST_ALPHA == 0 {
         return true;
     }
-    let m = &materials[tri.material as usize];
+    let tv = triangle_vertices[index as usize];
+    let m = &materials[tri.material_index() as usize];
     let sp = surface_point(tri, tv, vertices, u, v);
     let mut alpha = m.alpha * sp.color.w;
     if m.base_color_texture != NO_TEXTURE {

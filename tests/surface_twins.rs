@@ -193,21 +193,22 @@ fn synthetic() -> Synthetic {
         let a = random(k, 95);
         let b = random(k, 96);
         let c = random(k, 97);
+        // Flat or not, alpha-tested or not (the test bits ride in the material's top bits).
+        let (flat, alpha) = [
+            (0, 0),
+            (TRIANGLE_FLAT, 0),
+            (0, TRIANGLE_TEST_ALPHA),
+            (TRIANGLE_FLAT, TRIANGLE_TEST_ALPHA),
+        ][k as usize % 4];
         triangles.push(GpuTriangle {
             p0: (a.truncate() * 2.0).to_array(),
-            material: k % materials.len() as u32,
+            material: k % materials.len() as u32 | alpha,
             e1: (b.truncate() - Vec3::splat(0.5)).to_array(),
             e2: (c.truncate() - Vec3::splat(0.5)).to_array(),
             ..Default::default()
         });
         let v = |x: f32| (x * 30.0) as u32 % 30;
-        let flags = [
-            0,
-            TRIANGLE_FLAT,
-            TRIANGLE_ALPHA,
-            TRIANGLE_FLAT | TRIANGLE_ALPHA,
-        ][k as usize % 4];
-        triangle_vertices.push(UVec4::new(v(a.w), v(b.w), v(c.w), flags));
+        triangle_vertices.push(UVec4::new(v(a.w), v(b.w), v(c.w), flat));
     }
     Synthetic {
         textures,
@@ -370,8 +371,8 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
         );
         check(
             3,
-            "surface_point (ns, uv_density)",
-            sp.ns.extend(sp.uv_density[0]),
+            "surface_point (ns), surface_lod_base (set 0)",
+            sp.ns.extend(surface_lod_base(&sp, 1.0, 1.0)[0]),
             1e-4,
         );
         check(
@@ -455,7 +456,7 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
         // may flip.
         if g(8).w != if present { 1.0 } else { 0.0 } && failures.len() < 20 {
             let tv = s.triangle_vertices[tri_index as usize];
-            let tm = &s.materials[tri.material as usize];
+            let tm = &s.materials[tri.material_index() as usize];
             let near = tm.base_color_texture != NO_TEXTURE && {
                 let r = &s.refs[tm.base_color_texture as usize];
                 let t = &s.textures[r.texture as usize];

@@ -101,7 +101,10 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                if (intersect_triangle(triangles[i], origin, dir, t_min, t_far, t, u, v) && bvh_accept(i, u, v, key, dir)) {
+                GpuTriangle tri = triangles[i];
+                // The top two material bits say whether the hit needs an any-hit test.
+                if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
+                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) {
                     t_far = t;
                     hit.t = t;
                     hit.triangle = i;
@@ -173,7 +176,9 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                if (intersect_triangle(triangles[i], origin, dir, t_min, t_max, t, u, v) && bvh_accept(i, u, v, key, dir)) return true;
+                GpuTriangle tri = triangles[i];
+                if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
+                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) return true;
             }
         } else {
             uint li = index + 1u;

@@ -67,8 +67,12 @@ struct GpuVertex {
     vec4 color;    // 16 bytes: COLOR_0
 };
 #define TRIANGLE_FLAT 1u
-#define TRIANGLE_ALPHA 2u
-#define TRIANGLE_CULL_BACK 4u
+#define TRIANGLE_PLAIN 4u
+// GpuTriangle.material: the index in the low 30 bits, the any-hit tests in the top two.
+#define TRIANGLE_MATERIAL_MASK 0x3fffffffu
+#define TRIANGLE_TEST_ALPHA 0x80000000u
+#define TRIANGLE_TEST_CULL 0x40000000u
+uint triangle_material(GpuTriangle t) { return t.material & TRIANGLE_MATERIAL_MASK; }
 
 // A mip chain of RGBA8 texels and glTF's sampler settings (src/layout.rs). Total: 32 bytes.
 struct GpuTexture {

@@ -13,15 +13,15 @@ struct SurfacePoint {
     vec2 uv0;
     vec2 uv1;
     vec4 color;
-    vec2 uv_density;  // log2(uv area / world area) / 2, per set
+    vec2 uv_area;     // |duv1 x duv2| per set (level of detail)
+    float world_area; // |e1 x e2| in world space
     uint flags;
 };
 
-float surface_uv_density(vec2 t0, vec2 t1, vec2 t2, float world) {
+float surface_uv_area(vec2 t0, vec2 t1, vec2 t2) {
     vec2 a = t1 - t0;
     vec2 b = t2 - t0;
-    float area = abs(a.x * b.y - a.y * b.x);
-    return 0.5 * log2(max(area, 1e-30) / world);
+    return abs(a.x * b.y - a.y * b.x);
 }
 
 SurfacePoint surface_point(GpuTriangle tri, uvec4 tv, float u, float v) {
@@ -29,6 +29,17 @@ SurfacePoint surface_point(GpuTriangle tri, uvec4 tv, float u, float v) {
     sp.p = tri.p0 + u * tri.e1 + v * tri.e2;
     vec3 c = cross(tri.e1, tri.e2);
     sp.ng = normalize(c);
+    if ((tv.w & TRIANGLE_PLAIN) != 0u) {
+        sp.ns = sp.ng;
+        sp.tangent = vec4(0.0, 0.0, 0.0, 1.0);
+        sp.uv0 = vec2(0.0);
+        sp.uv1 = vec2(0.0);
+        sp.color = vec4(1.0);
+        sp.uv_area = vec2(0.0);
+        sp.world_area = length(c);
+        sp.flags = tv.w;
+        return sp;
+    }
     GpuVertex a = vertices[tv.x];
     GpuVertex b = vertices[tv.y];
     GpuVertex d = vertices[tv.z];
@@ -40,13 +51,13 @@ SurfacePoint surface_point(GpuTriangle tri, uvec4 tv, float u, float v) {
         float len = length(n);
         if (len > 0.0 && !isinf(len)) sp.ns = n / len;
     }
-    float world = max(length(c), 1e-30);
     sp.tangent = w * a.tangent + u * b.tangent + v * d.tangent;
     sp.uv0 = uv.xy;
     sp.uv1 = uv.zw;
     sp.color = w * a.color + u * b.color + v * d.color;
-    sp.uv_density = vec2(surface_uv_density(a.uv.xy, b.uv.xy, d.uv.xy, world),
-                         surface_uv_density(a.uv.zw, b.uv.zw, d.uv.zw, world));
+    sp.uv_area = vec2(surface_uv_area(a.uv.xy, b.uv.xy, d.uv.xy),
+                      surface_uv_area(a.uv.zw, b.uv.zw, d.uv.zw));
+    sp.world_area = length(c);
     sp.flags = tv.w;
     return sp;
 }
@@ -61,17 +72,22 @@ void surface_to_world(inout SurfacePoint sp, GpuTriangle tri, GpuInstance inst) 
     vec3 t = transform_vector(inst.object_to_world, sp.tangent.xyz);
     float sign_w = (inst.flags & INSTANCE_MIRRORED) != 0u ? -1.0 : 1.0;
     sp.tangent = vec4(t, sp.tangent.w * sign_w);
-    float object_area = max(length(cross(tri.e1, tri.e2)), 1e-30);
-    float world_area = max(length(cross(transform_vector(inst.object_to_world, tri.e1),
-                                        transform_vector(inst.object_to_world, tri.e2))), 1e-30);
-    float shift = 0.5 * log2(world_area / object_area);
-    sp.uv_density -= vec2(shift);
+    sp.world_area = length(cross(transform_vector(inst.object_to_world, tri.e1),
+                                 transform_vector(inst.object_to_world, tri.e2)));
 }
 
 // log2(W / |cos|) + the uv density, per set (Akenine-Moller et al. 2021, eq. 34).
 vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
     float footprint = log2(max(cone_width / max(abs(cos_view), 1e-6), 1e-30));
-    return vec2(footprint) + sp.uv_density;
+    vec2 density = 0.5 * log2(max(sp.uv_area, vec2(1e-30)) / max(sp.world_area, 1e-30));
+    return vec2(footprint) + density;
+}
+
+// Whether any of the material's slots reads a texture (material_textured).
+bool material_textured(GpuMaterial m) {
+    return m.base_color_texture != NO_TEXTURE || m.metallic_roughness_texture != NO_TEXTURE
+        || m.emissive_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE
+        || m.transmission_texture != NO_TEXTURE;
 }
 
 #define LOD_MAGNIFY vec2(-1e30)
@@ -132,15 +148,15 @@ bool alpha_present(uint flags, float alpha, float cutoff, float u) {
 }
 
 // The any-hit test of both traversals: whether triangle `index` exists at (u, v) for the ray of
-// direction dir (triangle space): back faces of TRIANGLE_CULL_BACK triangles do not, alpha-tested
+// direction dir (triangle space): back faces of TRIANGLE_TEST_CULL triangles do not, alpha-tested
 // ones by their alpha.
 bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
-    uvec4 tv = triangle_vertices[index];
-    if ((tv.w & (TRIANGLE_ALPHA | TRIANGLE_CULL_BACK)) == 0u) return true;
     GpuTriangle tri = triangles[index];
-    if ((tv.w & TRIANGLE_CULL_BACK) != 0u && dot(dir, cross(tri.e1, tri.e2)) > 0.0) return false;
-    if ((tv.w & TRIANGLE_ALPHA) == 0u) return true;
-    GpuMaterial m = materials[tri.material];
+    if ((tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL)) == 0u) return true;
+    if ((tri.material & TRIANGLE_TEST_CULL) != 0u && dot(dir, cross(tri.e1, tri.e2)) > 0.0) return false;
+    if ((tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
+    uvec4 tv = triangle_vertices[index];
+    GpuMaterial m = materials[triangle_material(tri)];
     SurfacePoint sp = surface_point(tri, tv, u, v);
     float alpha = m.alpha * sp.color.w;
     if (m.base_color_texture != NO_TEXTURE) alpha *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, LOD_MAGNIFY).w;

@@ -61,7 +61,7 @@ void main() {
 
     GpuTriangle tri = triangles[tri_index];
     SurfacePoint sp = surface_point(tri, triangle_vertices[tri_index], in2.x, in2.y);
-    outputs[o + 3u] = vec4(sp.ns, sp.uv_density.x);
+    outputs[o + 3u] = vec4(sp.ns, surface_lod_base(sp, 1.0, 1.0).x);
     outputs[o + 4u] = vec4(sp.uv0, sp.uv1);
     GpuMaterial m = materials[mat_index];
     vec2 lod_sp = surface_lod_base(sp, in5.w, dot(sp.ng, wo));

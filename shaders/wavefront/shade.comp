@@ -41,8 +41,8 @@ void main() {
     // The ray cone's width at the hit sets the textures' level of detail.
     float cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
-    vec2 lod = surface_lod_base(sp, cone_width, cos_out);
-    GpuMaterial raw = materials[tri.material];
+    GpuMaterial raw = materials[triangle_material(tri)];
+    vec2 lod = material_textured(raw) ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
     GpuMaterial mat = surface_material(raw, sp, lod);
     // --aov: a property of the first hit instead of radiance.
     if (frame.aov != AOV_RADIANCE) {
@@ -92,7 +92,7 @@ void main() {
         float cos_surface = dot(ng, wi);
         // The light point's emission (its textures at level 0) where its surface exists.
         SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
-        GpuMaterial light_mat = surface_material(materials[light.material], light_sp, LOD_MAGNIFY);
+        GpuMaterial light_mat = surface_material(materials[triangle_material(light)], light_sp, LOD_MAGNIFY);
         uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
         vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
             ? emitted_radiance(light_mat, cos_light) : vec3(0.0);

@@ -16,8 +16,8 @@ use crate::sampling::{
 };
 use crate::scene::camera_ray;
 use crate::surface::{
-    alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, surface_to_world,
-    LOD_MAGNIFY,
+    alpha_key, material_textured, surface_lod_base, surface_material, surface_normal,
+    surface_point, surface_to_world, LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
 
@@ -176,8 +176,12 @@ fn shade(
     // The ray cone's width at the hit sets the textures' level of detail.
     let cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
-    let lod = surface_lod_base(&sp, cone_width, cos_out);
-    let raw = &scene.materials[tri.material as usize];
+    let raw = &scene.materials[tri.material_index() as usize];
+    let lod = if material_textured(raw) {
+        surface_lod_base(&sp, cone_width, cos_out)
+    } else {
+        [0.0; 2]
+    };
     let mat = &surface_material(&textures, raw, &sp, lod);
     // --aov: a property of the first hit instead of radiance.
     if frame.aov != AOV_RADIANCE {
@@ -247,7 +251,7 @@ fn shade(
         let cos_light = light_n.dot(-wi);
         let cos_surface = ng.dot(wi);
         // The light point's emission (its textures at level 0) where its surface exists.
-        let light_raw = &scene.materials[light.material as usize];
+        let light_raw = &scene.materials[light.material_index() as usize];
         let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
         let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
         let key = alpha_key(frame.seed, pixel, sample, depth, true);

@@ -29,7 +29,7 @@ pub fn build_light_table(
     let power: Vec<f64> = triangles
         .iter()
         .map(|tri| {
-            let Some(m) = materials.get(tri.material as usize) else {
+            let Some(m) = materials.get(tri.material_index() as usize) else {
                 return 0.0;
             };
             let p = emitted_power(

@@ -32,9 +32,9 @@ use super::tangents::mikktspace_tangents;
 use super::validate::check_document;
 use super::{
     AlphaMode, Camera, Instance, Material, MaterialTextures, Mesh, Projection, Scene, SceneCamera,
-    Triangle,
+    Triangle, NO_VERTEX,
 };
-use crate::layout::{GpuVertex, TRIANGLE_ALPHA, TRIANGLE_FLAT};
+use crate::layout::{GpuVertex, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
@@ -538,6 +538,8 @@ struct Attributes {
     tangents: Option<Vec<Vec4>>,
     uv: [Vec<Vec2>; 2],
     color: Vec<Vec4>,
+    /// None of NORMAL, TANGENT, TEXCOORD_0/1 or COLOR_0 is present.
+    plain: bool,
 }
 
 /// Defects repaired while loading, counted for one note each.
@@ -983,7 +985,11 @@ impl Builder<'_> {
         // tangents are generated (a corner keeps the tangent MikkTSpace gives it).
         let first_vertex = self.vertices.len() as u64;
         let unweld = needs.normal_map.is_some() && attributes.tangents.is_none();
-        let local: Vec<(Vec3, Vec3, Vec4, [Vec2; 2], Vec4, bool)> = if unweld {
+        // No attributes at all: no vertices, and shading reads none (TRIANGLE_PLAIN).
+        let plain = attributes.plain && !unweld;
+        let local: Vec<(Vec3, Vec3, Vec4, [Vec2; 2], Vec4, bool)> = if plain {
+            Vec::new()
+        } else if unweld {
             let set = needs.normal_map.unwrap_or(0) as usize;
             let mut p = Vec::with_capacity(3 * corners.len());
             let mut n = Vec::with_capacity(3 * corners.len());
@@ -1081,14 +1087,20 @@ impl Builder<'_> {
                 );
             }
             let local_index = |k: usize| if unweld { 3 * t + k } else { c[k] as usize };
-            let mut corner_vertices =
-                [0, 1, 2].map(|k| (first_vertex + local_index(k) as u64) as u32);
-            let flat = (0..3).any(|k| vertex_flat[local_index(k)]);
+            let mut corner_vertices = if plain {
+                [NO_VERTEX; 3]
+            } else {
+                [0, 1, 2].map(|k| (first_vertex + local_index(k) as u64) as u32)
+            };
+            let flat = plain || (0..3).any(|k| vertex_flat[local_index(k)]);
             if mirrored {
                 p.swap(1, 2);
                 corner_vertices.swap(1, 2);
             }
             let mut flags = if flat { TRIANGLE_FLAT } else { 0 };
+            if plain {
+                flags |= TRIANGLE_PLAIN;
+            }
             if alpha_tested {
                 flags |= TRIANGLE_ALPHA;
             }
@@ -1147,6 +1159,11 @@ impl Builder<'_> {
         let uv0 = read(Semantic::TexCoords(0), &[Dimensions::Vec2], &uv_types)?;
         let uv1 = read(Semantic::TexCoords(1), &[Dimensions::Vec2], &uv_types)?;
         let colors = primitive.get(&Semantic::Colors(0)).map(|a| a.dimensions());
+        let plain = normals.is_none()
+            && tangents.is_none()
+            && uv0.is_none()
+            && uv1.is_none()
+            && colors.is_none();
         let color = read(
             Semantic::Colors(0),
             &[Dimensions::Vec3, Dimensions::Vec4],
@@ -1211,6 +1228,7 @@ impl Builder<'_> {
                 .collect()
         });
         Ok(Attributes {
+            plain,
             normals,
             normal_valid,
             tangents,

@@ -28,7 +28,7 @@ pub use camera::{camera_ray, Camera, Projection, ThinLens};
 pub use lights::{build_light_table, emitted_power, luminance};
 pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
 
-use crate::layout::{GpuTexture, GpuTextureRef, GpuVertex, TRIANGLE_FLAT};
+use crate::layout::{GpuTexture, GpuTextureRef, GpuVertex, TRIANGLE_FLAT, TRIANGLE_PLAIN};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -119,7 +119,7 @@ impl Triangle {
             p,
             material,
             vertices: [NO_VERTEX; 3],
-            flags: TRIANGLE_FLAT,
+            flags: TRIANGLE_FLAT | TRIANGLE_PLAIN,
         }
     }
 
