@@ -97,3 +97,135 @@ fn every_valid_model_renders_alike_on_gpu_and_cpu() {
         assert_agree_at(&gpu.film, &cpu.film, alpha, &name);
     }
 }
+
+/// Textures scale to hundreds: 300 unit quads on a 20 × 15 grid, each with its own 4 × 4
+/// emissive PNG (nearest filtering; all in one texel buffer), seen by an orthographic camera at
+/// 4 pixels per unit and `--max-depth 0`: every pixel is exactly one texel, so every pixel of
+/// the CPU render must equal its own texture's sRGB-decoded texel (a lookup into another
+/// texture's slot would show another value), and the GPU must agree per tile.
+#[test]
+fn three_hundred_textures_render_exactly_on_gpu_and_cpu() {
+    use base64::Engine;
+    use image::ImageEncoder;
+    const N: usize = 300;
+    let (cols, rows) = (20usize, 15usize);
+    let dir = std::env::temp_dir().join(format!("wavetrace-many-textures-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut positions: Vec<f32> = Vec::new();
+    let mut uvs: Vec<f32> = Vec::new();
+    for k in 0..N {
+        let (x, y) = ((k % cols) as f32, (k / cols) as f32);
+        // v = 0 at the quad's top edge (glTF's texture origin is the image's top-left).
+        for (dx, dy, u, v) in [
+            (0.0, 0.0, 0.0, 1.0),
+            (1.0, 0.0, 1.0, 1.0),
+            (1.0, 1.0, 1.0, 0.0),
+            (0.0, 1.0, 0.0, 0.0),
+        ] {
+            positions.extend([x + dx, y + dy, 0.0]);
+            uvs.extend([u, v]);
+        }
+    }
+    let mut bytes: Vec<u8> = positions
+        .iter()
+        .chain(&uvs)
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let uv_offset = positions.len() * 4;
+    let index_offset = bytes.len();
+    // Every quad's primitive indexes its own four vertices.
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bytes.extend(i.to_le_bytes());
+    }
+    let b64 = |data: &[u8]| base64::engine::general_purpose::STANDARD.encode(data);
+    let texel = |k: usize, i: usize| -> [u8; 3] {
+        let h = (k as u32).wrapping_mul(2654435761) ^ (i as u32).wrapping_mul(40503).rotate_left(7);
+        let h = h.wrapping_mul(0x9e37_79b1);
+        [(h >> 24) as u8, (h >> 16) as u8, (h >> 8) as u8]
+    };
+    let images: Vec<serde_json::Value> = (0..N)
+        .map(|k| {
+            let pixels: Vec<u8> = (0..16)
+                .flat_map(|i| {
+                    let t = texel(k, i);
+                    [t[0], t[1], t[2], 255]
+                })
+                .collect();
+            let mut png = Vec::new();
+            image::codecs::png::PngEncoder::new(&mut png)
+                .write_image(&pixels, 4, 4, image::ExtendedColorType::Rgba8)
+                .unwrap();
+            serde_json::json!({"uri": format!("data:image/png;base64,{}", b64(&png))})
+        })
+        .collect();
+    let doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..N + 1).collect::<Vec<_>>()}],
+        "nodes": (0..N).map(|k| serde_json::json!({"mesh": k}))
+            .chain([serde_json::json!({"camera": 0, "translation": [cols as f32 / 2.0, rows as f32 / 2.0, 5.0]})])
+            .collect::<Vec<_>>(),
+        "cameras": [{"type": "orthographic", "orthographic": {
+            "xmag": cols as f32 / 2.0, "ymag": rows as f32 / 2.0, "znear": 0.01, "zfar": 100.0}}],
+        "meshes": (0..N).map(|k| serde_json::json!({"primitives": [{
+            "attributes": {"POSITION": 2 * k, "TEXCOORD_0": 2 * k + 1}, "indices": 2 * N, "material": k}]}))
+            .collect::<Vec<_>>(),
+        "materials": (0..N).map(|k| serde_json::json!({"emissiveFactor": [1, 1, 1],
+            "emissiveTexture": {"index": k}, "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}))
+            .collect::<Vec<_>>(),
+        "textures": (0..N).map(|k| serde_json::json!({"source": k, "sampler": 0})).collect::<Vec<_>>(),
+        "samplers": [{"magFilter": 9728, "minFilter": 9728}],
+        "images": images,
+        "accessors": (0..N).flat_map(|k| [
+            serde_json::json!({"bufferView": 0, "byteOffset": 48 * k, "componentType": 5126, "count": 4, "type": "VEC3",
+                "min": [(k % cols) as f32, (k / cols) as f32, 0.0], "max": [(k % cols) as f32 + 1.0, (k / cols) as f32 + 1.0, 0.0]}),
+            serde_json::json!({"bufferView": 1, "byteOffset": 32 * k, "componentType": 5126, "count": 4, "type": "VEC2"}),
+        ]).chain([serde_json::json!({"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"})])
+            .collect::<Vec<_>>(),
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": uv_offset},
+            {"buffer": 0, "byteOffset": uv_offset, "byteLength": index_offset - uv_offset},
+            {"buffer": 0, "byteOffset": index_offset, "byteLength": bytes.len() - index_offset},
+        ],
+        "buffers": [{"byteLength": bytes.len(), "uri": format!("data:application/octet-stream;base64,{}", b64(&bytes))}],
+    });
+    let path = dir.join("many-textures.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(scene.textures.textures.len(), N);
+    let prepared = PreparedScene::new(&scene);
+    let width = 4 * cols as u32;
+    let settings = |seed| RenderSettings {
+        width,
+        height: 4 * rows as u32,
+        spp: 4,
+        max_depth: 0,
+        seed,
+        ..RenderSettings::default()
+    };
+    let cpu = render_cpu(&prepared, &settings(2));
+    let mut wrong = Vec::new();
+    for k in 0..N {
+        let (cx, cy) = (4 * (k % cols), 4 * (rows - 1 - k / cols));
+        for j in 0..4 {
+            for i in 0..4 {
+                let pixel = (cy + j) * width as usize + cx + i;
+                let got = cpu.film.mean(pixel);
+                let t = texel(k, 4 * j + i);
+                let want = Vec3::from_array(
+                    t.map(|c| wavetrace::texture::srgb_to_linear(c as f32 / 255.0)),
+                );
+                if (got - want).abs().max_element() > 1e-5 && wrong.len() < 10 {
+                    wrong.push(format!(
+                        "quad {k} texel ({i}, {j}): {got} instead of {want}"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    if let Some(gpu) = render_gpu(&prepared, &settings(1), None) {
+        assert_eq!(gpu.film.dropped, 0);
+        assert_agree_at(&gpu.film, &cpu.film, 0.01, "300 textures");
+    }
+}
