@@ -217,6 +217,33 @@ pub struct LightEntry {
     pub pad: u32,      // 4 bytes
 }
 
+/// A `KHR_lights_punctual` light in world space (`LIGHT_*`): radiant intensity (point, spot;
+/// W/sr) or irradiance (directional; W/m²) = color × intensity. Total: 64 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPunctualLight {
+    pub position: [f32; 3], // 12 bytes
+    pub kind: u32,          // 4 bytes: LIGHT_*
+    /// The direction the light shines along (the node's −Z), unit.
+    pub direction: [f32; 3], // 12 bytes
+    /// `range`: beyond it the light is zero; 0 = no range.
+    pub range: f32, // 4 bytes
+    pub intensity: [f32; 3], // 12 bytes
+    /// Spot cone falloff (KHR_lights_punctual): 1 / max(0.001, cos inner − cos outer) and
+    /// −cos outer × that scale.
+    pub spot_scale: f32, // 4 bytes
+    pub spot_offset: f32,   // 4 bytes
+    pub pad0: u32,          // 4 bytes
+    pub pad1: u32,          // 4 bytes
+    pub pad2: u32,          // 4 bytes
+}
+
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+/// `LightEntry::triangle` bit: the entry is punctual light (index in the low bits).
+pub const LIGHT_ENTRY_PUNCTUAL: u32 = 1 << 31;
+
 /// Constants of one render (std140 uniform). Total: 160 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -509,6 +536,18 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         offset,
         texture,
         texcoord
+    }),
+    struct_layout!(GpuPunctualLight {
+        position,
+        kind,
+        direction,
+        range,
+        intensity,
+        spot_scale,
+        spot_offset,
+        pad0,
+        pad1,
+        pad2
     }),
     struct_layout!(LightEntry {
         cdf,

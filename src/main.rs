@@ -210,9 +210,12 @@ fn prepare(
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());
     }
-    if prepared.lights.is_empty() && settings.environment.max_element() <= 0.0 {
+    if prepared.lights.is_empty()
+        && settings.environment.max_element() <= 0.0
+        && settings.aov == wavetrace::layout::AOV_RADIANCE
+    {
         eprintln!(
-            "note: {}: nothing emits light (no emissive surfaces, --environment 0): the image will be black",
+            "note: {}: nothing emits light (no emissive surfaces or punctual lights, --environment 0): the image will be black",
             path.display()
         );
     }

@@ -5,13 +5,15 @@ use crate::bvh::{gpu_triangles, Bvh};
 use crate::bvh::{Hit, Ray};
 use crate::film::Film;
 use crate::layout::{
-    FrameParams, GpuInstance, GpuMaterial, GpuTexture, GpuTextureRef, GpuTriangle, GpuVertex,
-    LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_TEXTURE,
-    RR_THROUGHPUT, SAMPLER_SOBOL, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN,
-    TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
+    GpuTriangle, GpuVertex, LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK,
+    MATERIAL_DOUBLE_SIDED, NO_TEXTURE, RR_THROUGHPUT, SAMPLER_SOBOL, TRIANGLE_ALPHA, TRIANGLE_FLAT,
+    TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::mis::Heuristic;
-use crate::scene::{build_light_table, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX};
+use crate::scene::{
+    build_light_table_with, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX,
+};
 use crate::surface::triangle_present;
 use crate::texture::TextureData;
 use crate::tlas::{
@@ -91,6 +93,8 @@ pub struct PreparedScene {
     pub tlas_root: u32,
     /// The top level's leaves, in its order.
     pub instances: Vec<GpuInstance>,
+    /// KHR_lights_punctual lights (emitter entries with `LIGHT_ENTRY_PUNCTUAL` index them).
+    pub punctual: Vec<GpuPunctualLight>,
     pub triangles: Vec<GpuTriangle>,
     pub materials: Vec<GpuMaterial>,
     pub lights: Vec<LightEntry>,
@@ -229,7 +233,18 @@ impl PreparedScene {
                 m
             })
             .collect();
-        let lights = build_light_table(&mut triangles[..baked_triangles], &emitting);
+        let root = &nodes[tlas_root as usize];
+        let radius = if instances.is_empty() {
+            0.0
+        } else {
+            0.5 * (Vec3::from(root.bounds_max) - Vec3::from(root.bounds_min)).length()
+        };
+        let lights = build_light_table_with(
+            &mut triangles[..baked_triangles],
+            &emitting,
+            &scene.punctual,
+            radius,
+        );
         PreparedScene {
             bvh: Bvh {
                 nodes,
@@ -241,6 +256,7 @@ impl PreparedScene {
             triangles,
             materials,
             lights,
+            punctual: scene.punctual.clone(),
             triangle_vertices,
             vertices,
             textures: scene.textures.textures.clone(),

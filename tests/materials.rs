@@ -57,6 +57,7 @@ fn scene(triangles: Vec<Triangle>, material: Material, camera: Camera) -> Prepar
         textures: Default::default(),
         meshes: Vec::new(),
         instances: Vec::new(),
+        punctual: Vec::new(),
         camera,
         cameras: Vec::new(),
         dropped_degenerate: 0,

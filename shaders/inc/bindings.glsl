@@ -24,6 +24,8 @@ layout(std430, set = 0, binding = 15) readonly buffer TextureRefs { GpuTextureRe
 layout(std430, set = 0, binding = 16) readonly buffer Texels { uint texels[]; };
 // The top level's leaves: placements of the bottom-level BVHs (tlas.glsl), in top-level order.
 layout(std430, set = 0, binding = 17) readonly buffer Instances { GpuInstance instances[]; };
+// KHR_lights_punctual lights; emitter-table entries with LIGHT_ENTRY_PUNCTUAL point here.
+layout(std430, set = 0, binding = 18) readonly buffer Punctual { GpuPunctualLight punctual_lights[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -113,6 +113,24 @@ struct LightEntry {
     uint pad;         // 4 bytes
 };
 
+// A KHR_lights_punctual light in world space (src/layout.rs). Total: 64 bytes.
+struct GpuPunctualLight {
+    vec3 position;      // 12 bytes
+    uint kind;          // 4 bytes: LIGHT_*
+    vec3 direction;     // 12 bytes: the direction it shines along
+    float range;        // 4 bytes: 0 = none
+    vec3 intensity;     // 12 bytes: W/sr (point, spot) or W/m^2 (directional)
+    float spot_scale;   // 4 bytes
+    float spot_offset;  // 4 bytes
+    uint pad0;          // 4 bytes
+    uint pad1;          // 4 bytes
+    uint pad2;          // 4 bytes
+};
+#define LIGHT_POINT 0u
+#define LIGHT_SPOT 1u
+#define LIGHT_DIRECTIONAL 2u
+#define LIGHT_ENTRY_PUNCTUAL 0x80000000u
+
 // Constants of one render (std140 uniform). Total: 160 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes

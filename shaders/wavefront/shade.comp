@@ -80,6 +80,24 @@ void main() {
     if (frame.light_count > 0u && (frame.debug_flags & DEBUG_NO_NEE) == 0u
         && frame.mis_heuristic != MIS_BSDF_ONLY) {
         LightEntry entry = lights[sample_light(u_light.x)];
+        if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
+            // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
+            GpuPunctualLight pl = punctual_lights[entry.triangle & ~LIGHT_ENTRY_PUNCTUAL];
+            vec3 wi;
+            float dist;
+            vec3 li = punctual_incident(pl, p, wi, dist);
+            vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
+            if (max_component(f) > 0.0 && max_component(li) > 0.0 && entry.pmf > 0.0) {
+                ShadowRay shadow;
+                shadow.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
+                shadow.path = ray.path;
+                shadow.dir = wi;
+                shadow.t_max = dist < 0.0 ? 3.402823466e38 : length(pl.position - shadow.origin);
+                shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * li / entry.pmf;
+                shadow.pad = 0u;
+                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+            }
+        } else {
         GpuTriangle light = triangles[entry.triangle];
         vec2 b = sample_uniform_triangle(sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz));
         vec3 y = light.p0 + b.x * light.e1 + b.y * light.e2;
@@ -113,6 +131,7 @@ void main() {
             shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * light_le * (w / light_pdf);
             shadow.pad = 0u;
             shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+        }
         }
     }
 

@@ -5,8 +5,9 @@
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, PathState, AOV_BASE_COLOR, AOV_NORMAL, AOV_RADIANCE, AOV_UV,
-    DEBUG_NO_NEE, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
+    dim, FrameParams, GpuMaterial, GpuPunctualLight, PathState, AOV_BASE_COLOR, AOV_NORMAL,
+    AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT,
+    MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
 };
 use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
@@ -73,6 +74,36 @@ pub fn emitted_radiance(m: &GpuMaterial, cos_out: f32) -> Vec3 {
     } else {
         Vec3::ZERO
     }
+}
+
+/// Direction to, distance to (−1 for a directional light, at infinity) and radiance arriving from punctual
+/// light `l` at `p`, as KHR_lights_punctual defines them: I/d² times the range window
+/// clamp(1 − (d/range)⁴, 0, 1) and, for a spot, the smooth cone falloff
+/// clamp(cos·scale + offset, 0, 1)²; a directional light gives its irradiance from −direction
+/// (scene.glsl).
+pub fn punctual_incident(l: &GpuPunctualLight, p: Vec3) -> (Vec3, f32, Vec3) {
+    let intensity = Vec3::from(l.intensity);
+    let direction = Vec3::from(l.direction);
+    if l.kind == LIGHT_DIRECTIONAL {
+        return (-direction, -1.0, intensity);
+    }
+    let to = Vec3::from(l.position) - p;
+    let d2 = to.dot(to);
+    let d = d2.sqrt();
+    if !(d > 0.0) {
+        return (Vec3::Z, 0.0, Vec3::ZERO);
+    }
+    let wi = to / d;
+    let mut li = intensity / d2;
+    if l.range > 0.0 {
+        let x = d / l.range;
+        li *= (1.0 - x * x * x * x).clamp(0.0, 1.0);
+    }
+    if l.kind == LIGHT_SPOT {
+        let a = (direction.dot(-wi) * l.spot_scale + l.spot_offset).clamp(0.0, 1.0);
+        li *= a * a;
+    }
+    (wi, d, li)
 }
 
 /// A shadow ray and the contribution it carries if unoccluded.
@@ -231,63 +262,83 @@ fn shade(
         && frame.mis_heuristic != MIS_BSDF_ONLY
     {
         let entry = &scene.lights[sample_light(&scene.lights, u_light.x)];
-        let light = &scene.triangles[entry.triangle as usize];
-        let light_vertices = scene.triangle_vertices[entry.triangle as usize];
-        let dimension = 4 * dim::bounce_block(depth) + 1;
-        let b = sample_uniform_triangle(sample_pair(
-            frame,
-            pixel,
-            sample,
-            dimension,
-            Vec2::new(u_light.y, u_light.z),
-        ));
-        let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
-        let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
-        let light_n = l1.cross(l2).normalize();
-        let to_light = y - p;
-        let dist2 = to_light.dot(to_light);
-        let dist = dist2.sqrt();
-        let wi = to_light / dist;
-        let cos_light = light_n.dot(-wi);
-        let cos_surface = ng.dot(wi);
-        // The light point's emission (its textures at level 0) where its surface exists.
-        let light_raw = &scene.materials[light.material_index() as usize];
-        let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
-        let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
-        let key = alpha_key(frame.seed, pixel, sample, depth, true);
-        // (Culling does not apply: the light's own sidedness is its emission's.)
-        let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
-            emitted_radiance(&light_mat, cos_light)
+        if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
+            // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
+            let light = &scene.punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];
+            let (wi, dist, li) = punctual_incident(light, p);
+            let f = bsdf.eval(wi, TransportMode::Radiance);
+            if f.max_element() > 0.0 && li.max_element() > 0.0 && entry.pmf > 0.0 {
+                let origin = offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng });
+                let t_max = if dist >= 0.0 {
+                    (Vec3::from(light.position) - origin).length()
+                } else {
+                    f32::MAX
+                };
+                shadow = Some(ShadowRay {
+                    ray: Ray { origin, dir: wi },
+                    t_max,
+                    contribution: throughput * f * bsdf.cos_theta(wi) * li / entry.pmf,
+                });
+            }
         } else {
-            Vec3::ZERO
-        };
-        // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
-        let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
-        let f = bsdf.eval(wi, TransportMode::Radiance);
-        if f.max_element() > 0.0
-            && light_le.max_element() > 0.0
-            && light_pdf > 0.0
-            && light_pdf.is_finite()
-        {
-            let w = mis_weight2(
-                frame.mis_heuristic,
-                frame.mis_beta,
-                light_pdf,
-                bsdf.pdf(wi),
-                true,
-            );
-            let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
-            let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
-            let d = target - origin;
-            let t_max = d.length();
-            shadow = Some(ShadowRay {
-                ray: Ray {
-                    origin,
-                    dir: d / t_max,
-                },
-                t_max,
-                contribution: throughput * f * bsdf.cos_theta(wi) * light_le * (w / light_pdf),
-            });
+            let light = &scene.triangles[entry.triangle as usize];
+            let light_vertices = scene.triangle_vertices[entry.triangle as usize];
+            let dimension = 4 * dim::bounce_block(depth) + 1;
+            let b = sample_uniform_triangle(sample_pair(
+                frame,
+                pixel,
+                sample,
+                dimension,
+                Vec2::new(u_light.y, u_light.z),
+            ));
+            let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
+            let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
+            let light_n = l1.cross(l2).normalize();
+            let to_light = y - p;
+            let dist2 = to_light.dot(to_light);
+            let dist = dist2.sqrt();
+            let wi = to_light / dist;
+            let cos_light = light_n.dot(-wi);
+            let cos_surface = ng.dot(wi);
+            // The light point's emission (its textures at level 0) where its surface exists.
+            let light_raw = &scene.materials[light.material_index() as usize];
+            let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
+            let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
+            let key = alpha_key(frame.seed, pixel, sample, depth, true);
+            // (Culling does not apply: the light's own sidedness is its emission's.)
+            let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
+                emitted_radiance(&light_mat, cos_light)
+            } else {
+                Vec3::ZERO
+            };
+            // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
+            let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
+            let f = bsdf.eval(wi, TransportMode::Radiance);
+            if f.max_element() > 0.0
+                && light_le.max_element() > 0.0
+                && light_pdf > 0.0
+                && light_pdf.is_finite()
+            {
+                let w = mis_weight2(
+                    frame.mis_heuristic,
+                    frame.mis_beta,
+                    light_pdf,
+                    bsdf.pdf(wi),
+                    true,
+                );
+                let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
+                let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
+                let d = target - origin;
+                let t_max = d.length();
+                shadow = Some(ShadowRay {
+                    ray: Ray {
+                        origin,
+                        dir: d / t_max,
+                    },
+                    t_max,
+                    contribution: throughput * f * bsdf.cos_theta(wi) * light_le * (w / light_pdf),
+                });
+            }
         }
     }
 

@@ -30,10 +30,11 @@ pub enum Binding {
     TextureRefs = 15,
     Texels = 16,
     Instances = 17,
+    Punctual = 18,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 18] = [
+    pub const ALL: [Binding; 19] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -52,6 +53,7 @@ impl Binding {
         Binding::TextureRefs,
         Binding::Texels,
         Binding::Instances,
+        Binding::Punctual,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

@@ -86,6 +86,7 @@ impl RenderBuffers {
         let texture_refs = device("texture_refs", size_of_val(scene.texture_refs.as_slice()))?;
         let texels = device("texels", size_of_val(scene.texels.as_slice()))?;
         let instances = device("instances", size_of_val(scene.instances.as_slice()))?;
+        let punctual = device("punctual_lights", size_of_val(scene.punctual.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
         let hits = device("hits", cap * size_of::<HitRecord>())?;
@@ -120,6 +121,7 @@ impl RenderBuffers {
             (Binding::TextureRefs, texture_refs.buffer),
             (Binding::Texels, texels.buffer),
             (Binding::Instances, instances.buffer),
+            (Binding::Punctual, punctual.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -137,6 +139,7 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&scene.texture_refs), &texture_refs),
             (bytemuck::cast_slice(scene.texels.as_slice()), &texels),
             (bytemuck::cast_slice(&scene.instances), &instances),
+            (bytemuck::cast_slice(&scene.punctual), &punctual),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -176,6 +179,7 @@ impl RenderBuffers {
                 texture_refs,
                 texels,
                 instances,
+                punctual,
             ],
         })
     }

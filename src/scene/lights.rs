@@ -1,7 +1,10 @@
 //! The emitter table: every emitting triangle with its probability of being chosen by next
 //! event estimation, proportional to its emitted power (luminance-weighted).
 
-use crate::layout::{GpuMaterial, GpuTriangle, LightEntry, MATERIAL_DOUBLE_SIDED};
+use crate::layout::{
+    GpuMaterial, GpuPunctualLight, GpuTriangle, LightEntry, LIGHT_DIRECTIONAL,
+    LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT, MATERIAL_DOUBLE_SIDED,
+};
 use glam::Vec3;
 
 /// Photometric luminance of linear Rec. 709 RGB (ITU-R BT.709 weights).
@@ -26,6 +29,33 @@ pub fn build_light_table(
     triangles: &mut [GpuTriangle],
     materials: &[GpuMaterial],
 ) -> Vec<LightEntry> {
+    build_light_table_with(triangles, materials, &[], 0.0)
+}
+
+/// Power of a punctual light for emitter selection: 4π·I for a point light, 2π(1 − cos θ_outer)·I
+/// for a spot (its cone's solid angle; the smooth falloff only lowers it), π·R²·E for a
+/// directional light seen by a scene of bounding radius R. Luminance-weighted.
+pub fn punctual_power(light: &GpuPunctualLight, scene_radius: f32) -> f32 {
+    use std::f32::consts::PI;
+    let i = luminance(Vec3::from(light.intensity));
+    match light.kind {
+        LIGHT_SPOT => {
+            let cos_outer = -light.spot_offset / light.spot_scale;
+            2.0 * PI * (1.0 - cos_outer).clamp(0.0, 2.0) * i
+        }
+        LIGHT_DIRECTIONAL => PI * scene_radius * scene_radius * i,
+        _ => 4.0 * PI * i,
+    }
+}
+
+/// [`build_light_table`] with `punctual` lights after the triangles: their entries carry
+/// `LIGHT_ENTRY_PUNCTUAL | index`, chosen in proportion to [`punctual_power`].
+pub fn build_light_table_with(
+    triangles: &mut [GpuTriangle],
+    materials: &[GpuMaterial],
+    punctual: &[GpuPunctualLight],
+    scene_radius: f32,
+) -> Vec<LightEntry> {
     let power: Vec<f64> = triangles
         .iter()
         .map(|tri| {
@@ -44,7 +74,18 @@ pub fn build_light_table(
             }
         })
         .collect();
-    let total: f64 = power.iter().sum();
+    let punctual_power: Vec<f64> = punctual
+        .iter()
+        .map(|l| {
+            let p = punctual_power(l, scene_radius);
+            if p.is_finite() && p > 0.0 {
+                p as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let total: f64 = power.iter().chain(&punctual_power).sum();
 
     let mut table = Vec::new();
     let mut running = 0.0f64;
@@ -60,6 +101,18 @@ pub fn build_light_table(
             cdf: (running / total) as f32,
             triangle: i as u32,
             pmf,
+            pad: 0,
+        });
+    }
+    for (i, &p) in punctual_power.iter().enumerate() {
+        if p <= 0.0 {
+            continue;
+        }
+        running += p;
+        table.push(LightEntry {
+            cdf: (running / total) as f32,
+            triangle: LIGHT_ENTRY_PUNCTUAL | i as u32,
+            pmf: (p / total) as f32,
             pad: 0,
         });
     }

@@ -34,7 +34,10 @@ use super::{
     AlphaMode, Camera, Instance, Material, MaterialTextures, Mesh, Projection, Scene, SceneCamera,
     Triangle, NO_VERTEX,
 };
-use crate::layout::{GpuVertex, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN};
+use crate::layout::{
+    GpuPunctualLight, GpuVertex, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, TRIANGLE_ALPHA,
+    TRIANGLE_FLAT, TRIANGLE_PLAIN,
+};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
@@ -53,6 +56,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
+    "KHR_lights_punctual",
 ];
 
 /// Memory a parsed JSON value may take per structural character (`,` `:` `[` `{`) of its text:
@@ -169,6 +173,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         meshes: Vec::new(),
         mesh_ids: std::collections::HashMap::new(),
         instances: Vec::new(),
+        punctual: Vec::new(),
     };
     builder.walk(&document, &scene)?;
     let instanced_triangles: usize = builder.meshes.iter().map(|m| m.triangles.len()).sum();
@@ -205,6 +210,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
         textures: textures.set,
         meshes: builder.meshes,
         instances: builder.instances,
+        punctual: builder.punctual,
         camera,
         cameras: builder.cameras,
         dropped_degenerate: builder.dropped_degenerate,
@@ -598,6 +604,7 @@ struct Builder<'a> {
     meshes: Vec<Mesh>,
     mesh_ids: std::collections::HashMap<usize, u32>,
     instances: Vec<Instance>,
+    punctual: Vec<GpuPunctualLight>,
 }
 
 /// Triangles a mesh must save by being instanced rather than baked (placements − 1 times
@@ -620,6 +627,82 @@ fn mesh_triangle_estimate(mesh: &gltf::Mesh) -> u64 {
             }
         })
         .sum()
+}
+
+/// A KHR_lights_punctual light on a node with world transform `world`: at the node's origin,
+/// shining along its −Z; intensity × color in the renderer's units (W/sr, or W/m² for a
+/// directional light: no 683 lm/W factor, as the Khronos sample viewer and three.js do).
+fn punctual_light(
+    light: &gltf::khr_lights_punctual::Light,
+    world: &Mat4,
+    what: &str,
+) -> Result<GpuPunctualLight> {
+    use gltf::khr_lights_punctual::Kind;
+    let at = |p: &str| {
+        format!(
+            "extensions.KHR_lights_punctual.lights[{}]{p} (on {what})",
+            light.index()
+        )
+    };
+    let color = Vec3::from(light.color());
+    let intensity = light.intensity();
+    if !(color.is_finite() && color.min_element() >= 0.0) {
+        bail!("{}: {color} must be finite and non-negative", at(".color"));
+    }
+    if !(intensity.is_finite() && intensity >= 0.0) {
+        bail!(
+            "{}: {intensity} must be finite and non-negative",
+            at(".intensity")
+        );
+    }
+    let range = match light.range() {
+        None => 0.0,
+        Some(r) if r.is_finite() && r > 0.0 => r,
+        Some(r) => bail!("{}: {r} must be positive", at(".range")),
+    };
+    let position = world.transform_point3(Vec3::ZERO);
+    let direction = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    if !position.is_finite() || direction == Vec3::ZERO {
+        bail!(
+            "{}: its node's transform gives no position or direction",
+            at("")
+        );
+    }
+    let (kind, spot_scale, spot_offset) = match light.kind() {
+        Kind::Point => (LIGHT_POINT, 0.0, 0.0),
+        Kind::Directional => (LIGHT_DIRECTIONAL, 0.0, 0.0),
+        Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            let half_pi = std::f32::consts::FRAC_PI_2;
+            if !(0.0..=half_pi).contains(&outer_cone_angle) || !(outer_cone_angle > 0.0) {
+                bail!(
+                    "{}: {outer_cone_angle} must be in (0, π/2]",
+                    at(".spot.outerConeAngle")
+                );
+            }
+            if !(0.0..outer_cone_angle).contains(&inner_cone_angle) {
+                bail!(
+                    "{}: {inner_cone_angle} must be in [0, outerConeAngle = {outer_cone_angle})",
+                    at(".spot.innerConeAngle")
+                );
+            }
+            // KHR_lights_punctual, "Inner and Outer Cone Angles".
+            let scale = 1.0 / (inner_cone_angle.cos() - outer_cone_angle.cos()).max(0.001);
+            (LIGHT_SPOT, scale, -outer_cone_angle.cos() * scale)
+        }
+    };
+    Ok(GpuPunctualLight {
+        position: position.to_array(),
+        kind,
+        direction: direction.to_array(),
+        range,
+        intensity: (color * intensity).to_array(),
+        spot_scale,
+        spot_offset,
+        ..Default::default()
+    })
 }
 
 /// How many nodes use each mesh.
@@ -679,6 +762,9 @@ impl Builder<'_> {
             }
             if let Some(camera) = node.camera() {
                 self.add_camera(&camera, &node, &world, &what)?;
+            }
+            if let Some(light) = node.light() {
+                self.punctual.push(punctual_light(&light, &world, &what)?);
             }
             if let Some(mesh) = node.mesh() {
                 let gpu_instancing = node

@@ -25,10 +25,14 @@ mod tangents;
 mod validate;
 
 pub use camera::{camera_ray, Camera, Projection, ThinLens};
-pub use lights::{build_light_table, emitted_power, luminance};
+pub use lights::{
+    build_light_table, build_light_table_with, emitted_power, luminance, punctual_power,
+};
 pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
 
-use crate::layout::{GpuTexture, GpuTextureRef, GpuVertex, TRIANGLE_FLAT, TRIANGLE_PLAIN};
+use crate::layout::{
+    GpuPunctualLight, GpuTexture, GpuTextureRef, GpuVertex, TRIANGLE_FLAT, TRIANGLE_PLAIN,
+};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -48,6 +52,8 @@ pub struct Scene {
     pub meshes: Vec<Mesh>,
     /// Placements of `meshes` in the world.
     pub instances: Vec<Instance>,
+    /// KHR_lights_punctual lights of the default scene, in world space.
+    pub punctual: Vec<GpuPunctualLight>,
     /// Shading attributes that `Triangle::vertices` index: world space for `triangles`, object
     /// space for `meshes`.
     pub vertices: Vec<GpuVertex>,
