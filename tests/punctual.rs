@@ -251,3 +251,93 @@ fn lights_punctual_lamp_renders_alike() {
         assert_agree_at(&gpu.film, &cpu.film, 0.01, "LightsPunctualLamp");
     }
 }
+
+/// An emissive texture that is black on its left half: the emitter table gives the triangles
+/// that map to the black half almost no probability (the 10⁻³ floor of the texture's mean over
+/// the image), those on the white half the rest, and the render stays the same on both sides.
+#[test]
+fn emitters_are_chosen_by_their_texture_over_them() {
+    use std::sync::Arc;
+    use wavetrace::scene::{MaterialTextures, TextureSet};
+    // Two unit quads at x ∈ [-1, 0] (u ∈ [0, 0.5]) and x ∈ [0, 1] (u ∈ [0.5, 1]), facing +Z.
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    for q in 0..2 {
+        let x0 = q as f32 - 1.0;
+        let base = vertices.len() as u32;
+        for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+            vertices.push(GpuVertex {
+                normal: [0.0, 0.0, 1.0],
+                uv: [0.5 * (q as f32 + dx), 1.0 - dy, 0.0, 0.0],
+                color: [1.0; 4],
+                ..Default::default()
+            });
+        }
+        let p = |k: u32| {
+            let (dx, dy) = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)][k as usize];
+            Vec3::new(x0 + dx, dy, 0.0)
+        };
+        for [a, b, c] in [[0, 1, 2], [0, 2, 3]] {
+            triangles.push(Triangle {
+                p: [p(a), p(b), p(c)],
+                material: 0,
+                vertices: [base + a, base + b, base + c],
+                flags: TRIANGLE_FLAT,
+            });
+        }
+    }
+    // A 2 × 1 texture, nearest: black left texel, white right texel.
+    let textures = TextureSet {
+        textures: vec![GpuTexture {
+            width: 2,
+            height: 1,
+            levels: 2,
+            wrap_s: WRAP_CLAMP_TO_EDGE,
+            wrap_t: WRAP_CLAMP_TO_EDGE,
+            filters: FILTER_NEAREST | (MIN_NEAREST << 4),
+            ..Default::default()
+        }],
+        refs: vec![GpuTextureRef {
+            transform: [1.0, 0.0, 0.0, 1.0],
+            ..Default::default()
+        }],
+        texels: Arc::new(vec![0xff00_0000, 0xffff_ffff, 0xff80_8080]),
+        means: vec![[0.5, 0.5, 0.5, 1.0]],
+    };
+    let material = Material {
+        name: "half-black emitter".into(),
+        base_color: Vec3::ZERO,
+        emission: Vec3::splat(2.0),
+        textures: MaterialTextures {
+            emissive: Some(0),
+            ..Default::default()
+        },
+        ..Material::default_white()
+    };
+    let mut scene = Scene::load(&common::scene_path("cornell-box.gltf")).unwrap();
+    scene.triangles = triangles;
+    scene.vertices = vertices;
+    scene.materials = vec![material];
+    scene.textures = textures;
+    scene.punctual = Vec::new();
+    let prepared = PreparedScene::new(&scene);
+    let pmf_of = |x_sign: f32| -> f32 {
+        prepared
+            .lights
+            .iter()
+            .filter(|e| {
+                let t = &prepared.triangles[e.triangle as usize];
+                let centroid = Vec3::from(t.p0) + (Vec3::from(t.e1) + Vec3::from(t.e2)) / 3.0;
+                centroid.x * x_sign > 0.0
+            })
+            .map(|e| e.pmf)
+            .sum()
+    };
+    let (left, right) = (pmf_of(-1.0), pmf_of(1.0));
+    assert!((left + right - 1.0).abs() < 1e-5);
+    // Right: the texture's mean over it is 1, twice the image's 0.5; left: the 10⁻³ floor.
+    assert!(
+        (left / right - 1e-3 / 2.0).abs() < 1e-6,
+        "left {left}, right {right}"
+    );
+}

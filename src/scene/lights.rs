@@ -29,7 +29,7 @@ pub fn build_light_table(
     triangles: &mut [GpuTriangle],
     materials: &[GpuMaterial],
 ) -> Vec<LightEntry> {
-    build_light_table_with(triangles, materials, &[], 0.0)
+    build_light_table_with(triangles, materials, &[], &[], 0.0)
 }
 
 /// Power of a punctual light for emitter selection: 4π·I for a point light, 2π(1 − cos θ_outer)·I
@@ -48,17 +48,22 @@ pub fn punctual_power(light: &GpuPunctualLight, scene_radius: f32) -> f32 {
     }
 }
 
-/// [`build_light_table`] with `punctual` lights after the triangles: their entries carry
-/// `LIGHT_ENTRY_PUNCTUAL | index`, chosen in proportion to [`punctual_power`].
+/// [`build_light_table`] with a power scale per triangle (`scales[i]`, 1 where `scales` is
+/// shorter: an emissive texture's mean over the triangle against its mean over the image) and
+/// `punctual` lights after the triangles: their entries carry `LIGHT_ENTRY_PUNCTUAL | index`,
+/// chosen in proportion to [`punctual_power`].
 pub fn build_light_table_with(
     triangles: &mut [GpuTriangle],
     materials: &[GpuMaterial],
+    scales: &[f32],
     punctual: &[GpuPunctualLight],
     scene_radius: f32,
 ) -> Vec<LightEntry> {
     let power: Vec<f64> = triangles
         .iter()
-        .map(|tri| {
+        .enumerate()
+        .map(|(i, tri)| {
+            let scale = scales.get(i).copied().unwrap_or(1.0);
             let Some(m) = materials.get(tri.material_index() as usize) else {
                 return 0.0;
             };
@@ -67,6 +72,7 @@ pub fn build_light_table_with(
                 tri.area,
                 m.flags & MATERIAL_DOUBLE_SIDED != 0,
             );
+            let p = p * scale;
             if p.is_finite() && p > 0.0 {
                 p as f64
             } else {
