@@ -116,23 +116,25 @@ impl Bvh {
         t_max: f32,
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
-        let slab_ray = SlabRay::new(ray);
         let mut closest: Option<Hit> = None;
-        let mut t_far = t_max;
-        // Deferred nodes with the distance at which the ray enters them.
-        let mut stack = [(0u32, 0f32); MAX_DEPTH];
-        let mut sp = 0;
-        let (mut index, mut node) = (root, self.nodes[root as usize]);
-        bvh_slab(&node, &slab_ray, t_min, t_far)?;
-        loop {
-            if node.is_leaf() {
-                let first = node.first_triangle();
-                for i in first..first + node.count {
-                    if let Some((t, u, v)) =
-                        intersect_triangle(&triangles[i as usize], ray, t_min, t_far)
-                            .filter(|&(_, u, v)| accept(i, u, v))
+        traverse_closest(
+            &self.nodes,
+            root,
+            &SlabRay::new(ray),
+            t_min,
+            t_max,
+            |first, count, t_far| {
+                let mut found = None;
+                for i in first..first + count {
+                    if let Some((t, u, v)) = intersect_triangle(
+                        &triangles[i as usize],
+                        ray,
+                        t_min,
+                        found.unwrap_or(t_far),
+                    )
+                    .filter(|&(_, u, v)| accept(i, u, v))
                     {
-                        t_far = t;
+                        found = Some(t);
                         closest = Some(Hit {
                             t,
                             triangle: i,
@@ -141,50 +143,10 @@ impl Bvh {
                         });
                     }
                 }
-            } else {
-                // Both children: descend into the nearer, keep the farther for later.
-                let (li, ri) = (index + 1, node.right_child());
-                let (left, right) = (self.nodes[li as usize], self.nodes[ri as usize]);
-                let dl = bvh_slab(&left, &slab_ray, t_min, t_far);
-                let dr = bvh_slab(&right, &slab_ray, t_min, t_far);
-                match (dl, dr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b {
-                            ((li, left), (ri, b))
-                        } else {
-                            ((ri, right), (li, a))
-                        };
-                        stack[sp] = far;
-                        sp += 1;
-                        (index, node) = near;
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        (index, node) = (li, left);
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        (index, node) = (ri, right);
-                        continue;
-                    }
-                    (None, None) => {}
-                }
-            }
-            // Pop the next node the ray enters before the closest hit so far (its entry distance
-            // was found when it was pushed; t_far can only have shrunk since).
-            loop {
-                if sp == 0 {
-                    return closest;
-                }
-                sp -= 1;
-                let (deferred, t_enter) = stack[sp];
-                if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
-                    index = deferred;
-                    node = self.nodes[index as usize];
-                    break;
-                }
-            }
-        }
+                found
+            },
+        );
+        closest
     }
 
     /// True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
@@ -223,44 +185,134 @@ impl Bvh {
         t_max: f32,
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> bool {
-        let slab_ray = SlabRay::new(ray);
-        let mut stack = [0u32; MAX_DEPTH];
-        let mut sp = 0;
-        let (mut index, mut node) = (root, self.nodes[root as usize]);
-        if bvh_slab(&node, &slab_ray, t_min, t_max).is_none() {
-            return false;
-        }
-        loop {
-            if node.is_leaf() {
-                let first = node.first_triangle();
-                for i in first..first + node.count {
-                    if intersect_triangle(&triangles[i as usize], ray, t_min, t_max)
+        traverse_any(
+            &self.nodes,
+            root,
+            &SlabRay::new(ray),
+            t_min,
+            t_max,
+            |first, count| {
+                (first..first + count).any(|i| {
+                    intersect_triangle(&triangles[i as usize], ray, t_min, t_max)
                         .is_some_and(|(_, u, v)| accept(i, u, v))
-                    {
-                        return true;
-                    }
-                }
-            } else {
-                let (li, ri) = (index + 1, node.right_child());
-                let (left, right) = (self.nodes[li as usize], self.nodes[ri as usize]);
-                let hit_left = bvh_slab(&left, &slab_ray, t_min, t_max).is_some();
-                let hit_right = bvh_slab(&right, &slab_ray, t_min, t_max).is_some();
-                if hit_left && hit_right {
-                    stack[sp] = ri;
+                })
+            },
+        )
+    }
+}
+
+/// Front-to-back traversal of the subtree rooted at `root` for the closest hit, shared by both
+/// levels (`tlas.rs`): `leaf(first, count, t_far)` tests a leaf's primitives against hits closer
+/// than `t_far` and returns the closest it found; subtrees the ray enters beyond the closest hit
+/// so far are skipped. An interior node's nearer child is visited first, the farther deferred
+/// with its entry distance.
+pub(crate) fn traverse_closest(
+    nodes: &[BvhNode],
+    root: u32,
+    ray: &SlabRay,
+    t_min: f32,
+    t_max: f32,
+    mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+) {
+    let mut t_far = t_max;
+    let mut stack = [(0u32, 0f32); MAX_DEPTH];
+    let mut sp = 0;
+    let (mut index, mut node) = (root, nodes[root as usize]);
+    if bvh_slab(&node, ray, t_min, t_far).is_none() {
+        return;
+    }
+    loop {
+        if node.is_leaf() {
+            if let Some(t) = leaf(node.first_triangle(), node.count, t_far) {
+                t_far = t;
+            }
+        } else {
+            // Both children: descend into the nearer, keep the farther for later.
+            let (li, ri) = (index + 1, node.right_child());
+            let (left, right) = (nodes[li as usize], nodes[ri as usize]);
+            let dl = bvh_slab(&left, ray, t_min, t_far);
+            let dr = bvh_slab(&right, ray, t_min, t_far);
+            match (dl, dr) {
+                (Some(a), Some(b)) => {
+                    let (near, far) = if a <= b {
+                        ((li, left), (ri, b))
+                    } else {
+                        ((ri, right), (li, a))
+                    };
+                    stack[sp] = far;
                     sp += 1;
-                }
-                if hit_left || hit_right {
-                    (index, node) = if hit_left { (li, left) } else { (ri, right) };
+                    (index, node) = near;
                     continue;
                 }
+                (Some(_), None) => {
+                    (index, node) = (li, left);
+                    continue;
+                }
+                (None, Some(_)) => {
+                    (index, node) = (ri, right);
+                    continue;
+                }
+                (None, None) => {}
             }
+        }
+        // Pop the next node the ray enters before the closest hit so far (its entry distance
+        // was found when it was pushed; t_far can only have shrunk since).
+        loop {
             if sp == 0 {
-                return false;
+                return;
             }
             sp -= 1;
-            index = stack[sp];
-            node = self.nodes[index as usize];
+            let (deferred, t_enter) = stack[sp];
+            if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
+                index = deferred;
+                node = nodes[index as usize];
+                break;
+            }
         }
+    }
+}
+
+/// Traversal of the subtree rooted at `root` until `leaf(first, count)` reports a hit (shadow
+/// rays), shared by both levels.
+pub(crate) fn traverse_any(
+    nodes: &[BvhNode],
+    root: u32,
+    ray: &SlabRay,
+    t_min: f32,
+    t_max: f32,
+    mut leaf: impl FnMut(u32, u32) -> bool,
+) -> bool {
+    let mut stack = [0u32; MAX_DEPTH];
+    let mut sp = 0;
+    let (mut index, mut node) = (root, nodes[root as usize]);
+    if bvh_slab(&node, ray, t_min, t_max).is_none() {
+        return false;
+    }
+    loop {
+        if node.is_leaf() {
+            if leaf(node.first_triangle(), node.count) {
+                return true;
+            }
+        } else {
+            let (li, ri) = (index + 1, node.right_child());
+            let (left, right) = (nodes[li as usize], nodes[ri as usize]);
+            let hit_left = bvh_slab(&left, ray, t_min, t_max).is_some();
+            let hit_right = bvh_slab(&right, ray, t_min, t_max).is_some();
+            if hit_left && hit_right {
+                stack[sp] = ri;
+                sp += 1;
+            }
+            if hit_left || hit_right {
+                (index, node) = if hit_left { (li, left) } else { (ri, right) };
+                continue;
+            }
+        }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        index = stack[sp];
+        node = nodes[index as usize];
     }
 }
 

@@ -8,7 +8,7 @@
 //! so t is the same in both spaces. A scene with one identity instance (no instancing) skips
 //! the top level: its traversal is exactly the one-level traversal.
 
-use crate::bvh::{bvh_slab, Bvh, Hit, Ray, SlabRay, MAX_DEPTH};
+use crate::bvh::{traverse_any, traverse_closest, Bvh, Hit, Ray, SlabRay};
 use crate::layout::{BvhNode, GpuInstance, GpuTriangle, INSTANCE_IDENTITY, INSTANCE_MIRRORED};
 use glam::{Mat4, UVec4, Vec3, Vec4};
 
@@ -135,17 +135,16 @@ pub fn scene_intersect_closest(
             )
             .map(|h| (h, 0));
     }
-    let slab_ray = SlabRay::new(ray);
     let mut closest: Option<(Hit, u32)> = None;
-    let mut t_far = t_max;
-    let mut stack = [(0u32, 0f32); MAX_DEPTH];
-    let mut sp = 0;
-    let (mut index, mut node) = (tlas_root, nodes.nodes[tlas_root as usize]);
-    bvh_slab(&node, &slab_ray, t_min, t_far)?;
-    loop {
-        if node.is_leaf() {
-            let first = node.first_triangle();
-            for k in first..first + node.count {
+    traverse_closest(
+        &nodes.nodes,
+        tlas_root,
+        &SlabRay::new(ray),
+        t_min,
+        t_max,
+        |first, count, t_far| {
+            let mut found = None;
+            for k in first..first + count {
                 let inst = &instances[k as usize];
                 let r = object_ray(inst, ray);
                 if let Some(hit) = nodes.intersect_closest_from(
@@ -153,54 +152,17 @@ pub fn scene_intersect_closest(
                     triangles,
                     &r,
                     t_min,
-                    t_far,
+                    found.unwrap_or(t_far),
                     |i, u, v| accept(i, u, v, k, r.dir),
                 ) {
-                    t_far = hit.t;
+                    found = Some(hit.t);
                     closest = Some((hit, k));
                 }
             }
-        } else {
-            let (li, ri) = (index + 1, node.right_child());
-            let (left, right) = (nodes.nodes[li as usize], nodes.nodes[ri as usize]);
-            let dl = bvh_slab(&left, &slab_ray, t_min, t_far);
-            let dr = bvh_slab(&right, &slab_ray, t_min, t_far);
-            match (dl, dr) {
-                (Some(a), Some(b)) => {
-                    let (near, far) = if a <= b {
-                        ((li, left), (ri, b))
-                    } else {
-                        ((ri, right), (li, a))
-                    };
-                    stack[sp] = far;
-                    sp += 1;
-                    (index, node) = near;
-                    continue;
-                }
-                (Some(_), None) => {
-                    (index, node) = (li, left);
-                    continue;
-                }
-                (None, Some(_)) => {
-                    (index, node) = (ri, right);
-                    continue;
-                }
-                (None, None) => {}
-            }
-        }
-        loop {
-            if sp == 0 {
-                return closest;
-            }
-            sp -= 1;
-            let (deferred, t_enter) = stack[sp];
-            if t_enter - t_enter.abs() * crate::bvh::SLAB_SLACK <= t_far {
-                index = deferred;
-                node = nodes.nodes[index as usize];
-                break;
-            }
-        }
-    }
+            found
+        },
+    );
+    closest
 }
 
 /// True if anything of any instance is hit with t in (t_min, t_max).
@@ -228,49 +190,20 @@ pub fn scene_intersect_any(
             |i, u, v| accept(i, u, v, 0, ray.dir),
         );
     }
-    let slab_ray = SlabRay::new(ray);
-    let mut stack = [0u32; MAX_DEPTH];
-    let mut sp = 0;
-    let (mut index, mut node) = (tlas_root, nodes.nodes[tlas_root as usize]);
-    if bvh_slab(&node, &slab_ray, t_min, t_max).is_none() {
-        return false;
-    }
-    loop {
-        if node.is_leaf() {
-            let first = node.first_triangle();
-            for k in first..first + node.count {
+    traverse_any(
+        &nodes.nodes,
+        tlas_root,
+        &SlabRay::new(ray),
+        t_min,
+        t_max,
+        |first, count| {
+            (first..first + count).any(|k| {
                 let inst = &instances[k as usize];
                 let r = object_ray(inst, ray);
-                if nodes.intersect_any_from(
-                    inst.blas_root,
-                    triangles,
-                    &r,
-                    t_min,
-                    t_max,
-                    |i, u, v| accept(i, u, v, k, r.dir),
-                ) {
-                    return true;
-                }
-            }
-        } else {
-            let (li, ri) = (index + 1, node.right_child());
-            let (left, right) = (nodes.nodes[li as usize], nodes.nodes[ri as usize]);
-            let hit_left = bvh_slab(&left, &slab_ray, t_min, t_max).is_some();
-            let hit_right = bvh_slab(&right, &slab_ray, t_min, t_max).is_some();
-            if hit_left && hit_right {
-                stack[sp] = ri;
-                sp += 1;
-            }
-            if hit_left || hit_right {
-                (index, node) = if hit_left { (li, left) } else { (ri, right) };
-                continue;
-            }
-        }
-        if sp == 0 {
-            return false;
-        }
-        sp -= 1;
-        index = stack[sp];
-        node = nodes.nodes[index as usize];
-    }
+                nodes.intersect_any_from(inst.blas_root, triangles, &r, t_min, t_max, |i, u, v| {
+                    accept(i, u, v, k, r.dir)
+                })
+            })
+        },
+    )
 }
