@@ -318,6 +318,11 @@ def cases():
     doc["bufferViews"][-1]["byteLength"] = 1 << 20
     yield "image_view_outside_buffer.glb", glb(doc, data), 1, \
         ["images[0].bufferView", "bufferViews[4]", "outside buffers[0]"], []
+    # Found by tools/fuzz_gltf.py: the gltf crate unwraps these when an image is read.
+    yield "image_no_source.gltf", textured_quad(image={}), 1, \
+        ["images[0]", "neither \"uri\" nor \"bufferView\""], []
+    yield "image_view_without_mime.gltf", textured_quad(image={"bytes": png(1, 1)}), 1, \
+        ["images[0].mimeType", "required with \"bufferView\""], []
     yield "texture_index_out_of_range.gltf", textured_quad(material={"pbrMetallicRoughness": {"baseColorTexture": {"index": 5}}}), 1, \
         ["materials[0].pbrMetallicRoughness.baseColorTexture.index", "out of range"], []
     yield "texture_texcoord_2.gltf", textured_quad(material={"name": "Tiles", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 2}}}), 1, \

@@ -84,6 +84,17 @@ pub(super) fn check_image_uris(
     options: &LoadOptions,
 ) -> Result<()> {
     for (i, image) in document.as_json().images.iter().enumerate() {
+        // The `gltf` crate unwraps these when the image is read: refuse them here, by name.
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => bail!("images[{i}]: has neither \"uri\" nor \"bufferView\", expected one"),
+            (Some(_), Some(_), _) => {
+                bail!("images[{i}]: has both \"uri\" and \"bufferView\", expected one")
+            }
+            (None, Some(_), None) => bail!(
+                "images[{i}].mimeType: missing, expected \"image/png\" or \"image/jpeg\" (required with \"bufferView\")"
+            ),
+            _ => {}
+        }
         let Some(uri) = image.uri.as_deref() else {
             continue;
         };
