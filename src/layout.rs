@@ -72,6 +72,9 @@ pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
 pub const MATERIAL_ALPHA_MASK: u32 = 2;
 /// alphaMode BLEND: the surface exists with probability alpha (stochastic transparency).
 pub const MATERIAL_ALPHA_BLEND: u32 = 4;
+/// Some texture slot is set: hits need the texture level of detail (set when the scene is
+/// prepared, so shading does not test five slots per hit).
+pub const MATERIAL_TEXTURED: u32 = 8;
 
 /// No texture in a `GpuMaterial::*_texture` slot.
 pub const NO_TEXTURE: u32 = u32::MAX;

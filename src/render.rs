@@ -7,8 +7,8 @@ use crate::film::Film;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
     GpuTriangle, GpuVertex, LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK,
-    MATERIAL_DOUBLE_SIDED, NO_TEXTURE, RR_THROUGHPUT, SAMPLER_SOBOL, TRIANGLE_ALPHA, TRIANGLE_FLAT,
-    TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, NO_TEXTURE, RR_THROUGHPUT, SAMPLER_SOBOL,
+    TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::mis::Heuristic;
 use crate::sampling::sample_uniform_triangle;
@@ -123,6 +123,19 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         AlphaMode::Opaque => {}
         AlphaMode::Mask => flags |= MATERIAL_ALPHA_MASK,
         AlphaMode::Blend => flags |= MATERIAL_ALPHA_BLEND,
+    }
+    let t = &m.textures;
+    if [
+        t.base_color,
+        t.metallic_roughness,
+        t.emissive,
+        t.normal,
+        t.transmission,
+    ]
+    .iter()
+    .any(Option::is_some)
+    {
+        flags |= MATERIAL_TEXTURED;
     }
     let slot = |t: Option<u32>| t.unwrap_or(NO_TEXTURE);
     GpuMaterial {
@@ -343,7 +356,6 @@ impl PreparedScene {
         t_max: f32,
         key: UVec4,
     ) -> Option<(Hit, u32)> {
-        let data = self.texture_data();
         scene_intersect_closest(
             &self.bvh,
             self.tlas_root,
@@ -352,13 +364,19 @@ impl PreparedScene {
             ray,
             t_min,
             t_max,
-            |i, u, v, k, dir| self.present(&data, i, u, v, instance_key(key, k), dir),
+            self.any_hit(key),
         )
+    }
+
+    /// The any-hit test of a ray with alpha key `key`: (triangle, u, v, instance, direction in
+    /// the instance's space) → whether the surface is there (`present`).
+    fn any_hit(&self, key: UVec4) -> impl Fn(u32, f32, f32, u32, Vec3) -> bool + '_ {
+        let data = self.texture_data();
+        move |i, u, v, k, dir| self.present(&data, i, u, v, instance_key(key, k), dir)
     }
 
     /// True if anything is hit with t in (t_min, t_max) (alpha as in `intersect_closest`).
     pub fn intersect_any(&self, ray: &Ray, t_min: f32, t_max: f32, key: UVec4) -> bool {
-        let data = self.texture_data();
         scene_intersect_any(
             &self.bvh,
             self.tlas_root,
@@ -367,7 +385,7 @@ impl PreparedScene {
             ray,
             t_min,
             t_max,
-            |i, u, v, k, dir| self.present(&data, i, u, v, instance_key(key, k), dir),
+            self.any_hit(key),
         )
     }
 

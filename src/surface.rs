@@ -147,19 +147,6 @@ pub fn surface_lod_base(sp: &SurfacePoint, cone_width: f32, cos_view: f32) -> [f
     [footprint + density(0), footprint + density(1)]
 }
 
-/// Whether any of the material's slots reads a texture (else no level of detail is needed).
-pub fn material_textured(m: &GpuMaterial) -> bool {
-    [
-        m.base_color_texture,
-        m.metallic_roughness_texture,
-        m.emissive_texture,
-        m.normal_texture,
-        m.transmission_texture,
-    ]
-    .iter()
-    .any(|&t| t != NO_TEXTURE)
-}
-
 /// A level of detail that always magnifies (alpha tests read level 0).
 pub const LOD_MAGNIFY: [f32; 2] = [-1e30, -1e30];
 

@@ -96,6 +96,11 @@ pub fn append_blas(nodes: &mut Vec<BvhNode>, blas: &Bvh, first_triangle: u32) ->
     base
 }
 
+/// One identity instance (a scene without instancing): the top level is skipped.
+fn single_identity_instance(instances: &[GpuInstance]) -> bool {
+    instances.len() == 1 && instances[0].flags & INSTANCE_IDENTITY != 0
+}
+
 fn object_ray(instance: &GpuInstance, ray: &Ray) -> Ray {
     if instance.flags & INSTANCE_IDENTITY != 0 {
         *ray
@@ -123,7 +128,7 @@ pub fn scene_intersect_closest(
     if instances.is_empty() {
         return None;
     }
-    if instances.len() == 1 && instances[0].flags & INSTANCE_IDENTITY != 0 {
+    if single_identity_instance(instances) {
         return nodes
             .intersect_closest_from(
                 instances[0].blas_root,
@@ -180,7 +185,7 @@ pub fn scene_intersect_any(
     if instances.is_empty() {
         return false;
     }
-    if instances.len() == 1 && instances[0].flags & INSTANCE_IDENTITY != 0 {
+    if single_identity_instance(instances) {
         return nodes.intersect_any_from(
             instances[0].blas_root,
             triangles,

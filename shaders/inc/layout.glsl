@@ -34,6 +34,7 @@ struct GpuTriangle {
 #define MATERIAL_DOUBLE_SIDED 1u
 #define MATERIAL_ALPHA_MASK 2u
 #define MATERIAL_ALPHA_BLEND 4u
+#define MATERIAL_TEXTURED 8u
 #define NO_TEXTURE 0xffffffffu
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the

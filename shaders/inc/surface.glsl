@@ -83,13 +83,6 @@ vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
     return vec2(footprint) + density;
 }
 
-// Whether any of the material's slots reads a texture (material_textured).
-bool material_textured(GpuMaterial m) {
-    return m.base_color_texture != NO_TEXTURE || m.metallic_roughness_texture != NO_TEXTURE
-        || m.emissive_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE
-        || m.transmission_texture != NO_TEXTURE;
-}
-
 #define LOD_MAGNIFY vec2(-1e30)
 
 // Material m at the surface point: factors times textures times vertex colour.

@@ -10,13 +10,24 @@ uvec4 instance_key(uvec4 key, uint k) {
     return uvec4(key.xyz, key.w ^ (k * 0x85ebca6bu));
 }
 
+// A world-space ray in instance inst's object space (src/tlas.rs, object_ray).
+void instance_ray(GpuInstance inst, vec3 origin, vec3 dir, out vec3 o, out vec3 d) {
+    bool identity = (inst.flags & INSTANCE_IDENTITY) != 0u;
+    o = identity ? origin : transform_point(inst.world_to_object, origin);
+    d = identity ? dir : transform_vector(inst.world_to_object, dir);
+}
+
+// One identity instance (a scene without instancing): the top level is skipped.
+bool single_identity_instance() {
+    return instances.length() == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u;
+}
+
 // Closest hit with t in (t_min, t_max) over every instance; hit.instance names the instance.
 // Directions are not normalised in object space, so t is the same in both spaces.
 bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
-    uint count = instances.length();
-    if (count == 0u) return false;
-    if (count == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u) {
+    if (instances.length() == 0u) return false;
+    if (single_identity_instance()) {
         return bvh_closest_from(instances[0].blas_root, origin, dir, t_min, key, hit);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
@@ -32,9 +43,8 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
             uint first = bvh_node_first_triangle(node);
             for (uint k = first; k < first + node.count; ++k) {
                 GpuInstance inst = instances[k];
-                bool identity = (inst.flags & INSTANCE_IDENTITY) != 0u;
-                vec3 o = identity ? origin : transform_point(inst.world_to_object, origin);
-                vec3 d = identity ? dir : transform_vector(inst.world_to_object, dir);
+                vec3 o, d;
+                instance_ray(inst, origin, dir, o, d);
                 if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
             }
         } else {
@@ -77,9 +87,8 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
 
 // True if anything of any instance is hit with t in (t_min, t_max).
 bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
-    uint count = instances.length();
-    if (count == 0u) return false;
-    if (count == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u) {
+    if (instances.length() == 0u) return false;
+    if (single_identity_instance()) {
         return bvh_any_from(instances[0].blas_root, origin, dir, t_min, t_max, key);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
@@ -94,9 +103,8 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
             uint first = bvh_node_first_triangle(node);
             for (uint k = first; k < first + node.count; ++k) {
                 GpuInstance inst = instances[k];
-                bool identity = (inst.flags & INSTANCE_IDENTITY) != 0u;
-                vec3 o = identity ? origin : transform_point(inst.world_to_object, origin);
-                vec3 d = identity ? dir : transform_vector(inst.world_to_object, dir);
+                vec3 o, d;
+                instance_ray(inst, origin, dir, o, d);
                 if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
             }
         } else {

@@ -42,7 +42,7 @@ void main() {
     float cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
     GpuMaterial raw = materials[triangle_material(tri)];
-    vec2 lod = material_textured(raw) ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
+    vec2 lod = (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
     GpuMaterial mat = surface_material(raw, sp, lod);
     // --aov: a property of the first hit instead of radiance.
     if (frame.aov != AOV_RADIANCE) {

@@ -7,7 +7,7 @@ use crate::bvh::Ray;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, GpuPunctualLight, PathState, AOV_BASE_COLOR, AOV_NORMAL,
     AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT,
-    MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
+    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
 };
 use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
@@ -17,8 +17,8 @@ use crate::sampling::{
 };
 use crate::scene::camera_ray;
 use crate::surface::{
-    alpha_key, material_textured, surface_lod_base, surface_material, surface_normal,
-    surface_point, surface_to_world, LOD_MAGNIFY,
+    alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, surface_to_world,
+    LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
 
@@ -208,7 +208,7 @@ fn shade(
     let cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
     let raw = &scene.materials[tri.material_index() as usize];
-    let lod = if material_textured(raw) {
+    let lod = if raw.flags & MATERIAL_TEXTURED != 0 {
         surface_lod_base(&sp, cone_width, cos_out)
     } else {
         [0.0; 2]
