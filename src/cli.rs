@@ -228,6 +228,16 @@ pub struct RenderOptions {
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,
+    /// An equirectangular environment map (Radiance .hdr or OpenEXR) lighting the scene from
+    /// every direction: +Y up, the image's top row straight up, its centre looking along −Z.
+    #[arg(long, value_name = "FILE", conflicts_with = "environment")]
+    pub env: Option<PathBuf>,
+    /// Turn the environment map by DEG degrees about +Y (counter-clockwise seen from above).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_finite)]
+    pub env_rotate: f32,
+    /// Multiply the environment map's radiance by K.
+    #[arg(long, value_name = "K", default_value_t = 1.0, value_parser = parse_scale)]
+    pub env_scale: f32,
     /// Run with the Vulkan validation layer (when installed); its errors fail the render.
     #[arg(long)]
     pub validate: bool,
@@ -303,6 +313,29 @@ pub struct BenchArgs {
     /// Radiance of rays that leave the scene (for scenes lit by their surroundings).
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,
+    /// An environment map (.hdr or .exr) lighting every scene.
+    #[arg(long, value_name = "FILE", conflicts_with = "environment")]
+    pub env: Option<PathBuf>,
+}
+
+/// A finite number.
+fn parse_finite(text: &str) -> Result<f32, String> {
+    let v: f32 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err("must be finite".into())
+    }
+}
+
+/// A finite, non-negative factor.
+fn parse_scale(text: &str) -> Result<f32, String> {
+    let v = parse_finite(text)?;
+    if v >= 0.0 {
+        Ok(v)
+    } else {
+        Err("must be non-negative".into())
+    }
 }
 
 /// "v" or "r,g,b": finite, non-negative radiance.

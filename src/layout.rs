@@ -247,7 +247,7 @@ pub const LIGHT_DIRECTIONAL: u32 = 2;
 /// `LightEntry::triangle` bit: the entry is punctual light (index in the low bits).
 pub const LIGHT_ENTRY_PUNCTUAL: u32 = 1 << 31;
 
-/// Constants of one render (std140 uniform). Total: 160 bytes.
+/// Constants of one render (std140 uniform). Total: 192 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
@@ -265,7 +265,9 @@ pub struct FrameParams {
     pub max_depth: u32,         // 4 bytes
     pub light_count: u32,       // 4 bytes
     pub rr_start_depth: u32,    // 4 bytes
-    pub environment: [f32; 3],  // 12 bytes: radiance of rays that leave the scene
+    /// RGB factor on the environment map's radiance: `--environment`'s colour on the constant
+    /// map, or `--env-scale` (`environment.rs`).
+    pub env_scale: [f32; 3], // 12 bytes
     /// `DEBUG_*` bits; 0 in every real render.
     pub debug_flags: u32, // 4 bytes
     /// The GPU film holds a band of consecutive pixels (whole rows) at a time, so that no film
@@ -299,6 +301,17 @@ pub struct FrameParams {
     pub aov: u32, // 4 bytes
     /// Index in the BVH nodes of the top level's root (over `GpuInstance`s, `tlas.rs`).
     pub tlas_root: u32, // 4 bytes
+    /// The environment map's size in texels (`environment.rs`); 0 = no environment.
+    pub env_width: u32, // 4 bytes
+    pub env_height: u32,        // 4 bytes
+    /// cos and sin of `--env-rotate` (the map turned about +Y).
+    pub env_rotation: [f32; 2], // 8 bytes
+    /// Probability that next event estimation samples the environment rather than an emitter
+    /// of the table (the emitters' pmfs are scaled by 1 − env_pmf).
+    pub env_pmf: f32, // 4 bytes
+    pub env_pad0: u32,          // 4 bytes
+    pub env_pad1: u32,          // 4 bytes
+    pub env_pad2: u32,          // 4 bytes
 }
 
 /// `FrameParams::aov`: radiance (a normal render).
@@ -571,7 +584,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         max_depth,
         light_count,
         rr_start_depth,
-        environment,
+        env_scale,
         debug_flags,
         band_first_pixel,
         band_pixel_count,
@@ -588,7 +601,14 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         cone_width,
         cone_spread,
         aov,
-        tlas_root
+        tlas_root,
+        env_width,
+        env_height,
+        env_rotation,
+        env_pmf,
+        env_pad0,
+        env_pad1,
+        env_pad2
     }),
     struct_layout!(DispatchParams {
         first_sample,

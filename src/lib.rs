@@ -4,6 +4,7 @@
 pub mod bsdf;
 pub mod bvh;
 pub mod cpu;
+pub mod environment;
 pub mod film;
 pub mod gpu;
 pub mod image_io;

@@ -12,6 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::mem::size_of;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use wavetrace::environment::EnvironmentMap;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
 use wavetrace::layout::{BvhNode, GpuTriangle, LightEntry};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
@@ -188,6 +189,19 @@ fn prepare(
         width as u64 * height as u64,
         device,
     )?;
+    let env_map = match &opts.env {
+        Some(file) => {
+            let left = options.budget.limit().saturating_sub(options.budget.used());
+            let map = EnvironmentMap::load(file, left)?;
+            options.budget.reserve(
+                &format!("the environment map {}", file.display()),
+                (map.texels.len() * 4 + map.cdf.len() * 4) as u64
+                    * if device == DeviceKind::Gpu { 2 } else { 1 },
+            )?;
+            Some(std::sync::Arc::new(map))
+        }
+        None => None,
+    };
     let settings = RenderSettings {
         width,
         height,
@@ -195,6 +209,9 @@ fn prepare(
         max_depth: opts.max_depth,
         seed: opts.seed,
         environment: opts.environment,
+        env_map,
+        env_scale: opts.env_scale,
+        env_rotate: opts.env_rotate,
         mis: opts.mis.heuristic(opts.mis_beta),
         sampler: opts.sampler.code(),
         rr_mode: opts.rr.code(),
@@ -211,11 +228,11 @@ fn prepare(
         eprintln!("note: {}: {note}", path.display());
     }
     if prepared.lights.is_empty()
-        && settings.environment.max_element() <= 0.0
+        && settings.environment_map().is_none()
         && settings.aov == wavetrace::layout::AOV_RADIANCE
     {
         eprintln!(
-            "note: {}: nothing emits light (no emissive surfaces or punctual lights, --environment 0): the image will be black",
+            "note: {}: nothing emits light (no emissive surfaces, punctual lights or environment): the image will be black",
             path.display()
         );
     }
@@ -341,6 +358,13 @@ fn bench(args: &BenchArgs) -> Result<()> {
         spp: args.spp,
         max_depth: args.max_depth,
         environment: args.environment,
+        env_map: match &args.env {
+            Some(file) => Some(std::sync::Arc::new(EnvironmentMap::load(
+                file,
+                wavetrace::scene::default_memory_budget(),
+            )?)),
+            None => None,
+        },
         ..RenderSettings::default()
     };
     let gpu = GpuRenderer::new(&GpuOptions {

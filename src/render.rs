@@ -3,6 +3,7 @@
 
 use crate::bvh::{gpu_triangles, Bvh};
 use crate::bvh::{Hit, Ray};
+use crate::environment::EnvironmentMap;
 use crate::film::Film;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
@@ -24,6 +25,7 @@ use crate::tlas::{
     scene_intersect_closest,
 };
 use glam::{Mat4, UVec4, Vec3};
+use std::sync::Arc;
 
 /// What to render and how.
 #[derive(Clone, Debug)]
@@ -38,8 +40,14 @@ pub struct RenderSettings {
     pub rr_start_depth: u32,
     /// `layout::RR_*`: how survival probabilities are chosen (throughput by default).
     pub rr_mode: u32,
-    /// Radiance of rays that leave the scene.
+    /// Radiance of rays that leave the scene, the same in every direction (`--environment`);
+    /// ignored when `env_map` is set.
     pub environment: Vec3,
+    /// An equirectangular environment map (`--env`), times `env_scale`, turned `env_rotate`
+    /// degrees about +Y.
+    pub env_map: Option<Arc<EnvironmentMap>>,
+    pub env_scale: f32,
+    pub env_rotate: f32,
     /// How emitter and BSDF sampling are combined (the power heuristic, β = 2, by default).
     pub mis: Heuristic,
     /// `layout::SAMPLER_*`: Owen-scrambled Sobol by default.
@@ -67,6 +75,9 @@ impl Default for RenderSettings {
             rr_start_depth: 3,
             rr_mode: RR_THROUGHPUT,
             environment: Vec3::ZERO,
+            env_map: None,
+            env_scale: 1.0,
+            env_rotate: 0.0,
             mis: Heuristic::Power(2.0),
             sampler: SAMPLER_SOBOL,
             debug_flags: 0,
@@ -83,6 +94,21 @@ impl RenderSettings {
     }
     pub fn total_samples(&self) -> u64 {
         self.pixel_count() * self.spp as u64
+    }
+
+    /// The environment lighting the render and its RGB scale: the `--env` map times
+    /// `--env-scale`, or the constant map times `--environment`; None when it is black.
+    pub fn environment_map(&self) -> Option<(Arc<EnvironmentMap>, Vec3)> {
+        match &self.env_map {
+            Some(map) if self.env_scale > 0.0 => {
+                Some((Arc::clone(map), Vec3::splat(self.env_scale)))
+            }
+            Some(_) => None,
+            None if self.environment.max_element() > 0.0 => {
+                Some((EnvironmentMap::constant(), self.environment))
+            }
+            None => None,
+        }
     }
 }
 
@@ -101,6 +127,11 @@ pub struct PreparedScene {
     pub triangles: Vec<GpuTriangle>,
     pub materials: Vec<GpuMaterial>,
     pub lights: Vec<LightEntry>,
+    /// Total selection power of the emitter table (luminance-weighted watts), against which
+    /// the environment's share of next event estimation is set.
+    pub light_power: f32,
+    /// Radius of the scene's bounding sphere (half the diagonal of its bounds).
+    pub radius: f32,
     /// Per BVH-ordered triangle: its vertices (xyz) and `TRIANGLE_*` flags (w).
     pub triangle_vertices: Vec<UVec4>,
     /// The scene's vertices and, last, one without attributes (`NO_VERTEX` corners).
@@ -299,7 +330,7 @@ impl PreparedScene {
                 emissive_texture_scale(&data, &materials, &emitting, tri, tv, &vertices)
             })
             .collect();
-        let lights = build_light_table_with(
+        let (lights, light_power) = build_light_table_with(
             &mut triangles[..baked_triangles],
             &emitting,
             &scales,
@@ -317,6 +348,8 @@ impl PreparedScene {
             triangles,
             materials,
             lights,
+            light_power: light_power as f32,
+            radius,
             punctual: scene.punctual.clone(),
             triangle_vertices,
             vertices,
@@ -433,7 +466,6 @@ impl PreparedScene {
             max_depth: settings.max_depth,
             light_count: self.lights.len() as u32,
             rr_start_depth: settings.rr_start_depth,
-            environment: settings.environment.to_array(),
             debug_flags: settings.debug_flags,
             aov: settings.aov,
             tlas_root: self.tlas_root,
@@ -449,6 +481,27 @@ impl PreparedScene {
         };
         let lens = self.thin_lens(settings).unwrap_or_default();
         self.camera.write_frame_params(lens, &mut frame);
+        if let Some((map, scale)) = settings.environment_map() {
+            frame.env_width = map.width;
+            frame.env_height = map.height;
+            frame.env_scale = scale.to_array();
+            let a = settings.env_rotate.to_radians();
+            frame.env_rotation = [a.cos(), a.sin()];
+            // The environment's power through the scene's bounding disc, π·R²·∫L dω, against
+            // the emitters' (as for a directional light, `punctual_power`).
+            let env_power =
+                std::f32::consts::PI * self.radius * self.radius * map.power * luminance(scale);
+            frame.env_pmf = if self.light_power > 0.0 {
+                let p = env_power / (env_power + self.light_power);
+                if p.is_finite() {
+                    p
+                } else {
+                    0.0
+                }
+            } else {
+                1.0
+            };
+        }
         frame
     }
 }

@@ -26,6 +26,9 @@ layout(std430, set = 0, binding = 16) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = 17) readonly buffer Instances { GpuInstance instances[]; };
 // KHR_lights_punctual lights; emitter-table entries with LIGHT_ENTRY_PUNCTUAL point here.
 layout(std430, set = 0, binding = 18) readonly buffer Punctual { GpuPunctualLight punctual_lights[]; };
+// The environment map (environment.glsl): RGBE texels, then the marginal and conditional CDFs.
+layout(std430, set = 0, binding = 19) readonly buffer EnvTexels { uint env_texels[]; };
+layout(std430, set = 0, binding = 20) readonly buffer EnvCdf { float env_cdf[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

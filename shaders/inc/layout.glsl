@@ -132,7 +132,7 @@ struct GpuPunctualLight {
 #define LIGHT_DIRECTIONAL 2u
 #define LIGHT_ENTRY_PUNCTUAL 0x80000000u
 
-// Constants of one render (std140 uniform). Total: 160 bytes.
+// Constants of one render (std140 uniform). Total: 192 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
     float tan_half_fov_y; // 4 bytes: perspective: tan(yfov / 2); orthographic: 0
@@ -146,7 +146,7 @@ struct FrameParams {
     uint max_depth;       // 4 bytes
     uint light_count;     // 4 bytes
     uint rr_start_depth;  // 4 bytes
-    vec3 environment;     // 12 bytes
+    vec3 env_scale;       // 12 bytes: RGB factor on the environment map (environment.glsl)
     uint debug_flags;     // 4 bytes
     uint band_first_pixel;  // 4 bytes: the film holds pixels [band_first_pixel,
     uint band_pixel_count;  // 4 bytes:   band_first_pixel + band_pixel_count)
@@ -164,6 +164,13 @@ struct FrameParams {
     float cone_spread;      // 4 bytes: its spread angle
     uint aov;               // 4 bytes: AOV_*
     uint tlas_root;         // 4 bytes: BVH node of the top level's root (tlas.glsl)
+    uint env_width;         // 4 bytes: environment map size; 0 = no environment
+    uint env_height;        // 4 bytes
+    vec2 env_rotation;      // 8 bytes: cos, sin of --env-rotate (about +Y)
+    float env_pmf;          // 4 bytes: probability that NEE samples the environment
+    uint env_pad0;          // 4 bytes
+    uint env_pad1;          // 4 bytes
+    uint env_pad2;          // 4 bytes
 };
 #define AOV_RADIANCE 0u
 #define AOV_BASE_COLOR 1u

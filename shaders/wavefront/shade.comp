@@ -11,6 +11,67 @@
 #include "scene.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
+#include "environment.glsl"
+
+// Next event estimation towards the emitter table (src/cpu/path.rs, sample_emitter): the entry
+// for u_pick rescaled past the environment's share, then the punctual light it names or a point
+// on its triangle for u_point; the shadow ray (origin, dir, t_max, contribution) if any.
+bool sample_emitter(BsdfFrame bsdf, uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng,
+                    vec3 throughput, float u_pick, vec2 u_point, out ShadowRay shadow) {
+    shadow.origin = p;
+    shadow.dir = vec3(0.0, 0.0, 1.0);
+    shadow.t_max = 0.0;
+    shadow.contribution = vec3(0.0);
+    if (frame.light_count == 0u) return false;
+    float keep = 1.0 - frame.env_pmf;
+    float u_table = min((u_pick - frame.env_pmf) / keep, ONE_MINUS_EPSILON);
+    LightEntry entry = lights[sample_light(u_table)];
+    float pmf = entry.pmf * keep;
+    if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
+        // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
+        GpuPunctualLight pl = punctual_lights[entry.triangle & ~LIGHT_ENTRY_PUNCTUAL];
+        vec3 wi;
+        float dist;
+        vec3 li = punctual_incident(pl, p, wi, dist);
+        vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
+        if (!(max_component(f) > 0.0 && max_component(li) > 0.0 && pmf > 0.0)) return false;
+        shadow.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
+        shadow.dir = wi;
+        shadow.t_max = dist < 0.0 ? 3.402823466e38 : length(pl.position - shadow.origin);
+        shadow.contribution = throughput * f * bsdf_frame_cos(bsdf, wi) * li / pmf;
+        return true;
+    }
+    GpuTriangle light = triangles[entry.triangle];
+    vec2 b = sample_uniform_triangle(u_point);
+    vec3 y = light.p0 + b.x * light.e1 + b.y * light.e2;
+    vec3 light_n = normalize(cross(light.e1, light.e2));
+    vec3 to_light = y - p;
+    float dist2 = dot(to_light, to_light);
+    float dist = sqrt(dist2);
+    vec3 wi = to_light / dist;
+    float cos_light = dot(light_n, -wi);
+    float cos_surface = dot(ng, wi);
+    // The light point's emission (its textures at level 0) where its surface exists.
+    SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
+    GpuMaterial light_mat = surface_material(materials[triangle_material(light)], light_sp, LOD_MAGNIFY);
+    uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
+    vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
+        ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
+    // Solid-angle pdf of the light sample: pmf * (1/area) * dist^2 / |cos at the light|.
+    float light_pdf = pmf * dist2 / (abs(cos_light) * light.area);
+    vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
+    if (!(max_component(f) > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf))) {
+        return false;
+    }
+    float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_frame_pdf(bsdf, wi), true);
+    shadow.origin = offset_ray_origin(p, cos_surface > 0.0 ? ng : -ng);
+    vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
+    vec3 d = target - shadow.origin;
+    shadow.t_max = length(d);
+    shadow.dir = d / shadow.t_max;
+    shadow.contribution = throughput * f * bsdf_frame_cos(bsdf, wi) * light_le * (w / light_pdf);
+    return true;
+}
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -26,9 +87,18 @@ void main() {
     path_pixel_sample(ray.path, pixel, sample_index);
     vec3 wo = -ray.dir;
 
-    // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
+    // Escaped: the environment's radiance, weighted against sampling the environment from the
+    // previous vertex.
     if (hit.triangle == NO_HIT) {
-        if (frame.aov == AOV_RADIANCE) state.radiance += state.throughput * frame.environment;
+        if (frame.aov == AOV_RADIANCE && frame.env_width > 0u) {
+            vec3 le = env_radiance(ray.dir);
+            float w = 1.0;
+            if (state.prev_specular == 0u) {
+                float light_pdf = frame.env_pmf * env_pdf(ray.dir);
+                w = mis_weight2(frame.mis_heuristic, frame.mis_beta, state.prev_bsdf_pdf, light_pdf, false);
+            }
+            state.radiance += state.throughput * w * le;
+        }
         paths[ray.path] = state;
         return;
     }
@@ -60,7 +130,7 @@ void main() {
     if (max_component(le) > 0.0) {
         float w = 1.0;
         if (state.prev_specular == 0u) {
-            float light_pdf = tri.light_pmf * hit.t * hit.t / (abs(cos_out) * tri.area);
+            float light_pdf = tri.light_pmf * (1.0 - frame.env_pmf) * hit.t * hit.t / (abs(cos_out) * tri.area);
             w = mis_weight2(frame.mis_heuristic, frame.mis_beta, state.prev_bsdf_pdf, light_pdf, false);
         }
         state.radiance += state.throughput * w * le;
@@ -74,64 +144,39 @@ void main() {
         return;
     }
 
-    // Emitter sampling: one point on one emitting triangle, chosen by power. Delta lobes have no
+    // Emitter sampling: the environment with probability env_pmf, else one emitter of the table
+    // chosen by power (one point on its triangle, or a punctual light). Delta lobes have no
     // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
     vec4 u_light = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth));
-    if (frame.light_count > 0u && (frame.debug_flags & DEBUG_NO_NEE) == 0u
+    if ((frame.light_count > 0u || frame.env_pmf > 0.0) && (frame.debug_flags & DEBUG_NO_NEE) == 0u
         && frame.mis_heuristic != MIS_BSDF_ONLY) {
-        LightEntry entry = lights[sample_light(u_light.x)];
-        if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
-            // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
-            GpuPunctualLight pl = punctual_lights[entry.triangle & ~LIGHT_ENTRY_PUNCTUAL];
+        vec2 u_point = sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz);
+        ShadowRay shadow;
+        bool queued;
+        if (u_light.x < frame.env_pmf) {
             vec3 wi;
-            float dist;
-            vec3 li = punctual_incident(pl, p, wi, dist);
-            vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
-            if (max_component(f) > 0.0 && max_component(li) > 0.0 && entry.pmf > 0.0) {
-                ShadowRay shadow;
-                shadow.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
-                shadow.path = ray.path;
-                shadow.dir = wi;
-                shadow.t_max = dist < 0.0 ? 3.402823466e38 : length(pl.position - shadow.origin);
-                shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * li / entry.pmf;
-                shadow.pad = 0u;
-                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+            float pdf;
+            queued = false;
+            if (env_sample(u_point, wi, pdf)) {
+                float light_pdf = frame.env_pmf * pdf;
+                vec3 le = env_radiance(wi);
+                vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
+                if (max_component(f) > 0.0 && max_component(le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
+                    float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_frame_pdf(bsdf, wi), true);
+                    shadow.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
+                    shadow.dir = wi;
+                    shadow.t_max = 3.402823466e38;
+                    shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * le * (w / light_pdf);
+                    queued = true;
+                }
             }
         } else {
-        GpuTriangle light = triangles[entry.triangle];
-        vec2 b = sample_uniform_triangle(sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz));
-        vec3 y = light.p0 + b.x * light.e1 + b.y * light.e2;
-        vec3 light_n = normalize(cross(light.e1, light.e2));
-        vec3 to_light = y - p;
-        float dist2 = dot(to_light, to_light);
-        float dist = sqrt(dist2);
-        vec3 wi = to_light / dist;
-        float cos_light = dot(light_n, -wi);
-        float cos_surface = dot(ng, wi);
-        // The light point's emission (its textures at level 0) where its surface exists.
-        SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
-        GpuMaterial light_mat = surface_material(materials[triangle_material(light)], light_sp, LOD_MAGNIFY);
-        uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
-        vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
-            ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
-        // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
-        float light_pdf = entry.pmf * dist2 / (abs(cos_light) * light.area);
-        vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
-        if (max_component(f) > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
-            float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_frame_pdf(bsdf, wi), true);
-            vec3 origin = offset_ray_origin(p, cos_surface > 0.0 ? ng : -ng);
-            vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
-            vec3 d = target - origin;
-            float t_max = length(d);
-            ShadowRay shadow;
-            shadow.origin = origin;
+            queued = sample_emitter(bsdf, pixel, sample_index, depth, p, ng, state.throughput, u_light.x, u_point, shadow);
+        }
+        if (queued) {
             shadow.path = ray.path;
-            shadow.dir = d / t_max;
-            shadow.t_max = t_max;
-            shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * light_le * (w / light_pdf);
             shadow.pad = 0u;
             shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
-        }
         }
     }
 

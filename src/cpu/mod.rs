@@ -25,6 +25,12 @@ pub fn render_with_progress(
     progress: &ProgressBar,
 ) -> RenderOutput {
     let frame = scene.frame_params(settings);
+    let environment = settings.environment_map();
+    let env = environment
+        .as_ref()
+        .map_or(crate::environment::no_environment(), |(map, _)| {
+            map.as_ref()
+        });
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
     let width = settings.width as usize;
@@ -38,7 +44,7 @@ pub fn render_with_progress(
             for (x, acc) in pixels.iter_mut().enumerate() {
                 let pixel = (row * width + x) as u32;
                 for sample in 0..settings.spp {
-                    let l = trace_path(scene, &frame, pixel, sample, &mut counts);
+                    let l = trace_path(scene, &frame, env, pixel, sample, &mut counts);
                     if !accumulate(acc, l) {
                         dropped += 1;
                     }

@@ -4,6 +4,7 @@
 
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
+use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
 use crate::layout::{
     dim, FrameParams, GpuMaterial, GpuPunctualLight, PathState, AOV_BASE_COLOR, AOV_NORMAL,
     AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT,
@@ -14,6 +15,7 @@ use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
 use crate::render::PreparedScene;
 use crate::sampling::{
     offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
+    ONE_MINUS_EPSILON,
 };
 use crate::scene::camera_ray;
 use crate::surface::{
@@ -118,6 +120,7 @@ struct ShadowRay {
 pub fn trace_path(
     scene: &PreparedScene,
     frame: &FrameParams,
+    env: &EnvironmentMap,
     pixel: u32,
     sample: u32,
     counts: &mut RayCounts,
@@ -151,7 +154,9 @@ pub fn trace_path(
         counts.extension += 1;
         let key = alpha_key(frame.seed, pixel, sample, depth, false);
         let hit = scene.intersect_closest(&ray, 0.0, f32::MAX, key);
-        let (next, shadow) = shade(scene, frame, pixel, sample, depth, &ray, hit, &mut state);
+        let (next, shadow) = shade(
+            scene, frame, env, pixel, sample, depth, &ray, hit, &mut state,
+        );
         // connect
         if let Some(s) = shadow {
             counts.shadow += 1;
@@ -174,6 +179,7 @@ pub fn trace_path(
 fn shade(
     scene: &PreparedScene,
     frame: &FrameParams,
+    env: &EnvironmentMap,
     pixel: u32,
     sample: u32,
     depth: u32,
@@ -185,10 +191,23 @@ fn shade(
     let mut throughput = Vec3::from(state.throughput);
     let mut radiance = Vec3::from(state.radiance);
 
-    // Escaped: environment radiance (not light-sampled yet, so BSDF sampling has full weight).
+    // Escaped: the environment's radiance, weighted against sampling the environment from the
+    // previous vertex.
     let Some((hit, instance)) = hit else {
-        if frame.aov == AOV_RADIANCE {
-            state.radiance = (radiance + throughput * Vec3::from(frame.environment)).to_array();
+        if frame.aov == AOV_RADIANCE && frame.env_width > 0 {
+            let le = env_radiance(env, frame, ray.dir);
+            let mut w = 1.0;
+            if state.prev_specular == 0 {
+                let light_pdf = frame.env_pmf * env_pdf(env, frame, ray.dir);
+                w = mis_weight2(
+                    frame.mis_heuristic,
+                    frame.mis_beta,
+                    state.prev_bsdf_pdf,
+                    light_pdf,
+                    false,
+                );
+            }
+            state.radiance = (radiance + throughput * w * le).to_array();
         }
         return (None, None);
     };
@@ -231,7 +250,8 @@ fn shade(
     if le.max_element() > 0.0 {
         let mut w = 1.0;
         if state.prev_specular == 0 {
-            let light_pdf = tri.light_pmf * hit.t * hit.t / (cos_out.abs() * tri.area);
+            let light_pdf =
+                tri.light_pmf * (1.0 - frame.env_pmf) * hit.t * hit.t / (cos_out.abs() * tri.area);
             w = mis_weight2(
                 frame.mis_heuristic,
                 frame.mis_beta,
@@ -253,92 +273,61 @@ fn shade(
         return (None, None);
     };
 
-    // Emitter sampling: one point on one emitting triangle, chosen by power. Delta lobes have no
+    // Emitter sampling: the environment with probability env_pmf, else one emitter of the table
+    // chosen by power (one point on its triangle, or a punctual light). Delta lobes have no
     // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
     let u_light = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth));
     let mut shadow = None;
-    if frame.light_count > 0
+    if (frame.light_count > 0 || frame.env_pmf > 0.0)
         && frame.debug_flags & DEBUG_NO_NEE == 0
         && frame.mis_heuristic != MIS_BSDF_ONLY
     {
-        let entry = &scene.lights[sample_light(&scene.lights, u_light.x)];
-        if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
-            // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
-            let light = &scene.punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];
-            let (wi, dist, li) = punctual_incident(light, p);
-            let f = bsdf.eval(wi, TransportMode::Radiance);
-            if f.max_element() > 0.0 && li.max_element() > 0.0 && entry.pmf > 0.0 {
-                let origin = offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng });
-                let t_max = if dist >= 0.0 {
-                    (Vec3::from(light.position) - origin).length()
-                } else {
-                    f32::MAX
-                };
-                shadow = Some(ShadowRay {
-                    ray: Ray { origin, dir: wi },
-                    t_max,
-                    contribution: throughput * f * bsdf.cos_theta(wi) * li / entry.pmf,
-                });
+        let u_point = sample_pair(
+            frame,
+            pixel,
+            sample,
+            4 * dim::bounce_block(depth) + 1,
+            Vec2::new(u_light.y, u_light.z),
+        );
+        if u_light.x < frame.env_pmf {
+            if let Some((wi, pdf)) = env_sample(env, frame, u_point) {
+                let light_pdf = frame.env_pmf * pdf;
+                let le = env_radiance(env, frame, wi);
+                let f = bsdf.eval(wi, TransportMode::Radiance);
+                if f.max_element() > 0.0
+                    && le.max_element() > 0.0
+                    && light_pdf > 0.0
+                    && light_pdf.is_finite()
+                {
+                    let w = mis_weight2(
+                        frame.mis_heuristic,
+                        frame.mis_beta,
+                        light_pdf,
+                        bsdf.pdf(wi),
+                        true,
+                    );
+                    shadow = Some(ShadowRay {
+                        ray: Ray {
+                            origin: offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng }),
+                            dir: wi,
+                        },
+                        t_max: f32::MAX,
+                        contribution: throughput * f * bsdf.cos_theta(wi) * le * (w / light_pdf),
+                    });
+                }
             }
         } else {
-            let light = &scene.triangles[entry.triangle as usize];
-            let light_vertices = scene.triangle_vertices[entry.triangle as usize];
-            let dimension = 4 * dim::bounce_block(depth) + 1;
-            let b = sample_uniform_triangle(sample_pair(
+            shadow = sample_emitter(
+                scene,
                 frame,
-                pixel,
-                sample,
-                dimension,
-                Vec2::new(u_light.y, u_light.z),
-            ));
-            let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
-            let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
-            let light_n = l1.cross(l2).normalize();
-            let to_light = y - p;
-            let dist2 = to_light.dot(to_light);
-            let dist = dist2.sqrt();
-            let wi = to_light / dist;
-            let cos_light = light_n.dot(-wi);
-            let cos_surface = ng.dot(wi);
-            // The light point's emission (its textures at level 0) where its surface exists.
-            let light_raw = &scene.materials[light.material_index() as usize];
-            let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
-            let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
-            let key = alpha_key(frame.seed, pixel, sample, depth, true);
-            // (Culling does not apply: the light's own sidedness is its emission's.)
-            let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
-                emitted_radiance(&light_mat, cos_light)
-            } else {
-                Vec3::ZERO
-            };
-            // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
-            let light_pdf = entry.pmf * dist2 / (cos_light.abs() * light.area);
-            let f = bsdf.eval(wi, TransportMode::Radiance);
-            if f.max_element() > 0.0
-                && light_le.max_element() > 0.0
-                && light_pdf > 0.0
-                && light_pdf.is_finite()
-            {
-                let w = mis_weight2(
-                    frame.mis_heuristic,
-                    frame.mis_beta,
-                    light_pdf,
-                    bsdf.pdf(wi),
-                    true,
-                );
-                let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
-                let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
-                let d = target - origin;
-                let t_max = d.length();
-                shadow = Some(ShadowRay {
-                    ray: Ray {
-                        origin,
-                        dir: d / t_max,
-                    },
-                    t_max,
-                    contribution: throughput * f * bsdf.cos_theta(wi) * light_le * (w / light_pdf),
-                });
-            }
+                &bsdf,
+                (pixel, sample, depth),
+                p,
+                ng,
+                throughput,
+                u_light.x,
+                u_point,
+            );
         }
     }
 
@@ -386,4 +375,101 @@ fn shade(
         }),
         shadow,
     )
+}
+
+/// Next event estimation towards the emitter table (shade.comp, `sample_emitter`): the entry
+/// for `u_pick` rescaled past the environment's share, then the punctual light it names, or a
+/// point on its triangle for `u_point`; the shadow ray and its MIS-weighted contribution.
+#[allow(clippy::too_many_arguments)]
+fn sample_emitter(
+    scene: &PreparedScene,
+    frame: &FrameParams,
+    bsdf: &BsdfFrame,
+    (pixel, sample, depth): (u32, u32, u32),
+    p: Vec3,
+    ng: Vec3,
+    throughput: Vec3,
+    u_pick: f32,
+    u_point: Vec2,
+) -> Option<ShadowRay> {
+    if frame.light_count == 0 {
+        return None;
+    }
+    let keep = 1.0 - frame.env_pmf;
+    let u_table = ((u_pick - frame.env_pmf) / keep).min(ONE_MINUS_EPSILON);
+    let entry = &scene.lights[sample_light(&scene.lights, u_table)];
+    let pmf = entry.pmf * keep;
+    if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
+        // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
+        let light = &scene.punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];
+        let (wi, dist, li) = punctual_incident(light, p);
+        let f = bsdf.eval(wi, TransportMode::Radiance);
+        if !(f.max_element() > 0.0 && li.max_element() > 0.0 && pmf > 0.0) {
+            return None;
+        }
+        let origin = offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng });
+        let t_max = if dist >= 0.0 {
+            (Vec3::from(light.position) - origin).length()
+        } else {
+            f32::MAX
+        };
+        return Some(ShadowRay {
+            ray: Ray { origin, dir: wi },
+            t_max,
+            contribution: throughput * f * bsdf.cos_theta(wi) * li / pmf,
+        });
+    }
+    let light = &scene.triangles[entry.triangle as usize];
+    let light_vertices = scene.triangle_vertices[entry.triangle as usize];
+    let b = sample_uniform_triangle(u_point);
+    let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
+    let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
+    let light_n = l1.cross(l2).normalize();
+    let to_light = y - p;
+    let dist2 = to_light.dot(to_light);
+    let dist = dist2.sqrt();
+    let wi = to_light / dist;
+    let cos_light = light_n.dot(-wi);
+    let cos_surface = ng.dot(wi);
+    // The light point's emission (its textures at level 0) where its surface exists.
+    let textures = scene.texture_data();
+    let light_raw = &scene.materials[light.material_index() as usize];
+    let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
+    let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
+    let key = alpha_key(frame.seed, pixel, sample, depth, true);
+    // (Culling does not apply: the light's own sidedness is its emission's.)
+    let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
+        emitted_radiance(&light_mat, cos_light)
+    } else {
+        Vec3::ZERO
+    };
+    // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
+    let light_pdf = pmf * dist2 / (cos_light.abs() * light.area);
+    let f = bsdf.eval(wi, TransportMode::Radiance);
+    if !(f.max_element() > 0.0
+        && light_le.max_element() > 0.0
+        && light_pdf > 0.0
+        && light_pdf.is_finite())
+    {
+        return None;
+    }
+    let w = mis_weight2(
+        frame.mis_heuristic,
+        frame.mis_beta,
+        light_pdf,
+        bsdf.pdf(wi),
+        true,
+    );
+    let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
+    let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
+    let d = target - origin;
+    let t_max = d.length();
+    Some(ShadowRay {
+        ray: Ray {
+            origin,
+            dir: d / t_max,
+        },
+        t_max,
+        contribution: throughput * f * bsdf.cos_theta(wi) * light_le * (w / light_pdf),
+    })
 }

@@ -132,11 +132,18 @@ impl GpuRenderer {
         let band_rows =
             (band_limit / settings.width as u64).clamp(1, settings.height as u64) as u32;
         let band_pixels = band_rows * settings.width;
+        let environment = settings.environment_map();
+        let env = environment
+            .as_ref()
+            .map_or(crate::environment::no_environment(), |(map, _)| {
+                map.as_ref()
+            });
         let buffers = RenderBuffers::new(
             ctx,
             &self.pipelines,
             &self.commands,
             scene,
+            env,
             capacity as u64,
             band_pixels as u64,
         )?;

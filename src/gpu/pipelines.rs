@@ -31,10 +31,12 @@ pub enum Binding {
     Texels = 16,
     Instances = 17,
     Punctual = 18,
+    EnvTexels = 19,
+    EnvCdf = 20,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 19] = [
+    pub const ALL: [Binding; 21] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -54,6 +56,8 @@ impl Binding {
         Binding::Texels,
         Binding::Instances,
         Binding::Punctual,
+        Binding::EnvTexels,
+        Binding::EnvCdf,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

@@ -5,6 +5,7 @@
 use super::context::Context;
 use super::memory::{Buffer, Commands, Location};
 use super::pipelines::{Binding, Pipelines};
+use crate::environment::EnvironmentMap;
 use crate::layout::{
     args, counter, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
 };
@@ -35,6 +36,7 @@ impl RenderBuffers {
         pipelines: &Pipelines,
         commands: &Commands,
         scene: &PreparedScene,
+        env: &EnvironmentMap,
         capacity: u64,
         band_pixels: u64,
     ) -> Result<RenderBuffers> {
@@ -54,6 +56,8 @@ impl RenderBuffers {
             ("emitters", size_of_val(scene.lights.as_slice())),
             ("vertices", size_of_val(scene.vertices.as_slice())),
             ("texels", size_of_val(scene.texels.as_slice())),
+            ("environment map", size_of_val(env.texels.as_slice())),
+            ("environment CDFs", size_of_val(env.cdf.as_slice())),
         ] {
             if bytes > range {
                 bail!(
@@ -87,6 +91,8 @@ impl RenderBuffers {
         let texels = device("texels", size_of_val(scene.texels.as_slice()))?;
         let instances = device("instances", size_of_val(scene.instances.as_slice()))?;
         let punctual = device("punctual_lights", size_of_val(scene.punctual.as_slice()))?;
+        let env_texels = device("env_texels", size_of_val(env.texels.as_slice()))?;
+        let env_cdf = device("env_cdf", size_of_val(env.cdf.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
         let hits = device("hits", cap * size_of::<HitRecord>())?;
@@ -122,6 +128,8 @@ impl RenderBuffers {
             (Binding::Texels, texels.buffer),
             (Binding::Instances, instances.buffer),
             (Binding::Punctual, punctual.buffer),
+            (Binding::EnvTexels, env_texels.buffer),
+            (Binding::EnvCdf, env_cdf.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -140,6 +148,8 @@ impl RenderBuffers {
             (bytemuck::cast_slice(scene.texels.as_slice()), &texels),
             (bytemuck::cast_slice(&scene.instances), &instances),
             (bytemuck::cast_slice(&scene.punctual), &punctual),
+            (bytemuck::cast_slice(&env.texels), &env_texels),
+            (bytemuck::cast_slice(&env.cdf), &env_cdf),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -180,6 +190,8 @@ impl RenderBuffers {
                 texels,
                 instances,
                 punctual,
+                env_texels,
+                env_cdf,
             ],
         })
     }

@@ -29,7 +29,7 @@ pub fn build_light_table(
     triangles: &mut [GpuTriangle],
     materials: &[GpuMaterial],
 ) -> Vec<LightEntry> {
-    build_light_table_with(triangles, materials, &[], &[], 0.0)
+    build_light_table_with(triangles, materials, &[], &[], 0.0).0
 }
 
 /// Power of a punctual light for emitter selection: 4π·I for a point light, 2π(1 − cos θ_outer)·I
@@ -51,14 +51,14 @@ pub fn punctual_power(light: &GpuPunctualLight, scene_radius: f32) -> f32 {
 /// [`build_light_table`] with a power scale per triangle (`scales[i]`, 1 where `scales` is
 /// shorter: an emissive texture's mean over the triangle against its mean over the image) and
 /// `punctual` lights after the triangles: their entries carry `LIGHT_ENTRY_PUNCTUAL | index`,
-/// chosen in proportion to [`punctual_power`].
+/// chosen in proportion to [`punctual_power`]. Also returns the table's total power.
 pub fn build_light_table_with(
     triangles: &mut [GpuTriangle],
     materials: &[GpuMaterial],
     scales: &[f32],
     punctual: &[GpuPunctualLight],
     scene_radius: f32,
-) -> Vec<LightEntry> {
+) -> (Vec<LightEntry>, f64) {
     let power: Vec<f64> = triangles
         .iter()
         .enumerate()
@@ -125,7 +125,7 @@ pub fn build_light_table_with(
     if let Some(last) = table.last_mut() {
         last.cdf = 1.0;
     }
-    table
+    (table, total)
 }
 
 #[cfg(test)]

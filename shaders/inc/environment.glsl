@@ -1,0 +1,119 @@
+// Environment lighting: the equirectangular map's bilinear lookup, its 2-D piecewise-constant
+// sampling (marginal and conditional CDFs inverted) and the density of a direction. Twin of
+// src/environment.rs (conventions and sources there); reads env_texels (RGBE) and env_cdf.
+#ifndef ENVIRONMENT_GLSL
+#define ENVIRONMENT_GLSL
+
+#define ENV_PI 3.14159265358979323846
+
+// The RGB an RGBE texel stands for: mantissas * 2^(e - 136); exponent byte 0 is black.
+vec3 rgbe_decode(uint t) {
+    uint e = t >> 24;
+    if (e == 0u) return vec3(0.0);
+    float scale = uintBitsToFloat((e + 127u - 136u) << 23);
+    return vec3(float(t & 0xffu), float((t >> 8) & 0xffu), float((t >> 16) & 0xffu)) * scale;
+}
+
+// The map's frame: d turned by -(--env-rotate) about +Y.
+vec3 env_to_map(vec3 d) {
+    float c = frame.env_rotation.x;
+    float s = frame.env_rotation.y;
+    return vec3(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+}
+
+vec3 env_from_map(vec3 d) {
+    float c = frame.env_rotation.x;
+    float s = frame.env_rotation.y;
+    return vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+}
+
+// (u, v) in [0, 1]^2 of unit direction d, and sin(theta).
+vec2 env_direction_uv(vec3 d, out float sin_theta) {
+    vec3 m = env_to_map(d);
+    float y = clamp(m.y, -1.0, 1.0);
+    float theta = acos(y);
+    float phi = atan(m.x, -m.z);
+    sin_theta = sqrt(max(1.0 - y * y, 0.0));
+    return vec2(phi * float(0.5 / ENV_PI) + 0.5, theta * float(1.0 / ENV_PI));
+}
+
+// Radiance arriving from unit direction d: bilinear between texel centres, wrapping in u and
+// clamped in v, times the frame's scale.
+vec3 env_radiance(vec3 d) {
+    int w = int(frame.env_width);
+    int h = int(frame.env_height);
+    if (w == 0) return vec3(0.0);
+    float sin_theta;
+    vec2 uv = env_direction_uv(d, sin_theta);
+    float x = uv.x * float(w) - 0.5;
+    float y = uv.y * float(h) - 0.5;
+    float x0 = floor(x);
+    float y0 = floor(y);
+    float tx = x - x0;
+    float ty = y - y0;
+    // x0 lies in [-1, w - 1] (GLSL's % is undefined for negative operands).
+    int i0 = int(x0);
+    if (i0 < 0) i0 += w;
+    int i1 = (i0 + 1) % w;
+    int j0 = clamp(int(y0), 0, h - 1);
+    int j1 = clamp(int(y0) + 1, 0, h - 1);
+    vec3 top = mix(rgbe_decode(env_texels[j0 * w + i0]), rgbe_decode(env_texels[j0 * w + i1]), tx);
+    vec3 bottom = mix(rgbe_decode(env_texels[j1 * w + i0]), rgbe_decode(env_texels[j1 * w + i1]), tx);
+    return mix(top, bottom, ty) * frame.env_scale;
+}
+
+// Bin of u in the CDF env_cdf[base .. base + n]: the largest k with env_cdf[base + k] <= u.
+uint cdf_search(uint base, uint n, float u) {
+    uint lo = 0u;
+    uint hi = n - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi + 1u) / 2u;
+        if (env_cdf[base + mid] <= u) lo = mid; else hi = mid - 1u;
+    }
+    return lo;
+}
+
+// Density in solid angle with which env_sample produces unit direction d.
+float env_pdf(vec3 d) {
+    uint w = frame.env_width;
+    uint h = frame.env_height;
+    if (w == 0u) return 0.0;
+    float sin_theta;
+    vec2 uv = env_direction_uv(d, sin_theta);
+    if (!(sin_theta > 0.0)) return 0.0;
+    uint j = min(uint(uv.y * float(h)), h - 1u);
+    uint i = min(uint(uv.x * float(w)), w - 1u);
+    uint row = h + 1u + j * (w + 1u);
+    float pdf_v = (env_cdf[j + 1u] - env_cdf[j]) * float(h);
+    float pdf_u = (env_cdf[row + i + 1u] - env_cdf[row + i]) * float(w);
+    return pdf_v * pdf_u / (2.0 * float(ENV_PI) * float(ENV_PI) * sin_theta);
+}
+
+// A direction from the map's distribution for u in [0, 1)^2 (the lecture's P^-1 in two
+// dimensions) and its density in solid angle; false at a pole or without a map.
+bool env_sample(vec2 u, out vec3 wi, out float pdf) {
+    uint w = frame.env_width;
+    uint h = frame.env_height;
+    wi = vec3(0.0, 1.0, 0.0);
+    pdf = 0.0;
+    if (w == 0u) return false;
+    uint j = cdf_search(0u, h, u.y);
+    float v0 = env_cdf[j];
+    float v1 = env_cdf[j + 1u];
+    float y = (float(j) + clamp((u.y - v0) / (v1 - v0), 0.0, 1.0)) / float(h);
+    uint row = h + 1u + j * (w + 1u);
+    uint i = cdf_search(row, w, u.x);
+    float c0 = env_cdf[row + i];
+    float c1 = env_cdf[row + i + 1u];
+    float x = (float(i) + clamp((u.x - c0) / (c1 - c0), 0.0, 1.0)) / float(w);
+    float theta = float(ENV_PI) * y;
+    float phi = 2.0 * float(ENV_PI) * (x - 0.5);
+    float sin_theta = sin(theta);
+    if (!(sin_theta > 0.0)) return false;
+    vec3 m = vec3(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
+    pdf = (v1 - v0) * float(h) * (c1 - c0) * float(w) / (2.0 * float(ENV_PI) * float(ENV_PI) * sin_theta);
+    wi = env_from_map(m);
+    return true;
+}
+
+#endif
