@@ -39,9 +39,13 @@ pub struct EnvironmentMap {
     pub height: u32,
     /// Row-major from the top row, RGBE (`rgbe_encode`).
     pub texels: Vec<u32>,
-    /// The marginal CDF over rows (height + 1 values, 0 … 1), then each row's conditional CDF
-    /// over columns (width + 1 values each).
-    pub cdf: Vec<f32>,
+    /// The marginal CDF over rows: entry j is the CDF at the end of row j (the last is 1; the
+    /// start of row 0 is 0).
+    pub marginal: Vec<f32>,
+    /// Each row's conditional CDF over its columns, `width` values a row, likewise. (Leaving
+    /// out the leading zeros keeps an 8k × 4k map's CDFs at 2²⁷ bytes, the storage-buffer
+    /// range of lavapipe.)
+    pub conditional: Vec<f32>,
     /// ∫ luminance(L) dω over the sphere (of the unscaled map): the map's weight when next event
     /// estimation chooses between the environment and the scene's emitters.
     pub power: f32,
@@ -113,12 +117,12 @@ impl EnvironmentMap {
                     K[0] * row[(i + w - 1) % w] + K[1] * row[i] + K[2] * row[(i + 1) % w];
             }
         }
-        let mut cdf = vec![0f32; (h + 1) + h * (w + 1)];
+        let mut conditional = vec![0f32; h * w];
         let mut row_sums = vec![0f64; h];
         for j in 0..h {
             let (up, down) = (j.saturating_sub(1), (j + 1).min(h - 1));
             let sin_theta = (PI * (j as f32 + 0.5) / height as f32).sin();
-            let conditional = &mut cdf[(h + 1) + j * (w + 1)..(h + 1) + (j + 1) * (w + 1)];
+            let row = &mut conditional[j * w..(j + 1) * w];
             let mut running = 0f64;
             let weights: Vec<f64> = (0..w)
                 .map(|i| {
@@ -131,32 +135,34 @@ impl EnvironmentMap {
             let sum: f64 = weights.iter().sum();
             for (i, wgt) in weights.iter().enumerate() {
                 running += wgt;
-                conditional[i + 1] = if sum > 0.0 {
+                row[i] = if sum > 0.0 {
                     (running / sum) as f32
                 } else {
                     (i + 1) as f32 / w as f32
                 };
             }
-            conditional[w] = 1.0;
+            row[w - 1] = 1.0;
             row_sums[j] = sum;
         }
         let total: f64 = row_sums.iter().sum();
         if !(total > 0.0) || !total.is_finite() {
             return None;
         }
+        let mut marginal = vec![0f32; h];
         let mut running = 0f64;
         for j in 0..h {
             running += row_sums[j];
-            cdf[j + 1] = (running / total) as f32;
+            marginal[j] = (running / total) as f32;
         }
-        cdf[h] = 1.0;
+        marginal[h - 1] = 1.0;
         // Σ mean · sin θ · Δu·Δv with dω = 2π² sin θ du dv.
         let power = (total * 2.0 * (PI as f64).powi(2) / (w * h) as f64) as f32;
         Some(EnvironmentMap {
             width,
             height,
             texels,
-            cdf,
+            marginal,
+            conditional,
             power,
         })
     }
@@ -204,7 +210,7 @@ impl EnvironmentMap {
                 "{shown}: {width} × {height} texels: environment maps may have 1 to {MAX_ENV_SIDE} texels a side"
             );
         }
-        // Decoding as RGB(A) f32, the RGBE texels and the CDFs.
+        // Decoding as RGB f32, the RGBE texels, the CDFs and the luminance passes.
         let need = width as u64 * height as u64 * (16 + 4 + 4 + 4);
         if need > budget {
             bail!(
@@ -286,19 +292,29 @@ pub fn env_radiance(map: &EnvironmentMap, frame: &FrameParams, d: Vec3) -> Vec3 
     top.lerp(bottom, ty) * Vec3::from(frame.env_scale)
 }
 
-/// Bin of `u` in the piecewise-linear CDF `cdf[base ..= base + n]` (cdf[base] = 0,
-/// cdf[base + n] = 1): the largest k with cdf[base + k] ≤ u, so the bin has positive width.
-pub fn cdf_search(cdf: &[f32], base: usize, n: u32, u: f32) -> u32 {
-    let (mut lo, mut hi) = (0u32, n - 1);
+/// Bin of `u` in [0, 1) in the CDF `cdf` (entry k: the CDF at the end of bin k; the last is
+/// 1): the first bin whose end exceeds u, so it has positive width. Returns the bin and the
+/// CDF at its start and end.
+pub fn cdf_search(cdf: &[f32], u: f32) -> (u32, f32, f32) {
+    let (mut lo, mut hi) = (0usize, cdf.len() - 1);
     while lo < hi {
-        let mid = (lo + hi + 1) / 2;
-        if cdf[base + mid as usize] <= u {
-            lo = mid;
+        let mid = (lo + hi) / 2;
+        if cdf[mid] > u {
+            hi = mid;
         } else {
-            hi = mid - 1;
+            lo = mid + 1;
         }
     }
-    lo
+    (lo as u32, cdf_start(cdf, lo), cdf[lo])
+}
+
+/// The CDF at the start of bin `k` (0 for the first).
+fn cdf_start(cdf: &[f32], k: usize) -> f32 {
+    if k == 0 {
+        0.0
+    } else {
+        cdf[k - 1]
+    }
 }
 
 /// Density in solid angle with which `env_sample` produces direction `d` (unit); 0 without a
@@ -312,11 +328,11 @@ pub fn env_pdf(map: &EnvironmentMap, frame: &FrameParams, d: Vec3) -> f32 {
     if !(sin_theta > 0.0) {
         return 0.0;
     }
-    let j = ((uv.y * h as f32) as u32).min(h - 1);
-    let i = ((uv.x * w as f32) as u32).min(w - 1);
-    let row = (h + 1 + j * (w + 1)) as usize;
-    let pdf_v = (map.cdf[j as usize + 1] - map.cdf[j as usize]) * h as f32;
-    let pdf_u = (map.cdf[row + i as usize + 1] - map.cdf[row + i as usize]) * w as f32;
+    let j = ((uv.y * h as f32) as u32).min(h - 1) as usize;
+    let i = ((uv.x * w as f32) as u32).min(w - 1) as usize;
+    let row = &map.conditional[j * w as usize..(j + 1) * w as usize];
+    let pdf_v = (map.marginal[j] - cdf_start(&map.marginal, j)) * h as f32;
+    let pdf_u = (row[i] - cdf_start(row, i)) * w as f32;
     pdf_v * pdf_u / (2.0 * PI * PI * sin_theta)
 }
 
@@ -329,12 +345,10 @@ pub fn env_sample(map: &EnvironmentMap, frame: &FrameParams, u: Vec2) -> Option<
     if w == 0 {
         return None;
     }
-    let j = cdf_search(&map.cdf, 0, h, u.y);
-    let (v0, v1) = (map.cdf[j as usize], map.cdf[j as usize + 1]);
+    let (j, v0, v1) = cdf_search(&map.marginal, u.y);
     let y = (j as f32 + ((u.y - v0) / (v1 - v0)).clamp(0.0, 1.0)) / h as f32;
-    let row = (h + 1 + j * (w + 1)) as usize;
-    let i = cdf_search(&map.cdf, row, w, u.x);
-    let (c0, c1) = (map.cdf[row + i as usize], map.cdf[row + i as usize + 1]);
+    let row = &map.conditional[(j * w) as usize..((j + 1) * w) as usize];
+    let (i, c0, c1) = cdf_search(row, u.x);
     let x = (i as f32 + ((u.x - c0) / (c1 - c0)).clamp(0.0, 1.0)) / w as f32;
     let theta = PI * y;
     let phi = 2.0 * PI * (x - 0.5);
@@ -353,7 +367,8 @@ pub fn no_environment() -> &'static EnvironmentMap {
         width: 0,
         height: 0,
         texels: Vec::new(),
-        cdf: Vec::new(),
+        marginal: Vec::new(),
+        conditional: Vec::new(),
         power: 0.0,
     };
     &EMPTY

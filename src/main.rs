@@ -195,7 +195,8 @@ fn prepare(
             let map = EnvironmentMap::load(file, left)?;
             options.budget.reserve(
                 &format!("the environment map {}", file.display()),
-                (map.texels.len() * 4 + map.cdf.len() * 4) as u64
+                (map.texels.len() + map.conditional.len() + map.marginal.len()) as u64
+                    * 4
                     * if device == DeviceKind::Gpu { 2 } else { 1 },
             )?;
             Some(std::sync::Arc::new(map))

@@ -26,9 +26,10 @@ layout(std430, set = 0, binding = 16) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = 17) readonly buffer Instances { GpuInstance instances[]; };
 // KHR_lights_punctual lights; emitter-table entries with LIGHT_ENTRY_PUNCTUAL point here.
 layout(std430, set = 0, binding = 18) readonly buffer Punctual { GpuPunctualLight punctual_lights[]; };
-// The environment map (environment.glsl): RGBE texels, then the marginal and conditional CDFs.
+// The environment map (environment.glsl): RGBE texels, each row's conditional CDF, the marginal.
 layout(std430, set = 0, binding = 19) readonly buffer EnvTexels { uint env_texels[]; };
-layout(std430, set = 0, binding = 20) readonly buffer EnvCdf { float env_cdf[]; };
+layout(std430, set = 0, binding = 20) readonly buffer EnvConditional { float env_conditional[]; };
+layout(std430, set = 0, binding = 21) readonly buffer EnvMarginal { float env_marginal[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

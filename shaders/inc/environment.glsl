@@ -1,6 +1,6 @@
 // Environment lighting: the equirectangular map's bilinear lookup, its 2-D piecewise-constant
 // sampling (marginal and conditional CDFs inverted) and the density of a direction. Twin of
-// src/environment.rs (conventions and sources there); reads env_texels (RGBE) and env_cdf.
+// src/environment.rs (conventions and sources there); reads env_texels (RGBE), env_marginal and env_conditional.
 #ifndef ENVIRONMENT_GLSL
 #define ENVIRONMENT_GLSL
 
@@ -62,13 +62,30 @@ vec3 env_radiance(vec3 d) {
     return mix(top, bottom, ty) * frame.env_scale;
 }
 
-// Bin of u in the CDF env_cdf[base .. base + n]: the largest k with env_cdf[base + k] <= u.
-uint cdf_search(uint base, uint n, float u) {
+// The CDF at the end of row j's conditional bin i, or of marginal bin j (src/environment.rs:
+// entry k is the CDF at the end of bin k; the start of bin 0 is 0).
+float env_conditional_end(uint j, uint i) { return env_conditional[j * frame.env_width + i]; }
+float env_conditional_start(uint j, uint i) { return i == 0u ? 0.0 : env_conditional[j * frame.env_width + i - 1u]; }
+float env_marginal_start(uint j) { return j == 0u ? 0.0 : env_marginal[j - 1u]; }
+
+// Bin of u in [0, 1) in the marginal CDF: the first row whose end exceeds u (cdf_search).
+uint env_marginal_search(float u) {
     uint lo = 0u;
-    uint hi = n - 1u;
+    uint hi = frame.env_height - 1u;
     while (lo < hi) {
-        uint mid = (lo + hi + 1u) / 2u;
-        if (env_cdf[base + mid] <= u) lo = mid; else hi = mid - 1u;
+        uint mid = (lo + hi) / 2u;
+        if (env_marginal[mid] > u) hi = mid; else lo = mid + 1u;
+    }
+    return lo;
+}
+
+// Bin of u in [0, 1) in row j's conditional CDF (cdf_search).
+uint env_conditional_search(uint j, float u) {
+    uint lo = 0u;
+    uint hi = frame.env_width - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (env_conditional_end(j, mid) > u) hi = mid; else lo = mid + 1u;
     }
     return lo;
 }
@@ -83,9 +100,8 @@ float env_pdf(vec3 d) {
     if (!(sin_theta > 0.0)) return 0.0;
     uint j = min(uint(uv.y * float(h)), h - 1u);
     uint i = min(uint(uv.x * float(w)), w - 1u);
-    uint row = h + 1u + j * (w + 1u);
-    float pdf_v = (env_cdf[j + 1u] - env_cdf[j]) * float(h);
-    float pdf_u = (env_cdf[row + i + 1u] - env_cdf[row + i]) * float(w);
+    float pdf_v = (env_marginal[j] - env_marginal_start(j)) * float(h);
+    float pdf_u = (env_conditional_end(j, i) - env_conditional_start(j, i)) * float(w);
     return pdf_v * pdf_u / (2.0 * float(ENV_PI) * float(ENV_PI) * sin_theta);
 }
 
@@ -97,14 +113,13 @@ bool env_sample(vec2 u, out vec3 wi, out float pdf) {
     wi = vec3(0.0, 1.0, 0.0);
     pdf = 0.0;
     if (w == 0u) return false;
-    uint j = cdf_search(0u, h, u.y);
-    float v0 = env_cdf[j];
-    float v1 = env_cdf[j + 1u];
+    uint j = env_marginal_search(u.y);
+    float v0 = env_marginal_start(j);
+    float v1 = env_marginal[j];
     float y = (float(j) + clamp((u.y - v0) / (v1 - v0), 0.0, 1.0)) / float(h);
-    uint row = h + 1u + j * (w + 1u);
-    uint i = cdf_search(row, w, u.x);
-    float c0 = env_cdf[row + i];
-    float c1 = env_cdf[row + i + 1u];
+    uint i = env_conditional_search(j, u.x);
+    float c0 = env_conditional_start(j, i);
+    float c1 = env_conditional_end(j, i);
     float x = (float(i) + clamp((u.x - c0) / (c1 - c0), 0.0, 1.0)) / float(w);
     float theta = float(ENV_PI) * y;
     float phi = 2.0 * float(ENV_PI) * (x - 0.5);

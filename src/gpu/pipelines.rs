@@ -32,11 +32,12 @@ pub enum Binding {
     Instances = 17,
     Punctual = 18,
     EnvTexels = 19,
-    EnvCdf = 20,
+    EnvConditional = 20,
+    EnvMarginal = 21,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 21] = [
+    pub const ALL: [Binding; 22] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -57,7 +58,8 @@ impl Binding {
         Binding::Instances,
         Binding::Punctual,
         Binding::EnvTexels,
-        Binding::EnvCdf,
+        Binding::EnvConditional,
+        Binding::EnvMarginal,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

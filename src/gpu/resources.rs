@@ -57,7 +57,7 @@ impl RenderBuffers {
             ("vertices", size_of_val(scene.vertices.as_slice())),
             ("texels", size_of_val(scene.texels.as_slice())),
             ("environment map", size_of_val(env.texels.as_slice())),
-            ("environment CDFs", size_of_val(env.cdf.as_slice())),
+            ("environment CDFs", size_of_val(env.conditional.as_slice())),
         ] {
             if bytes > range {
                 bail!(
@@ -92,7 +92,8 @@ impl RenderBuffers {
         let instances = device("instances", size_of_val(scene.instances.as_slice()))?;
         let punctual = device("punctual_lights", size_of_val(scene.punctual.as_slice()))?;
         let env_texels = device("env_texels", size_of_val(env.texels.as_slice()))?;
-        let env_cdf = device("env_cdf", size_of_val(env.cdf.as_slice()))?;
+        let env_conditional = device("env_conditional", size_of_val(env.conditional.as_slice()))?;
+        let env_marginal = device("env_marginal", size_of_val(env.marginal.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
         let hits = device("hits", cap * size_of::<HitRecord>())?;
@@ -129,7 +130,8 @@ impl RenderBuffers {
             (Binding::Instances, instances.buffer),
             (Binding::Punctual, punctual.buffer),
             (Binding::EnvTexels, env_texels.buffer),
-            (Binding::EnvCdf, env_cdf.buffer),
+            (Binding::EnvConditional, env_conditional.buffer),
+            (Binding::EnvMarginal, env_marginal.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -149,7 +151,8 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&scene.instances), &instances),
             (bytemuck::cast_slice(&scene.punctual), &punctual),
             (bytemuck::cast_slice(&env.texels), &env_texels),
-            (bytemuck::cast_slice(&env.cdf), &env_cdf),
+            (bytemuck::cast_slice(&env.conditional), &env_conditional),
+            (bytemuck::cast_slice(&env.marginal), &env_marginal),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -191,7 +194,8 @@ impl RenderBuffers {
                 instances,
                 punctual,
                 env_texels,
-                env_cdf,
+                env_conditional,
+                env_marginal,
             ],
         })
     }
