@@ -9,6 +9,7 @@ pub mod film;
 pub mod gpu;
 pub mod image_io;
 pub mod layout;
+pub mod light_bvh;
 pub mod mc;
 pub mod mis;
 pub mod render;

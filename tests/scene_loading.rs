@@ -754,6 +754,7 @@ fn committed_scenes_match_their_generator() {
             "cornell-materials.gltf",
             "furnace.gltf",
             "instances.gltf",
+            "many-lights.gltf",
             "veach-mis.gltf"
         ]
     );

@@ -28,12 +28,15 @@ KHR_materials_emissive_strength.
   Le / (1 - a) = 1.
 - veach-mis.gltf: the multiple importance sampling test of Veach & Guibas 1995 (Veach's thesis,
   fig. 9.2), see veach_mis().
+- many-lights.gltf: 10,240 small emissive triangles of 16 colours and strengths in a canopy
+  above a floor with a few diffuse boxes, for many-light sampling, see many_lights().
 """
 
 import base64
 import json
 import math
 import os
+import random
 import re
 import struct
 import sys
@@ -438,8 +441,87 @@ def instances():
     return g
 
 
+# The many-light canopy: a grid of emitter cells over the floor and the emitters' palette.
+MANY_LIGHTS_GRID = (128, 80)
+MANY_LIGHTS_AREA = ((-8.0, 8.0), (-7.0, 3.0))
+MANY_LIGHTS_COLOURS = [(1.0, 0.82, 0.55), (0.55, 0.75, 1.0), (1.0, 0.32, 0.22), (0.35, 1.0, 0.42)]
+MANY_LIGHTS_STRENGTHS = [1.5, 4.0, 10.0, 25.0]
+
+
+def many_lights():
+    """10,240 small emissive triangles for many-light sampling: one per cell of a 128 x 80 grid
+    over x in [-8, 8], z in [-7, 3], at heights 2.2-3.8 on a gentle wave, jittered in the cell.
+    Each is an equilateral triangle of side 0.06-0.16 whose front face (the emitting side) looks
+    down, tilted up to 50 degrees from straight down; one in ten faces up instead, towards no
+    surface, so it lights nothing and a good sampler never picks it from the floor. Their
+    materials are 16 black Lambertian emitters, 4 colours (warm, cool, red, green) x 4
+    emissiveStrengths (1.5, 4, 10, 25); the strongest warm and the strongest cool are doubleSided.
+    A grey floor (16 x 16 at y = 0) carries six diffuse boxes; the camera stands at eye height
+    under the canopy's near edge. Positions come from random.Random(7).random(), whose sequence
+    Python keeps fixed across versions.
+    """
+    g = Gltf()
+    rng = random.Random(7)
+    floor = g.lambertian("floor", (0.5, 0.5, 0.5))
+    grey = g.lambertian("box", (0.7, 0.7, 0.68))
+    g.node({"name": "floor", "mesh": g.mesh("floor", g.geometry(*rectangle()), floor),
+            "matrix": column_major([[8, 0, 0, 0], [0, 0, 8, 0], [0, -8, 0, -2]])})
+    cube_mesh = g.mesh("box", g.geometry(*cube()), grey)
+    boxes = [(-4.0, -3.0, 0.6, 0.8, 0.25), (-1.5, -5.0, 0.5, 1.4, -0.4), (1.8, -2.0, 0.8, 0.5, 0.7),
+             (4.5, -4.5, 0.4, 1.0, 0.1), (0.2, 0.5, 0.35, 0.35, -0.9), (-3.0, 1.5, 0.45, 0.6, 1.2)]
+    for k, (x, z, half, height, angle) in enumerate(boxes):
+        c, s_ = math.cos(angle), math.sin(angle)
+        rows = [[half * c, 0, half * s_, x], [0, height, 0, height], [-half * s_, 0, half * c, z]]
+        g.node({"name": "box %d" % k, "mesh": cube_mesh, "matrix": column_major(rows)})
+
+    materials = []
+    for ci, colour in enumerate(MANY_LIGHTS_COLOURS):
+        for si, strength in enumerate(MANY_LIGHTS_STRENGTHS):
+            m = g.lambertian("emitter colour %d strength %g" % (ci, strength), (0.0, 0.0, 0.0),
+                             colour, strength)
+            if ci < 2 and si == len(MANY_LIGHTS_STRENGTHS) - 1:
+                g.doc["materials"][m]["doubleSided"] = True
+            materials.append(m)
+    groups = [([], []) for _ in materials]
+    (nx, nz), ((x0, x1), (z0, z1)) = MANY_LIGHTS_GRID, MANY_LIGHTS_AREA
+    for j in range(nz):
+        for i in range(nx):
+            x = x0 + (i + 0.2 + 0.6 * rng.random()) * (x1 - x0) / nx
+            z = z0 + (j + 0.2 + 0.6 * rng.random()) * (z1 - z0) / nz
+            y = 3.0 + 0.5 * math.sin(0.7 * x) * math.cos(0.9 * z) + 0.3 * (rng.random() - 0.5)
+            side = 0.06 + 0.1 * rng.random()
+            # Front-face normal: straight down tilted by up to 50 degrees, or up for one in ten.
+            tilt, azimuth = math.radians(50.0) * math.sqrt(rng.random()), 2 * math.pi * rng.random()
+            up = rng.random() < 0.1
+            n = (math.sin(tilt) * math.cos(azimuth), -math.cos(tilt), math.sin(tilt) * math.sin(azimuth))
+            if up:
+                n = tuple(-c for c in n)
+            # Tangents t, b with t x b = n: the corners at angles 0, 120, 240 degrees about n
+            # come counter-clockwise seen from the side n points to.
+            t = normalize(cross((0.0, 0.0, 1.0), n))
+            b = cross(n, t)
+            spin = 2 * math.pi * rng.random()
+            r = side / math.sqrt(3.0)
+            corners = []
+            for k in range(3):
+                a = spin + k * 2 * math.pi / 3
+                corners.append(tuple(float("%.6g" % (c + r * (math.cos(a) * t[q] + math.sin(a) * b[q])))
+                                     for q, c in enumerate((x, y, z))))
+            front = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]))
+            assert sum(front[q] * n[q] for q in range(3)) > 0
+            positions, triangles = groups[int(rng.random() * len(materials))]
+            triangles.append(tuple(len(positions) + k for k in range(3)))
+            positions.extend(corners)
+    for k, (m, (positions, triangles)) in enumerate(zip(materials, groups)):
+        mesh = g.mesh("emitters %d" % k, g.geometry(positions, triangles), m)
+        g.node({"name": "emitters %d" % k, "mesh": mesh})
+    g.camera("camera", math.radians(55.0), (0.0, 1.7, 8.5), aspect_ratio=1.5, pitch=math.radians(6.0))
+    return g
+
+
 SCENES = [("cornell-box.gltf", cornell_box), ("cornell-materials.gltf", cornell_materials),
-          ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis), ("instances.gltf", instances)]
+          ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis), ("instances.gltf", instances),
+          ("many-lights.gltf", many_lights)]
 
 
 def main():

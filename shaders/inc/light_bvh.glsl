@@ -1,0 +1,162 @@
+// Light BVH sampling: the GLSL twin of src/light_bvh.rs (same names, same arithmetic in the same
+// order; tests/light_bvh_twins.rs compares them). Importance of a node after Conty Estevez &
+// Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree Splitting", in pbrt-v4's
+// LightBounds::Importance form; descent and pmf as pbrt-v4's BVHLightSampler.
+//
+// Two parts. The node struct and its constants come first, guarded by LIGHT_BVH_NODE_GLSL, so a
+// shader can include this file with LIGHT_BVH_NODE_ONLY defined before declaring its buffers:
+//     #define LIGHT_BVH_NODE_ONLY
+//     #include "light_bvh.glsl"
+//     #undef LIGHT_BVH_NODE_ONLY
+//     layout(...) readonly buffer LightNodes { GpuLightNode light_nodes[]; };
+//     layout(...) readonly buffer LightTrails { uint light_trails[]; };
+//     #include "light_bvh.glsl"
+// The functions (second include) read light_nodes[] and light_trails[] and need rng.glsl
+// (ONE_MINUS_EPSILON). A layout.glsl that defines the struct defines LIGHT_BVH_NODE_GLSL.
+
+#ifndef LIGHT_BVH_NODE_GLSL
+#define LIGHT_BVH_NODE_GLSL
+
+// One node of the flattened light BVH, depth first, root at 0. Total: 64 bytes.
+struct GpuLightNode {
+    vec3 bounds_min;      // 12 bytes
+    float phi;            // 4 bytes: emitted power of the lights below
+    vec3 bounds_max;      // 12 bytes
+    float cos_theta_o;    // 4 bytes: normals within θo of w
+    vec3 w;               // 12 bytes: unit axis of the normal cone
+    float cos_theta_e;    // 4 bytes: emission within θe of a normal
+    uint child_or_light;  // 4 bytes: interior: second child (first = this + 1); leaf: light index
+    uint flags;           // 4 bytes: LIGHT_NODE_LEAF | LIGHT_NODE_TWO_SIDED
+    uint pad0;
+    uint pad1;
+};
+
+#define LIGHT_NODE_LEAF 1u
+#define LIGHT_NODE_TWO_SIDED 2u
+#define MAX_LIGHT_BVH_DEPTH 31u
+#define NO_LIGHT_TRAIL 0xffffffffu
+#define LIGHT_BVH_MIN_DISTANCE_SQUARED 1e-20
+
+#endif  // LIGHT_BVH_NODE_GLSL
+
+#if !defined(LIGHT_BVH_GLSL) && !defined(LIGHT_BVH_NODE_ONLY)
+#define LIGHT_BVH_GLSL
+
+bool light_node_is_leaf(GpuLightNode node) { return (node.flags & LIGHT_NODE_LEAF) != 0u; }
+bool light_node_two_sided(GpuLightNode node) { return (node.flags & LIGHT_NODE_TWO_SIDED) != 0u; }
+
+// cos(max(0, θa − θb)) and sin(max(0, θa − θb)) from sines and cosines (pbrt-v4).
+float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    if (cos_a > cos_b) return 1.0;
+    return cos_a * cos_b + sin_a * sin_b;
+}
+float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    if (cos_a > cos_b) return 0.0;
+    return sin_a * cos_b - cos_a * sin_b;
+}
+float light_bvh_safe_sqrt(float x) { return sqrt(max(x, 0.0)); }
+
+// phi · cos θ' / d², times cos θ'i when n ≠ 0; see light_bounds_importance_terms in
+// src/light_bvh.rs for the terms.
+float light_bounds_importance(GpuLightNode node, vec3 p, vec3 n) {
+    vec3 pc = (node.bounds_min + node.bounds_max) * 0.5;
+    vec3 diagonal = node.bounds_max - node.bounds_min;
+    float radius = sqrt(dot(diagonal, diagonal)) * 0.5;
+    float radius_squared = radius * radius;
+    vec3 to_p = p - pc;
+    float distance_squared = dot(to_p, to_p);
+    float d2 = max(max(distance_squared, radius), LIGHT_BVH_MIN_DISTANCE_SQUARED);
+
+    vec3 wi = distance_squared > 0.0 ? to_p * (1.0 / sqrt(distance_squared)) : node.w;
+    float cos_theta_w = dot(node.w, wi);
+    if (light_node_two_sided(node)) cos_theta_w = abs(cos_theta_w);
+    float sin_theta_w = light_bvh_safe_sqrt(1.0 - cos_theta_w * cos_theta_w);
+
+    float cos_theta_b = distance_squared <= radius_squared
+        ? -1.0
+        : light_bvh_safe_sqrt(1.0 - radius_squared / distance_squared);
+    float sin_theta_b = light_bvh_safe_sqrt(1.0 - cos_theta_b * cos_theta_b);
+
+    float cos_theta_o = node.cos_theta_o;
+    float sin_theta_o = light_bvh_safe_sqrt(1.0 - cos_theta_o * cos_theta_o);
+    float cos_theta_x = cos_sub_clamped(sin_theta_w, cos_theta_w, sin_theta_o, cos_theta_o);
+    float sin_theta_x = sin_sub_clamped(sin_theta_w, cos_theta_w, sin_theta_o, cos_theta_o);
+    float cos_theta_p = cos_sub_clamped(sin_theta_x, cos_theta_x, sin_theta_b, cos_theta_b);
+    if (cos_theta_p <= node.cos_theta_e) return 0.0;
+    float importance = node.phi * cos_theta_p / d2;
+    if (n != vec3(0.0)) {
+        float cos_theta_i = abs(dot(wi, n));
+        float sin_theta_i = light_bvh_safe_sqrt(1.0 - cos_theta_i * cos_theta_i);
+        importance *= cos_sub_clamped(sin_theta_i, cos_theta_i, sin_theta_b, cos_theta_b);
+    }
+    return max(importance, 0.0);
+}
+
+// Descends from the root choosing each child with probability proportional to its importance,
+// remapping u after each choice. False when the tree is empty (light_count 0 is the caller's to
+// check: an empty light_nodes[] buffer cannot be read) or when no light can reach p.
+bool light_bvh_sample(vec3 p, vec3 n, float u, out uint light, out float pmf) {
+    light = 0u;
+    pmf = 0.0;
+    u = clamp(u, 0.0, ONE_MINUS_EPSILON);
+    uint index = 0u;
+    float prob = 1.0;
+    for (uint depth = 0u; depth <= MAX_LIGHT_BVH_DEPTH; depth++) {
+        GpuLightNode node = light_nodes[index];
+        if (light_node_is_leaf(node)) {
+            if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return false;
+            light = node.child_or_light;
+            pmf = prob;
+            return true;
+        }
+        uint second = node.child_or_light;
+        float c0 = light_bounds_importance(light_nodes[index + 1u], p, n);
+        float c1 = light_bounds_importance(light_nodes[second], p, n);
+        float sum = c0 + c1;
+        if (!(sum > 0.0)) return false;
+        float p0 = c0 / sum;
+        if (u < p0) {
+            prob *= p0;
+            u = min(u / p0, ONE_MINUS_EPSILON);
+            index += 1u;
+        } else {
+            float p1 = c1 / sum;
+            prob *= p1;
+            u = min((u - p0) / p1, ONE_MINUS_EPSILON);
+            index = second;
+        }
+    }
+    return false;
+}
+
+// The probability that light_bvh_sample at (p, n) returns `light`: the same product along the
+// light's trail. 0 for a light not in the tree.
+float light_bvh_pmf(vec3 p, vec3 n, uint light) {
+    uint trail = light_trails[light];
+    if (trail == NO_LIGHT_TRAIL) return 0.0;
+    uint index = 0u;
+    float pmf = 1.0;
+    for (uint depth = 0u; depth <= MAX_LIGHT_BVH_DEPTH; depth++) {
+        GpuLightNode node = light_nodes[index];
+        if (light_node_is_leaf(node)) {
+            if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return 0.0;
+            return pmf;
+        }
+        uint second = node.child_or_light;
+        float c0 = light_bounds_importance(light_nodes[index + 1u], p, n);
+        float c1 = light_bounds_importance(light_nodes[second], p, n);
+        float sum = c0 + c1;
+        if (!(sum > 0.0)) return 0.0;
+        if ((trail & 1u) == 0u) {
+            pmf *= c0 / sum;
+            index += 1u;
+        } else {
+            pmf *= c1 / sum;
+            index = second;
+        }
+        trail >>= 1u;
+    }
+    return 0.0;
+}
+
+#endif  // LIGHT_BVH_GLSL
