@@ -67,6 +67,25 @@ impl SamplerArg {
     }
 }
 
+/// How next event estimation picks the emitter to sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LightSamplerArg {
+    /// A light BVH over the emitters, descended by each node's importance to the shading point
+    /// (Conty Estevez & Kulla 2018); directional lights by power.
+    Bvh,
+    /// In proportion to emitted power alone, wherever the shading point is.
+    Power,
+}
+
+impl LightSamplerArg {
+    pub fn code(self) -> u32 {
+        match self {
+            LightSamplerArg::Bvh => wavetrace::layout::LIGHT_SAMPLER_BVH,
+            LightSamplerArg::Power => wavetrace::layout::LIGHT_SAMPLER_POWER,
+        }
+    }
+}
+
 /// What a render records.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum AovArg {
@@ -221,6 +240,10 @@ pub struct RenderOptions {
     /// BSDF direction): N-rooks stratified, independent, or Owen-scrambled Sobol.
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     pub sampler: SamplerArg,
+    /// How next event estimation picks the emitter to sample: through the light BVH, by each
+    /// emitter's importance to the shading point, or by emitted power alone.
+    #[arg(long, value_enum, default_value_t = LightSamplerArg::Bvh)]
+    pub light_sampler: LightSamplerArg,
     /// Record radiance, or a property of the surface each camera ray hits first (averaged over
     /// the pixel's samples): for checking textures, normal maps and texture coordinates.
     #[arg(long, value_enum, default_value_t = AovArg::Radiance)]

@@ -309,10 +309,19 @@ pub struct FrameParams {
     /// Probability that next event estimation samples the environment rather than an emitter
     /// of the table (the emitters' pmfs are scaled by 1 − env_pmf).
     pub env_pmf: f32, // 4 bytes
-    pub env_pad0: u32,          // 4 bytes
-    pub env_pad1: u32,          // 4 bytes
-    pub env_pad2: u32,          // 4 bytes
+    /// `LIGHT_SAMPLER_*`: how next event estimation picks an emitter of the table.
+    pub light_sampler: u32, // 4 bytes
+    /// The emitter table's CDF at its last bounded light (emissive triangles, point and spot
+    /// lights come first, directional lights last): the light BVH's share of the table.
+    pub light_bounded_cdf: f32, // 4 bytes
+    pub pad_end: u32,           // 4 bytes
 }
+
+/// `FrameParams::light_sampler`: emitters chosen by power alone (the table's CDF).
+pub const LIGHT_SAMPLER_POWER: u32 = 0;
+/// `FrameParams::light_sampler`: bounded emitters chosen through the light BVH by their
+/// importance to the shading point (`light_bvh.rs`), directional lights by power.
+pub const LIGHT_SAMPLER_BVH: u32 = 1;
 
 /// `FrameParams::aov`: radiance (a normal render).
 pub const AOV_RADIANCE: u32 = 0;
@@ -374,7 +383,7 @@ pub struct DispatchParams {
     pub clear_mask: u32,   // 4 bytes
 }
 
-/// What carries between bounces for one path. Total: 48 bytes.
+/// What carries between bounces for one path. Total: 64 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathState {
@@ -384,11 +393,13 @@ pub struct PathState {
     pub radiance: [f32; 3],   // 12 bytes
     /// 1 if the previous vertex was the camera or a specular bounce (no MIS on emission).
     pub prev_specular: u32, // 4 bytes
+    /// The previous vertex (the current ray's origin, before its offset) and its geometric
+    /// normal: where the light BVH's pmf of an emitter the ray hits is evaluated for MIS.
+    pub prev_position: [f32; 3], // 12 bytes
     /// Width of the ray cone at the current ray's origin (texture level of detail).
     pub cone_width: f32, // 4 bytes
+    pub prev_normal: [f32; 3], // 12 bytes
     pub pad0: u32,            // 4 bytes
-    pub pad1: u32,            // 4 bytes
-    pub pad2: u32,            // 4 bytes
 }
 
 /// A ray in the extension queue. Total: 32 bytes.
@@ -606,9 +617,9 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         env_height,
         env_rotation,
         env_pmf,
-        env_pad0,
-        env_pad1,
-        env_pad2
+        light_sampler,
+        light_bounded_cdf,
+        pad_end
     }),
     struct_layout!(DispatchParams {
         first_sample,
@@ -625,10 +636,10 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         prev_bsdf_pdf,
         radiance,
         prev_specular,
+        prev_position,
         cone_width,
-        pad0,
-        pad1,
-        pad2
+        prev_normal,
+        pad0
     }),
     struct_layout!(QueuedRay {
         origin,

@@ -215,6 +215,7 @@ fn prepare(
         env_rotate: opts.env_rotate,
         mis: opts.mis.heuristic(opts.mis_beta),
         sampler: opts.sampler.code(),
+        light_sampler: opts.light_sampler.code(),
         rr_mode: opts.rr.code(),
         rr_start_depth: opts.rr_depth,
         debug_flags: opts.debug_flags,

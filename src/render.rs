@@ -11,6 +11,10 @@ use crate::layout::{
     MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, NO_TEXTURE, RR_THROUGHPUT, SAMPLER_SOBOL,
     TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
+use crate::layout::{
+    LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SAMPLER_BVH, LIGHT_SAMPLER_POWER, LIGHT_SPOT,
+};
+use crate::light_bvh::{GpuLightNode, LightBounds, LightBvh, NO_LIGHT_TRAIL};
 use crate::mis::Heuristic;
 use crate::sampling::sample_uniform_triangle;
 use crate::scene::luminance;
@@ -52,6 +56,8 @@ pub struct RenderSettings {
     pub mis: Heuristic,
     /// `layout::SAMPLER_*`: Owen-scrambled Sobol by default.
     pub sampler: u32,
+    /// `layout::LIGHT_SAMPLER_*`: how next event estimation picks an emitter (`--light-sampler`).
+    pub light_sampler: u32,
     /// `layout::DEBUG_*` bits; 0 except in tests.
     pub debug_flags: u32,
     /// `layout::AOV_*`: radiance, or a property of the first hit (`--aov`).
@@ -80,6 +86,7 @@ impl Default for RenderSettings {
             env_rotate: 0.0,
             mis: Heuristic::Power(2.0),
             sampler: SAMPLER_SOBOL,
+            light_sampler: LIGHT_SAMPLER_BVH,
             debug_flags: 0,
             aov: crate::layout::AOV_RADIANCE,
             aperture: 0.0,
@@ -132,6 +139,12 @@ pub struct PreparedScene {
     pub light_power: f32,
     /// Radius of the scene's bounding sphere (half the diagonal of its bounds).
     pub radius: f32,
+    /// The light BVH over the table's bounded entries (its leaves index the table), and per
+    /// triangle the trail to its entry's leaf (empty when no triangle emits).
+    pub light_nodes: Vec<GpuLightNode>,
+    pub light_trails: Vec<u32>,
+    /// The table's CDF at its last bounded entry (`FrameParams::light_bounded_cdf`).
+    pub light_bounded_cdf: f32,
     /// Per BVH-ordered triangle: its vertices (xyz) and `TRIANGLE_*` flags (w).
     pub triangle_vertices: Vec<UVec4>,
     /// The scene's vertices and, last, one without attributes (`NO_VERTEX` corners).
@@ -219,6 +232,71 @@ fn emissive_texture_scale(
     }
     let over_triangle = luminance(Vec3::from(m.emission) * sum / 16.0);
     (over_triangle / whole).max(1e-3)
+}
+
+/// The light BVH over the emitter table's bounded entries (emissive triangles, point and spot
+/// lights: the entries before the directional ones), each with its selection power; per
+/// triangle, the trail to its entry's leaf (empty when no triangle emits); and the table's CDF
+/// at its last bounded entry.
+fn build_light_bvh(
+    lights: &[LightEntry],
+    total_power: f32,
+    triangles: &[GpuTriangle],
+    materials: &[GpuMaterial],
+    punctual: &[GpuPunctualLight],
+) -> (LightBvh, Vec<u32>, f32) {
+    let mut bounds = Vec::new();
+    let mut bounded_cdf = 0.0;
+    for entry in lights {
+        let power = entry.pmf * total_power;
+        if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
+            let l = &punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];
+            let p = Vec3::from(l.position);
+            match l.kind {
+                LIGHT_DIRECTIONAL => break,
+                LIGHT_SPOT => {
+                    // KHR_lights_punctual: scale = 1/(cos inner − cos outer), offset = −cos outer · scale.
+                    let cos_outer = -l.spot_offset / l.spot_scale;
+                    let cos_inner = cos_outer + 1.0 / l.spot_scale;
+                    bounds.push(LightBounds::spot(
+                        p,
+                        Vec3::from(l.direction),
+                        power,
+                        cos_inner,
+                        cos_outer,
+                    ));
+                }
+                _ => bounds.push(LightBounds::point(p, power)),
+            }
+        } else {
+            let t = &triangles[entry.triangle as usize];
+            let p0 = Vec3::from(t.p0);
+            let two_sided =
+                materials[t.material_index() as usize].flags & MATERIAL_DOUBLE_SIDED != 0;
+            bounds.push(LightBounds::triangle(
+                p0,
+                p0 + Vec3::from(t.e1),
+                p0 + Vec3::from(t.e2),
+                power,
+                two_sided,
+            ));
+        }
+        bounded_cdf = entry.cdf;
+    }
+    let bvh = LightBvh::build(&bounds);
+    let mut per_triangle = Vec::new();
+    if lights[..bounds.len()]
+        .iter()
+        .any(|e| e.triangle & LIGHT_ENTRY_PUNCTUAL == 0)
+    {
+        per_triangle = vec![NO_LIGHT_TRAIL; triangles.len()];
+        for (entry, &trail) in lights.iter().zip(&bvh.trails) {
+            if entry.triangle & LIGHT_ENTRY_PUNCTUAL == 0 {
+                per_triangle[entry.triangle as usize] = trail;
+            }
+        }
+    }
+    (bvh, per_triangle, bounded_cdf)
 }
 
 impl PreparedScene {
@@ -337,6 +415,13 @@ impl PreparedScene {
             &scene.punctual,
             radius,
         );
+        let (light_bvh, light_trails, light_bounded_cdf) = build_light_bvh(
+            &lights,
+            light_power as f32,
+            &triangles,
+            &materials,
+            &scene.punctual,
+        );
         PreparedScene {
             bvh: Bvh {
                 nodes,
@@ -347,6 +432,9 @@ impl PreparedScene {
             instances,
             triangles,
             materials,
+            light_nodes: light_bvh.nodes,
+            light_trails,
+            light_bounded_cdf,
             lights,
             light_power: light_power as f32,
             radius,
@@ -476,6 +564,12 @@ impl PreparedScene {
             spp: settings.spp,
             sampler_mode: settings.sampler,
             rr_mode: settings.rr_mode,
+            light_sampler: if self.light_nodes.is_empty() {
+                LIGHT_SAMPLER_POWER
+            } else {
+                settings.light_sampler
+            },
+            light_bounded_cdf: self.light_bounded_cdf,
             // The camera's fields: written below.
             ..FrameParams::default()
         };

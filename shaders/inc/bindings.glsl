@@ -30,6 +30,13 @@ layout(std430, set = 0, binding = 18) readonly buffer Punctual { GpuPunctualLigh
 layout(std430, set = 0, binding = 19) readonly buffer EnvTexels { uint env_texels[]; };
 layout(std430, set = 0, binding = 20) readonly buffer EnvConditional { float env_conditional[]; };
 layout(std430, set = 0, binding = 21) readonly buffer EnvMarginal { float env_marginal[]; };
+// The light BVH over the table's bounded emitters (light_bvh.glsl) and, per triangle, its
+// trail from the root (NO_LIGHT_TRAIL for triangles that do not emit).
+#define LIGHT_BVH_NODE_ONLY
+#include "light_bvh.glsl"
+#undef LIGHT_BVH_NODE_ONLY
+layout(std430, set = 0, binding = 22) readonly buffer LightNodes { GpuLightNode light_nodes[]; };
+layout(std430, set = 0, binding = 23) readonly buffer LightTrails { uint light_trails[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -168,10 +168,12 @@ struct FrameParams {
     uint env_height;        // 4 bytes
     vec2 env_rotation;      // 8 bytes: cos, sin of --env-rotate (about +Y)
     float env_pmf;          // 4 bytes: probability that NEE samples the environment
-    uint env_pad0;          // 4 bytes
-    uint env_pad1;          // 4 bytes
-    uint env_pad2;          // 4 bytes
+    uint light_sampler;     // 4 bytes: LIGHT_SAMPLER_*
+    float light_bounded_cdf;  // 4 bytes: the table's CDF at its last bounded light
+    uint pad_end;           // 4 bytes
 };
+#define LIGHT_SAMPLER_POWER 0u
+#define LIGHT_SAMPLER_BVH 1u
 #define AOV_RADIANCE 0u
 #define AOV_BASE_COLOR 1u
 #define AOV_NORMAL 2u
@@ -199,16 +201,16 @@ struct DispatchParams {
     uint clear_mask;     // 4 bytes: dispatch_args: bit k set = zero counters[k]
 };
 
-// What carries between bounces for one path. Total: 48 bytes.
+// What carries between bounces for one path. Total: 64 bytes.
 struct PathState {
     vec3 throughput;      // 12 bytes
     float prev_bsdf_pdf;  // 4 bytes
     vec3 radiance;        // 12 bytes
     uint prev_specular;   // 4 bytes
+    vec3 prev_position;   // 12 bytes: the previous vertex (light BVH pmf for MIS)
     float cone_width;     // 4 bytes: ray cone width at the ray's origin
+    vec3 prev_normal;     // 12 bytes: its geometric normal
     uint pad0;            // 4 bytes
-    uint pad1;            // 4 bytes
-    uint pad2;            // 4 bytes
 };
 
 // Extension-queue ray. Total: 32 bytes.

@@ -23,9 +23,9 @@ void main() {
     state.radiance = vec3(0.0);
     state.prev_specular = 1u;
     state.cone_width = frame.cone_width;
+    state.prev_position = vec3(0.0);
+    state.prev_normal = vec3(0.0);
     state.pad0 = 0u;
-    state.pad1 = 0u;
-    state.pad2 = 0u;
     paths[i] = state;
 
     QueuedRay ray;

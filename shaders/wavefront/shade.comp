@@ -12,10 +12,22 @@
 #include "texture.glsl"
 #include "surface.glsl"
 #include "environment.glsl"
+#include "light_bvh.glsl"
 
-// Next event estimation towards the emitter table (src/cpu/path.rs, sample_emitter): the entry
-// for u_pick rescaled past the environment's share, then the punctual light it names or a point
-// on its triangle for u_point; the shadow ray (origin, dir, t_max, contribution) if any.
+// The probability that NEE at the path's previous vertex picks emitting triangle `index` from
+// the table (the environment's share left out): through the light BVH at that vertex, or its
+// power share (src/cpu/path.rs, triangle_light_pmf).
+float triangle_light_pmf(GpuTriangle tri, uint index, PathState state) {
+    if (frame.light_sampler == LIGHT_SAMPLER_BVH) {
+        return frame.light_bounded_cdf * light_bvh_pmf(state.prev_position, state.prev_normal, index);
+    }
+    return tri.light_pmf;
+}
+
+// Next event estimation towards the emitter table (src/cpu/path.rs, sample_emitter): for u_pick
+// rescaled past the environment's share, a bounded emitter through the light BVH or an entry of
+// the table by power, then the punctual light it names or a point on its triangle for u_point;
+// the shadow ray (origin, dir, t_max, contribution) if any.
 bool sample_emitter(BsdfFrame bsdf, uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng,
                     vec3 throughput, float u_pick, vec2 u_point, out ShadowRay shadow) {
     shadow.origin = p;
@@ -25,8 +37,20 @@ bool sample_emitter(BsdfFrame bsdf, uint pixel, uint sample_index, uint depth, v
     if (frame.light_count == 0u) return false;
     float keep = 1.0 - frame.env_pmf;
     float u_table = min((u_pick - frame.env_pmf) / keep, ONE_MINUS_EPSILON);
-    LightEntry entry = lights[sample_light(u_table)];
-    float pmf = entry.pmf * keep;
+    LightEntry entry;
+    float pmf;
+    if (frame.light_sampler == LIGHT_SAMPLER_BVH && u_table < frame.light_bounded_cdf) {
+        // A bounded emitter, by its importance to (p, ng) through the light BVH.
+        float u_bvh = min(u_table / frame.light_bounded_cdf, ONE_MINUS_EPSILON);
+        uint k;
+        if (!light_bvh_sample(p, ng, u_bvh, k, pmf)) return false;
+        entry = lights[k];
+        pmf *= frame.light_bounded_cdf;
+    } else {
+        entry = lights[sample_light(u_table)];
+        pmf = entry.pmf;
+    }
+    pmf *= keep;
     if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
         // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
         GpuPunctualLight pl = punctual_lights[entry.triangle & ~LIGHT_ENTRY_PUNCTUAL];
@@ -130,7 +154,8 @@ void main() {
     if (max_component(le) > 0.0) {
         float w = 1.0;
         if (state.prev_specular == 0u) {
-            float light_pdf = tri.light_pmf * (1.0 - frame.env_pmf) * hit.t * hit.t / (abs(cos_out) * tri.area);
+            float pmf = triangle_light_pmf(tri, hit.triangle, state);
+            float light_pdf = pmf * (1.0 - frame.env_pmf) * hit.t * hit.t / (abs(cos_out) * tri.area);
             w = mis_weight2(frame.mis_heuristic, frame.mis_beta, state.prev_bsdf_pdf, light_pdf, false);
         }
         state.radiance += state.throughput * w * le;
@@ -194,6 +219,8 @@ void main() {
     state.throughput *= weight;
     state.prev_bsdf_pdf = pdf;
     state.prev_specular = delta ? 1u : 0u;
+    state.prev_position = p;
+    state.prev_normal = ng;
     if (max_component(state.throughput) <= 0.0) {
         paths[ray.path] = state;
         return;

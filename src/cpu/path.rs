@@ -5,11 +5,13 @@
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
+use crate::layout::LIGHT_SAMPLER_BVH;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, GpuPunctualLight, PathState, AOV_BASE_COLOR, AOV_NORMAL,
     AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT,
     MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
 };
+use crate::light_bvh::{light_bvh_pmf, light_bvh_sample};
 use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
 use crate::render::PreparedScene;
@@ -250,8 +252,9 @@ fn shade(
     if le.max_element() > 0.0 {
         let mut w = 1.0;
         if state.prev_specular == 0 {
+            let pmf = triangle_light_pmf(scene, frame, tri, hit.triangle, state);
             let light_pdf =
-                tri.light_pmf * (1.0 - frame.env_pmf) * hit.t * hit.t / (cos_out.abs() * tri.area);
+                pmf * (1.0 - frame.env_pmf) * hit.t * hit.t / (cos_out.abs() * tri.area);
             w = mis_weight2(
                 frame.mis_heuristic,
                 frame.mis_beta,
@@ -346,6 +349,8 @@ fn shade(
     throughput *= s.weight;
     state.prev_bsdf_pdf = s.pdf;
     state.prev_specular = u32::from(s.delta);
+    state.prev_position = p.to_array();
+    state.prev_normal = ng.to_array();
     if throughput.max_element() <= 0.0 {
         return (None, shadow);
     }
@@ -377,9 +382,35 @@ fn shade(
     )
 }
 
-/// Next event estimation towards the emitter table (shade.comp, `sample_emitter`): the entry
-/// for `u_pick` rescaled past the environment's share, then the punctual light it names, or a
-/// point on its triangle for `u_point`; the shadow ray and its MIS-weighted contribution.
+/// The probability that next event estimation at the path's previous vertex picks emitting
+/// triangle `index` from the table (the environment's share left out): through the light BVH
+/// at that vertex, or its power share (shade.comp, `triangle_light_pmf`).
+fn triangle_light_pmf(
+    scene: &PreparedScene,
+    frame: &FrameParams,
+    tri: &crate::layout::GpuTriangle,
+    index: u32,
+    state: &PathState,
+) -> f32 {
+    if frame.light_sampler == LIGHT_SAMPLER_BVH {
+        frame.light_bounded_cdf
+            * light_bvh_pmf(
+                &scene.light_nodes,
+                &scene.light_trails,
+                Vec3::from(state.prev_position),
+                Vec3::from(state.prev_normal),
+                index,
+            )
+    } else {
+        tri.light_pmf
+    }
+}
+
+/// Next event estimation towards the emitter table (shade.comp, `sample_emitter`): for `u_pick`
+/// rescaled past the environment's share, a bounded emitter through the light BVH (its share
+/// of the table, `light_bounded_cdf`) or an entry of the table by power, then the punctual
+/// light it names, or a point on its triangle for `u_point`; the shadow ray and its
+/// MIS-weighted contribution.
 #[allow(clippy::too_many_arguments)]
 fn sample_emitter(
     scene: &PreparedScene,
@@ -397,8 +428,17 @@ fn sample_emitter(
     }
     let keep = 1.0 - frame.env_pmf;
     let u_table = ((u_pick - frame.env_pmf) / keep).min(ONE_MINUS_EPSILON);
-    let entry = &scene.lights[sample_light(&scene.lights, u_table)];
-    let pmf = entry.pmf * keep;
+    let (entry, pmf) =
+        if frame.light_sampler == LIGHT_SAMPLER_BVH && u_table < frame.light_bounded_cdf {
+            // A bounded emitter, by its importance to (p, ng) through the light BVH.
+            let u_bvh = (u_table / frame.light_bounded_cdf).min(ONE_MINUS_EPSILON);
+            let (k, pmf) = light_bvh_sample(&scene.light_nodes, p, ng, u_bvh)?;
+            (&scene.lights[k as usize], pmf * frame.light_bounded_cdf)
+        } else {
+            let entry = &scene.lights[sample_light(&scene.lights, u_table)];
+            (entry, entry.pmf)
+        };
+    let pmf = pmf * keep;
     if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
         // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
         let light = &scene.punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];

@@ -34,10 +34,12 @@ pub enum Binding {
     EnvTexels = 19,
     EnvConditional = 20,
     EnvMarginal = 21,
+    LightNodes = 22,
+    LightTrails = 23,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 22] = [
+    pub const ALL: [Binding; 24] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -60,6 +62,8 @@ impl Binding {
         Binding::EnvTexels,
         Binding::EnvConditional,
         Binding::EnvMarginal,
+        Binding::LightNodes,
+        Binding::LightTrails,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

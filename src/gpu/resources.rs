@@ -54,6 +54,7 @@ impl RenderBuffers {
             ("BVH nodes", size_of_val(scene.bvh.nodes.as_slice())),
             ("triangles", size_of_val(scene.triangles.as_slice())),
             ("emitters", size_of_val(scene.lights.as_slice())),
+            ("light BVH nodes", size_of_val(scene.light_nodes.as_slice())),
             ("vertices", size_of_val(scene.vertices.as_slice())),
             ("texels", size_of_val(scene.texels.as_slice())),
             ("environment map", size_of_val(env.texels.as_slice())),
@@ -94,6 +95,8 @@ impl RenderBuffers {
         let env_texels = device("env_texels", size_of_val(env.texels.as_slice()))?;
         let env_conditional = device("env_conditional", size_of_val(env.conditional.as_slice()))?;
         let env_marginal = device("env_marginal", size_of_val(env.marginal.as_slice()))?;
+        let light_nodes = device("light_nodes", size_of_val(scene.light_nodes.as_slice()))?;
+        let light_trails = device("light_trails", size_of_val(scene.light_trails.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
         let hits = device("hits", cap * size_of::<HitRecord>())?;
@@ -132,6 +135,8 @@ impl RenderBuffers {
             (Binding::EnvTexels, env_texels.buffer),
             (Binding::EnvConditional, env_conditional.buffer),
             (Binding::EnvMarginal, env_marginal.buffer),
+            (Binding::LightNodes, light_nodes.buffer),
+            (Binding::LightTrails, light_trails.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -153,6 +158,8 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&env.texels), &env_texels),
             (bytemuck::cast_slice(&env.conditional), &env_conditional),
             (bytemuck::cast_slice(&env.marginal), &env_marginal),
+            (bytemuck::cast_slice(&scene.light_nodes), &light_nodes),
+            (bytemuck::cast_slice(&scene.light_trails), &light_trails),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -196,6 +203,8 @@ impl RenderBuffers {
                 env_texels,
                 env_conditional,
                 env_marginal,
+                light_nodes,
+                light_trails,
             ],
         })
     }

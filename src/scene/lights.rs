@@ -50,8 +50,8 @@ pub fn punctual_power(light: &GpuPunctualLight, scene_radius: f32) -> f32 {
 
 /// [`build_light_table`] with a power scale per triangle (`scales[i]`, 1 where `scales` is
 /// shorter: an emissive texture's mean over the triangle against its mean over the image) and
-/// `punctual` lights after the triangles: their entries carry `LIGHT_ENTRY_PUNCTUAL | index`,
-/// chosen in proportion to [`punctual_power`]. Also returns the table's total power.
+/// `punctual` lights after the triangles, directional ones last: their entries carry
+/// `LIGHT_ENTRY_PUNCTUAL | index`, chosen in proportion to [`punctual_power`]. Also returns the table's total power.
 pub fn build_light_table_with(
     triangles: &mut [GpuTriangle],
     materials: &[GpuMaterial],
@@ -110,7 +110,12 @@ pub fn build_light_table_with(
             pad: 0,
         });
     }
-    for (i, &p) in punctual_power.iter().enumerate() {
+    // Bounded lights first, directional lights (at infinity, outside the light BVH) last.
+    let order = (0..punctual.len())
+        .filter(|&i| punctual[i].kind != LIGHT_DIRECTIONAL)
+        .chain((0..punctual.len()).filter(|&i| punctual[i].kind == LIGHT_DIRECTIONAL));
+    for i in order {
+        let p = punctual_power[i];
         if p <= 0.0 {
             continue;
         }
