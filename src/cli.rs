@@ -308,6 +308,11 @@ pub struct VerifyArgs {
     /// Write every figure as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub json: Option<std::path::PathBuf>,
+    /// With --against a reference that carries no variance (a .png or .jpg, or an .exr without
+    /// wavetrace's variance and count layers, e.g. from another renderer): judge by NVIDIA's
+    /// FLIP perceptual error instead, passing where its mean is at most E.
+    #[arg(long, value_name = "E", value_parser = parse_unit_interval)]
+    pub max_flip: Option<f64>,
     #[command(flatten)]
     pub opts: RenderOptions,
 }
@@ -410,16 +415,38 @@ fn parse_beta(text: &str) -> Result<f32, String> {
 
 #[derive(Args, Debug, Clone)]
 pub struct CompareArgs {
-    /// First image (.exr written by wavetrace: mean, variance and count per pixel).
+    /// First image (.exr written by wavetrace: mean, variance and count per pixel; with --flip
+    /// also any .exr, .png or .jpg).
     pub a: PathBuf,
-    /// Second image, e.g. the CPU reference render of the same scene with another seed.
+    /// Second image, e.g. the CPU reference render of the same scene with another seed (with
+    /// --flip: the reference, e.g. another renderer's image).
     pub b: PathBuf,
+    /// Report NVIDIA's FLIP perceptual error of A against B (as displayed: 8-bit sRGB) instead
+    /// of the statistical test: for references that carry no variance.
+    #[arg(long)]
+    pub flip: bool,
+    /// With --flip: write FLIP's error map (magma colours) to this PNG.
+    #[arg(long, value_name = "FILE.png", requires = "flip")]
+    pub flip_map: Option<PathBuf>,
+    /// With --flip: exit 1 if the mean FLIP error exceeds E (without it, FLIP only reports).
+    #[arg(long, value_name = "E", value_parser = parse_unit_interval)]
+    pub max_flip: Option<f64>,
     /// Tile size in pixels: one Welch test per tile and channel.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub tile: u32,
     /// Family-wise significance level, Šidák-corrected over tiles × channels.
     #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
     pub alpha: f64,
+}
+
+/// A value in [0, 1].
+fn parse_unit_interval(text: &str) -> Result<f64, String> {
+    let v: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err("must lie in [0, 1]".into())
+    }
 }
 
 /// A significance level in (0, 1).

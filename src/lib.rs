@@ -6,6 +6,7 @@ pub mod bvh;
 pub mod cpu;
 pub mod environment;
 pub mod film;
+pub mod flip;
 pub mod gpu;
 pub mod image_io;
 pub mod layout;

@@ -438,6 +438,34 @@ fn bench(args: &BenchArgs) -> Result<()> {
 
 /// Prints the per-tile comparison of two saved renders; true if they agree.
 fn compare(args: &CompareArgs) -> Result<bool> {
+    if args.flip {
+        use wavetrace::flip::{flip, flip_heat_map, DisplayImage};
+        let test = DisplayImage::load(&args.a)?;
+        let reference = DisplayImage::load(&args.b)?;
+        let r = flip(&reference, &test)
+            .with_context(|| format!("comparing {} with {}", args.a.display(), args.b.display()))?;
+        println!(
+            "FLIP of {} against {}: mean {:.6}, median {:.6}, 99th percentile {:.6}, max {:.6} ({}×{} px, 8-bit sRGB, 67 pixels per degree)",
+            args.a.display(),
+            args.b.display(),
+            r.mean,
+            r.median,
+            r.p99,
+            r.max,
+            r.width,
+            r.height
+        );
+        if let Some(path) = &args.flip_map {
+            flip_heat_map(&r)
+                .save(path)
+                .with_context(|| format!("writing {}", path.display()))?;
+            println!("FLIP error map: {}", path.display());
+        }
+        return Ok(args.max_flip.is_none_or(|e| r.mean <= e));
+    }
+    if args.max_flip.is_some() {
+        bail!("--max-flip applies to --flip");
+    }
     let a = wavetrace::image_io::read_film(&args.a)?;
     let b = wavetrace::image_io::read_film(&args.b)?;
     let cmp = wavetrace::stats::compare_films(&a, &b, args.tile, args.alpha)

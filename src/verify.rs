@@ -4,6 +4,7 @@
 //! scene and one `index.html` for people (no JavaScript: it opens from a CI artifact).
 
 use crate::film::Film;
+use crate::flip::{flip_heat_map, FlipResult};
 use crate::stats::{film_mean, normal_quantile_upper, Comparison};
 use anyhow::{Context as _, Result};
 use image::{Rgb, RgbImage};
@@ -20,19 +21,33 @@ pub struct SceneVerdict {
     pub label_b: String,
     pub a: Film,
     pub b: Film,
-    pub comparison: Comparison,
+    pub judgement: Judgement,
     /// Wall-clock seconds of the two renders together.
     pub seconds: f64,
 }
 
+/// How a scene's two images were judged.
+pub enum Judgement {
+    /// The per-tile Welch test (both sides carry variance).
+    Welch(Comparison),
+    /// FLIP against a reference without variance, passing where the mean is at most `max`.
+    Flip { result: FlipResult, max: f64 },
+}
+
 impl SceneVerdict {
     pub fn passed(&self) -> bool {
-        self.comparison.passed()
+        match &self.judgement {
+            Judgement::Welch(c) => c.passed(),
+            Judgement::Flip { result, max } => result.mean <= *max,
+        }
     }
 
-    /// The failing tile tests, worst (smallest p) first, at most `n`, one line each.
+    /// The failing tile tests, worst (smallest p) first, at most `n`, one line each (none for
+    /// a FLIP judgement).
     pub fn worst_tiles(&self, n: usize) -> Vec<String> {
-        let c = &self.comparison;
+        let Judgement::Welch(c) = &self.judgement else {
+            return Vec::new();
+        };
         let mut failures: Vec<_> = c.failures.iter().collect();
         failures.sort_by(|x, y| x.p.total_cmp(&y.p));
         failures
@@ -119,15 +134,20 @@ pub fn junit_xml(verdicts: &[SceneVerdict]) -> String {
         if v.passed() {
             x.push_str("/>\n");
         } else {
-            let c = &v.comparison;
-            let message = format!(
-                "{} of {} tile×channel Welch tests reject equality of {} and {} (family-wise α = {})",
-                c.failures.len(),
-                c.tests,
-                v.label_a,
-                v.label_b,
-                c.alpha
-            );
+            let message = match &v.judgement {
+                Judgement::Welch(c) => format!(
+                    "{} of {} tile×channel Welch tests reject equality of {} and {} (family-wise α = {})",
+                    c.failures.len(),
+                    c.tests,
+                    v.label_a,
+                    v.label_b,
+                    c.alpha
+                ),
+                Judgement::Flip { result, max } => format!(
+                    "mean FLIP error of {} against {} is {:.6}, above --max-flip {max}",
+                    v.label_a, v.label_b, result.mean
+                ),
+            };
             let _ = writeln!(
                 x,
                 ">\n      <failure message=\"{}\" type=\"StatisticalMismatch\">{}</failure>\n    </testcase>",
@@ -145,9 +165,24 @@ pub fn json_report(verdicts: &[SceneVerdict]) -> serde_json::Value {
     let scenes: Vec<serde_json::Value> = verdicts
         .iter()
         .map(|v| {
-            let c = &v.comparison;
             let (mean_a, se_a) = film_mean(&v.a);
             let (mean_b, se_b) = film_mean(&v.b);
+            let c = match &v.judgement {
+                Judgement::Welch(c) => c,
+                Judgement::Flip { result, max } => {
+                    return json!({
+                        "scene": v.scene,
+                        "passed": v.passed(),
+                        "a": {"label": v.label_a, "mean": mean_a.to_array(), "std_error": se_a.to_array()},
+                        "b": {"label": v.label_b, "mean": mean_b.to_array()},
+                        "width": result.width,
+                        "height": result.height,
+                        "flip": {"mean": result.mean, "median": result.median, "p99": result.p99,
+                                 "max": result.max, "max_allowed": max},
+                        "seconds": v.seconds,
+                    });
+                }
+            };
             json!({
                 "scene": v.scene,
                 "passed": v.passed(),
@@ -241,10 +276,12 @@ pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
         );
         crate::image_io::write_image(&v.a, &dir.join(&a_png), 0.0)?;
         crate::image_io::write_image(&v.b, &dir.join(&b_png), 0.0)?;
-        heat_map(&v.comparison)
-            .save(dir.join(&heat_png))
+        let heat = match &v.judgement {
+            Judgement::Welch(c) => heat_map(c),
+            Judgement::Flip { result, .. } => flip_heat_map(result),
+        };
+        heat.save(dir.join(&heat_png))
             .with_context(|| format!("writing {}", dir.join(&heat_png).display()))?;
-        let c = &v.comparison;
         let (mean_a, se_a) = film_mean(&v.a);
         let (mean_b, se_b) = film_mean(&v.b);
         let status = if v.passed() {
@@ -252,26 +289,45 @@ pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
         } else {
             "<span class=\"fail\">FAIL</span>"
         };
-        let _ = writeln!(
-            html,
-            "<h2>{status} {}</h2>\n<p>{} of {} tile×channel Welch t tests reject equality ({}×{} px, tiles of {} px; \
-             family-wise α = {}, per test {:.3e}; smallest p = {:.3e}; rejection at |t| ≈ {:.2}).</p>",
-            xml_escape(&v.scene),
-            c.failures.len(),
-            c.tests,
-            c.width,
-            c.height,
-            c.tile,
-            c.alpha,
-            c.per_test_alpha,
-            c.min_p,
-            rejection_threshold(c)
-        );
+        let heat_caption = match &v.judgement {
+            Judgement::Welch(c) => {
+                let _ = writeln!(
+                    html,
+                    "<h2>{status} {}</h2>\n<p>{} of {} tile×channel Welch t tests reject equality ({}×{} px, tiles of {} px; \
+                     family-wise α = {}, per test {:.3e}; smallest p = {:.3e}; rejection at |t| ≈ {:.2}).</p>",
+                    xml_escape(&v.scene),
+                    c.failures.len(),
+                    c.tests,
+                    c.width,
+                    c.height,
+                    c.tile,
+                    c.alpha,
+                    c.per_test_alpha,
+                    c.min_p,
+                    rejection_threshold(c)
+                );
+                "per-tile t (red: first brighter, blue: second; yellow outline: rejected)"
+            }
+            Judgement::Flip { result, max } => {
+                let _ = writeln!(
+                    html,
+                    "<h2>{status} {}</h2>\n<p>FLIP against a reference without variance ({}×{} px): mean {:.6} \
+                     (pass at most {max}), median {:.6}, 99th percentile {:.6}, max {:.6}.</p>",
+                    xml_escape(&v.scene),
+                    result.width,
+                    result.height,
+                    result.mean,
+                    result.median,
+                    result.p99,
+                    result.max
+                );
+                "FLIP error per pixel (magma: black none, yellow most)"
+            }
+        };
         let _ = writeln!(
             html,
             "<table><tr><td>{}<br><img src=\"{a_png}\"></td><td>{}<br><img src=\"{b_png}\"></td>\
-             <td>per-tile t (red: first brighter, blue: second; yellow outline: rejected)<br>\
-             <img src=\"{heat_png}\"></td></tr></table>",
+             <td>{heat_caption}<br><img src=\"{heat_png}\"></td></tr></table>",
             xml_escape(&v.label_a),
             xml_escape(&v.label_b)
         );

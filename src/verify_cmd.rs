@@ -6,10 +6,11 @@ use crate::cli::{DeviceKind, VerifyArgs};
 use crate::prepare;
 use anyhow::{bail, Context as _, Result};
 use std::time::Instant;
+use wavetrace::flip::{flip, DisplayImage};
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
 use wavetrace::render::RenderSettings;
 use wavetrace::stats::compare_films;
-use wavetrace::verify::{json_report, junit_xml, write_report, SceneVerdict};
+use wavetrace::verify::{json_report, junit_xml, write_report, Judgement, SceneVerdict};
 
 /// Runs every scene; true if all agree.
 pub fn verify(args: &VerifyArgs) -> Result<bool> {
@@ -68,11 +69,11 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
                     gpu_label(settings.seed),
                     render_gpu(&settings)?,
                     format!("CPU reference, seed {}", cpu_settings.seed),
-                    render_cpu(&cpu_settings),
+                    Reference::Film(render_cpu(&cpu_settings)),
                 )
             }
             Some(reference) => {
-                let b = wavetrace::image_io::read_film(reference)?;
+                let b = read_reference(reference, args.max_flip)?;
                 let a = match args.device {
                     DeviceKind::Gpu => render_gpu(&settings)?,
                     DeviceKind::Cpu => render_cpu(&settings),
@@ -84,7 +85,10 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
                 (label, a, format!("reference {}", reference.display()), b)
             }
         };
-        for (label, film) in [(&label_a, &a), (&label_b, &b)] {
+        let b_film = match &b {
+            Reference::Film(f) | Reference::Display(_, f) => f,
+        };
+        for (label, film) in [(&label_a, &a), (&label_b, b_film)] {
             if film.dropped > 0 {
                 eprintln!(
                     "note: {}: {label} dropped {} NaN/Inf samples",
@@ -93,16 +97,36 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
                 );
             }
         }
-        let comparison = compare_films(&a, &b, args.tile, args.alpha)
-            .with_context(|| format!("comparing the two renders of {}", path.display()))?;
-        println!("{}: {comparison}", path.display());
+        let judgement = match b {
+            Reference::Film(b) => {
+                let comparison = compare_films(&a, &b, args.tile, args.alpha)
+                    .with_context(|| format!("comparing the two renders of {}", path.display()))?;
+                println!("{}: {comparison}", path.display());
+                (b, Judgement::Welch(comparison))
+            }
+            Reference::Display(display, b) => {
+                let result = flip(&display, &DisplayImage::from_film(&a))
+                    .with_context(|| format!("comparing the render of {}", path.display()))?;
+                let max = args.max_flip.expect("read_reference asks for --max-flip");
+                println!(
+                    "{}: {}: mean FLIP error {:.6} (at most {max}), median {:.6}, 99th percentile {:.6}, max {:.6}",
+                    path.display(),
+                    if result.mean <= max { "PASS" } else { "FAIL" },
+                    result.mean,
+                    result.median,
+                    result.p99,
+                    result.max
+                );
+                (b, Judgement::Flip { result, max })
+            }
+        };
         verdicts.push(SceneVerdict {
             scene: path.display().to_string(),
             label_a,
             label_b,
             a,
-            b,
-            comparison,
+            b: judgement.0,
+            judgement: judgement.1,
             seconds: start.elapsed().as_secs_f64(),
         });
     }
@@ -130,6 +154,37 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
         )?;
     }
     Ok(agreeing == verdicts.len())
+}
+
+/// A stored reference: a wavetrace EXR with variance (judged by the Welch test), or an image
+/// without variance as displayed (judged by FLIP), with its film for the report.
+enum Reference {
+    Film(wavetrace::film::Film),
+    Display(DisplayImage, wavetrace::film::Film),
+}
+
+/// Reads `--against` file `path`: an EXR with wavetrace's variance and count layers is a film;
+/// anything else needs `--max-flip` and is compared as displayed.
+fn read_reference(path: &std::path::Path, max_flip: Option<f64>) -> Result<Reference> {
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if is_exr {
+        let data = wavetrace::image_io::read_exr(path)?;
+        if data.variance.is_some() && data.count.is_some() {
+            return Ok(Reference::Film(wavetrace::image_io::read_film(path)?));
+        }
+    }
+    if max_flip.is_none() {
+        bail!(
+            "{}: the reference carries no variance (not an EXR written by wavetrace), so the statistical \
+             test cannot judge it; give --max-flip E to judge by NVIDIA's FLIP perceptual error",
+            path.display()
+        );
+    }
+    let display = DisplayImage::load(path)?;
+    let film = display.to_film();
+    Ok(Reference::Display(display, film))
 }
 
 /// Writes `text` to `file`, creating its folder if needed.

@@ -194,3 +194,77 @@ fn a_render_verifies_against_a_stored_reference() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such.exr"));
 }
+
+/// References without variance (another renderer's PNG) are judged by FLIP, and only with a
+/// stated `--max-flip`; `compare --flip` reports the same figure and writes its error map.
+#[test]
+fn references_without_variance_are_judged_by_flip() {
+    let dir = temp("flip");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (png, exr) = (dir.join("ref.png"), dir.join("ref.exr"));
+    for out in [&png, &exr] {
+        let o = wavetrace(&[
+            "render",
+            "scenes/cornell-box.gltf",
+            "--device",
+            "cpu",
+            "--width",
+            "32",
+            "--spp",
+            "256",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let base = [
+        "verify",
+        "scenes/cornell-box.gltf",
+        "--device",
+        "cpu",
+        "--width",
+        "32",
+        "--spp",
+        "64",
+        "--against",
+    ];
+    // Without --max-flip: an error (exit 2) that says what to do.
+    let mut args = base.to_vec();
+    args.push(png.to_str().unwrap());
+    let o = wavetrace(&args);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--max-flip"));
+    // With a generous bound it passes, with an impossible one it fails; the JSON carries FLIP.
+    let json_file = dir.join("v.json");
+    for (bound, code) in [("0.5", 0), ("0", 1)] {
+        let mut args = base.to_vec();
+        args.extend([png.to_str().unwrap(), "--max-flip", bound, "--json"]);
+        args.push(json_file.to_str().unwrap());
+        let o = wavetrace(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(code),
+            "{}",
+            String::from_utf8_lossy(&o.stdout)
+        );
+        let v = json(&json_file);
+        let mean = v["scenes"][0]["flip"]["mean"].as_f64().unwrap();
+        assert!(mean > 0.0 && mean < 0.5, "{v}");
+    }
+    // compare --flip: a render against itself has no error; the map is written.
+    let map = dir.join("map.png");
+    let o = wavetrace(&[
+        "compare",
+        "--flip",
+        png.to_str().unwrap(),
+        exr.to_str().unwrap(),
+        "--flip-map",
+        map.to_str().unwrap(),
+        "--max-flip",
+        "0",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("mean 0.000000"), "{stdout}");
+    assert_eq!(image::open(&map).unwrap().width(), 32);
+}
