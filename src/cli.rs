@@ -183,8 +183,47 @@ pub struct RenderArgs {
     /// Print per-kernel GPU time.
     #[arg(long)]
     pub stats: bool,
+    /// Render in passes of --spp samples per pixel until every pixel's relative standard error
+    /// is below E: the standard error of its mean luminance over max(mean luminance, 0.1 × the
+    /// image's mean luminance after the first pass). Deterministic: the same seed stops after
+    /// the same passes with the same image.
+    #[arg(long, value_name = "E", value_parser = parse_target_error, allow_negative_numbers = true)]
+    pub target_error: Option<f64>,
+    /// With --target-error: each pixel stops on its own once below E, so converged pixels get
+    /// no more samples.
+    #[arg(long, requires = "target_error")]
+    pub adaptive: bool,
+    /// With --target-error or --time-limit: at most N samples per pixel, in whole passes of
+    /// --spp (default 65536, or --spp if larger).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=wavetrace::progressive::MAX_SPP_LIMIT as i64))]
+    pub max_spp: Option<u32>,
+    /// Render in passes of --spp samples per pixel and stop after the pass during which
+    /// SECONDS of rendering have passed (with or without --target-error). Not deterministic:
+    /// how many passes fit depends on the machine and its load.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_time_limit, allow_negative_numbers = true)]
+    pub time_limit: Option<f64>,
     #[command(flatten)]
     pub opts: RenderOptions,
+}
+
+/// A relative error: finite and above 0.
+fn parse_target_error(text: &str) -> Result<f64, String> {
+    let e: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if e.is_finite() && e > 0.0 {
+        Ok(e)
+    } else {
+        Err("the relative error must be a finite number above 0, e.g. 0.05".into())
+    }
+}
+
+/// A time limit: finite seconds above 0.
+fn parse_time_limit(text: &str) -> Result<f64, String> {
+    let t: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if t.is_finite() && t > 0.0 {
+        Ok(t)
+    } else {
+        Err("the limit must be a finite number of seconds above 0".into())
+    }
 }
 
 /// What a render is: its size, samples, integrator settings, device and loading limits (shared

@@ -314,7 +314,11 @@ pub struct FrameParams {
     /// The emitter table's CDF at its last bounded light (emissive triangles, point and spot
     /// lights come first, directional lights last): the light BVH's share of the table.
     pub light_bounded_cdf: f32, // 4 bytes
-    pub pad_end: u32,           // 4 bytes
+    /// Passes of a render that stops at a target error (`progressive.rs`): 0 = every path of
+    /// a batch belongs to the band's pixels in order (`path_pixel_sample`); n > 0 = the paths
+    /// go round the first n entries of the active-pixel list (band-local pixel indices, the
+    /// `ActivePixels` binding), the pixels that have not yet reached the target.
+    pub active_pixel_count: u32, // 4 bytes
 }
 
 /// `FrameParams::light_sampler`: emitters chosen by power alone (the table's CDF).
@@ -619,7 +623,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         env_pmf,
         light_sampler,
         light_bounded_cdf,
-        pad_end
+        active_pixel_count
     }),
     struct_layout!(DispatchParams {
         first_sample,

@@ -13,6 +13,7 @@ pub mod layout;
 pub mod light_bvh;
 pub mod mc;
 pub mod mis;
+pub mod progressive;
 pub mod render;
 pub mod sampling;
 pub mod scene;

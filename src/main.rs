@@ -145,11 +145,12 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
     }
 }
 
-/// A progress bar over the render's samples on stderr (hidden when stderr is not a terminal).
+/// A progress bar over the render's samples on stderr (hidden when stderr is not a terminal);
+/// renders in passes restart it each pass, with the pass in its message.
 fn progress_bar(samples: u64) -> ProgressBar {
     let bar = ProgressBar::new(samples);
     if let Ok(style) = ProgressStyle::with_template(
-        "{bar:40} {percent:>3}%  {elapsed_precise} elapsed, {eta} left",
+        "{bar:40} {percent:>3}%  {elapsed_precise} elapsed, {eta} left  {msg}",
     ) {
         bar.set_style(style);
     }
@@ -275,6 +276,23 @@ fn render(args: &RenderArgs) -> Result<()> {
         b.sah_cost,
         b.build_time.as_secs_f64() * 1e3
     );
+    let progressive = progressive_options(args, &settings)?;
+    let how = match &progressive {
+        None => format!("at {} spp", args.opts.spp),
+        Some(p) => format!(
+            "in passes of {} spp (at most {}){}{}{}",
+            args.opts.spp,
+            p.max_passes(settings.spp) * settings.spp,
+            p.target_error
+                .map(|e| format!(", target relative error {e}"))
+                .unwrap_or_default(),
+            if p.adaptive { " per pixel" } else { "" },
+            p.time_limit
+                .map(|t| format!(", time limit {t} s"))
+                .unwrap_or_default()
+        ),
+    };
+    let mut report = None;
     let RenderOutput { film, stats } = match args.device {
         DeviceKind::Gpu => {
             let gpu = GpuRenderer::new(&GpuOptions {
@@ -283,36 +301,78 @@ fn render(args: &RenderArgs) -> Result<()> {
                 timing: true,
             })?;
             println!(
-                "rendering {width}×{height} at {} spp, max depth {}, on {} (Vulkan {}, {})",
-                args.opts.spp,
+                "rendering {width}×{height} {how}, max depth {}, on {} (Vulkan {}, {})",
                 args.opts.max_depth,
                 gpu.device().name,
                 gpu.device().api_version,
                 gpu.device().driver
             );
             let progress = progress_bar(settings.total_samples());
-            let out =
-                gpu.render_with_progress(&prepared, &settings, args.opts.wavefront, &progress);
+            let out = match &progressive {
+                None => {
+                    gpu.render_with_progress(&prepared, &settings, args.opts.wavefront, &progress)
+                }
+                Some(p) => gpu
+                    .render_progressive(&prepared, &settings, args.opts.wavefront, p, &progress)
+                    .map(|(out, r)| {
+                        report = Some(r);
+                        out
+                    }),
+            };
             progress.finish_and_clear();
             out?
         }
         DeviceKind::Cpu => {
             println!(
-                "rendering {width}×{height} at {} spp, max depth {}, on the CPU ({} threads)",
-                args.opts.spp,
+                "rendering {width}×{height} {how}, max depth {}, on the CPU ({} threads)",
                 args.opts.max_depth,
                 rayon::current_num_threads()
             );
             let progress = progress_bar(settings.total_samples());
-            let out = wavetrace::cpu::render_with_progress(&prepared, &settings, &progress);
+            let out = match &progressive {
+                None => wavetrace::cpu::render_with_progress(&prepared, &settings, &progress),
+                Some(p) => {
+                    let (out, r) =
+                        wavetrace::cpu::render_progressive(&prepared, &settings, p, &progress);
+                    report = Some(r);
+                    out
+                }
+            };
             progress.finish_and_clear();
             out
         }
     };
     print_stats(&stats, args.stats);
+    if let Some(r) = &report {
+        println!("{r}");
+    }
     wavetrace::image_io::write_image(&film, &output, args.exposure)?;
     println!("wrote {}", output.display());
     Ok(())
+}
+
+/// The pass options of `render` (`--target-error`, `--adaptive`, `--max-spp`,
+/// `--time-limit`), checked against the settings; None for a render of exactly --spp samples.
+fn progressive_options(
+    args: &RenderArgs,
+    settings: &RenderSettings,
+) -> Result<Option<wavetrace::progressive::Progressive>> {
+    if args.target_error.is_none() && args.time_limit.is_none() {
+        if args.max_spp.is_some() {
+            bail!("--max-spp caps renders in passes: give --target-error or --time-limit too");
+        }
+        return Ok(None);
+    }
+    let p = wavetrace::progressive::Progressive {
+        target_error: args.target_error,
+        adaptive: args.adaptive,
+        max_spp: args
+            .max_spp
+            .unwrap_or(wavetrace::progressive::DEFAULT_MAX_SPP.max(settings.spp)),
+        time_limit: args.time_limit,
+    };
+    p.check(settings)?;
+    Ok(Some(p))
 }
 
 fn devices() -> Result<()> {

@@ -37,6 +37,9 @@ layout(std430, set = 0, binding = 21) readonly buffer EnvMarginal { float env_ma
 #undef LIGHT_BVH_NODE_ONLY
 layout(std430, set = 0, binding = 22) readonly buffer LightNodes { GpuLightNode light_nodes[]; };
 layout(std430, set = 0, binding = 23) readonly buffer LightTrails { uint light_trails[]; };
+// Renders that stop at a target error, --adaptive: the band-local indices of the pixels still
+// sampled in this pass (frame.active_pixel_count of them; scene.glsl, path_pixel_sample).
+layout(std430, set = 0, binding = 24) readonly buffer ActivePixels { uint active_pixels[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -170,7 +170,8 @@ struct FrameParams {
     float env_pmf;          // 4 bytes: probability that NEE samples the environment
     uint light_sampler;     // 4 bytes: LIGHT_SAMPLER_*
     float light_bounded_cdf;  // 4 bytes: the table's CDF at its last bounded light
-    uint pad_end;           // 4 bytes
+    uint active_pixel_count;  // 4 bytes: 0 = the band's pixels in order; n > 0 = the first n
+                              //   entries of active_pixels (bindings.glsl, scene.glsl)
 };
 #define LIGHT_SAMPLER_POWER 0u
 #define LIGHT_SAMPLER_BVH 1u

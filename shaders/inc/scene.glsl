@@ -3,11 +3,19 @@
 #ifndef SCENE_GLSL
 #define SCENE_GLSL
 
-// Pixel and sample index of path i of the current batch (src/layout.rs, DispatchParams).
+// Pixel and sample index of path i of the current batch (src/layout.rs, DispatchParams). The
+// batch's paths go round the band's pixels in order or, in a pass of an adaptive render, round
+// the frame.active_pixel_count pixels of the active list (every one of which has had the same
+// number of samples, so sample = the pass's first sample + the round).
 void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
     uint local_index = params.first_pixel + i;
-    pixel = frame.band_first_pixel + local_index % frame.band_pixel_count;
-    sample_index = params.first_sample + local_index / frame.band_pixel_count;
+    if (frame.active_pixel_count == 0u) {
+        pixel = frame.band_first_pixel + local_index % frame.band_pixel_count;
+        sample_index = params.first_sample + local_index / frame.band_pixel_count;
+    } else {
+        pixel = frame.band_first_pixel + active_pixels[local_index % frame.active_pixel_count];
+        sample_index = params.first_sample + local_index / frame.active_pixel_count;
+    }
 }
 
 // The pair (u.x, u.y) of dimension `dimension` (block * 4 + first component) of a path's sample,

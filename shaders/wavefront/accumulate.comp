@@ -10,9 +10,13 @@ layout(local_size_x = WORKGROUP_SIZE) in;
 
 void main() {
     uint t = gl_GlobalInvocationID.x;
-    uint pixel_count = frame.band_pixel_count;
+    // The batch goes round pixel_count pixels: the band's, or the active list's (scene.glsl,
+    // path_pixel_sample).
+    bool listed = frame.active_pixel_count != 0u;
+    uint pixel_count = listed ? frame.active_pixel_count : frame.band_pixel_count;
     if (t >= min(params.batch_size, pixel_count)) return;
-    uint pixel = (params.first_pixel + t) % pixel_count;  // within the band the film holds
+    uint slot0 = (params.first_pixel + t) % pixel_count;
+    uint pixel = listed ? active_pixels[slot0] : slot0;  // within the band the film holds
     FilmPixel acc = film[pixel];
     uint dropped = 0u;
     for (uint slot = t; slot < params.batch_size; slot += pixel_count) {

@@ -7,6 +7,7 @@ pub use path::{emitted_radiance, path_pixel_sample, sample_pair, trace_path, Ray
 
 use crate::film::Film;
 use crate::layout::FilmPixel;
+use crate::progressive::{self, Progressive, ProgressiveReport};
 use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
 use glam::Vec3;
 use indicatif::ProgressBar;
@@ -33,30 +34,15 @@ pub fn render_with_progress(
         });
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
-    let width = settings.width as usize;
-    let (counts, dropped) = film
-        .pixels
-        .par_chunks_mut(width)
-        .enumerate()
-        .map(|(row, pixels)| {
-            let mut counts = RayCounts::default();
-            let mut dropped = 0u64;
-            for (x, acc) in pixels.iter_mut().enumerate() {
-                let pixel = (row * width + x) as u32;
-                for sample in 0..settings.spp {
-                    let l = trace_path(scene, &frame, env, pixel, sample, &mut counts);
-                    if !accumulate(acc, l) {
-                        dropped += 1;
-                    }
-                }
-            }
-            progress.inc(settings.spp as u64 * pixels.len() as u64);
-            (counts, dropped)
-        })
-        .reduce(
-            || (RayCounts::default(), 0),
-            |(a, da), (b, db)| (a.merged(&b), da + db),
-        );
+    let (counts, dropped) = render_samples(
+        scene,
+        &frame,
+        env,
+        &mut film,
+        0..settings.spp,
+        None,
+        progress,
+    );
     film.dropped = dropped;
     let stats = RenderStats {
         seconds: start.elapsed().as_secs_f64(),
@@ -67,6 +53,104 @@ pub fn render_with_progress(
         kernel_seconds: Vec::new(),
     };
     RenderOutput { film, stats }
+}
+
+/// Adds samples `samples` of every pixel (or of the pixels `active` marks) to `film`, rows in
+/// parallel, each pixel's samples in order; returns the rays traced and the samples dropped.
+fn render_samples(
+    scene: &PreparedScene,
+    frame: &crate::layout::FrameParams,
+    env: &crate::environment::EnvironmentMap,
+    film: &mut Film,
+    samples: std::ops::Range<u32>,
+    active: Option<&[bool]>,
+    progress: &ProgressBar,
+) -> (RayCounts, u64) {
+    let width = film.width as usize;
+    film.pixels
+        .par_chunks_mut(width)
+        .enumerate()
+        .map(|(row, pixels)| {
+            let mut counts = RayCounts::default();
+            let mut dropped = 0u64;
+            let mut traced = 0u64;
+            for (x, acc) in pixels.iter_mut().enumerate() {
+                let pixel = (row * width + x) as u32;
+                if active.is_some_and(|a| !a[pixel as usize]) {
+                    continue;
+                }
+                for sample in samples.clone() {
+                    let l = trace_path(scene, frame, env, pixel, sample, &mut counts);
+                    if !accumulate(acc, l) {
+                        dropped += 1;
+                    }
+                }
+                traced += samples.len() as u64;
+            }
+            progress.inc(traced);
+            (counts, dropped)
+        })
+        .reduce(
+            || (RayCounts::default(), 0),
+            |(a, da), (b, db)| (a.merged(&b), da + db),
+        )
+}
+
+/// Renders in passes of `settings.spp` samples per pixel until `options` say stop
+/// (`progressive.rs`): pass p adds samples [p·spp, (p+1)·spp) of the pixels still active.
+/// `options` must have passed [`Progressive::check`].
+pub fn render_progressive(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    options: &Progressive,
+    progress: &ProgressBar,
+) -> (RenderOutput, ProgressiveReport) {
+    let frame = scene.frame_params(settings);
+    let environment = settings.environment_map();
+    let env = environment
+        .as_ref()
+        .map_or(crate::environment::no_environment(), |(map, _)| {
+            map.as_ref()
+        });
+    let mut film = Film::new(settings.width, settings.height);
+    let start = Instant::now();
+    let mut counts = RayCounts::default();
+    let mut dropped = 0;
+    let mut mask = Vec::new();
+    let report = progressive::run(settings, options, &mut film, progress, |pass, film| {
+        let active = pass.active.map(|list| {
+            mask.clear();
+            mask.resize(film.len(), false);
+            for &p in list {
+                mask[p as usize] = true;
+            }
+            mask.as_slice()
+        });
+        let first = pass.first_sample;
+        let (c, d) = render_samples(
+            scene,
+            &frame,
+            env,
+            film,
+            first..first + settings.spp,
+            active,
+            progress,
+        );
+        counts = counts.merged(&c);
+        dropped += d;
+        Ok(())
+    })
+    .expect("CPU passes do not fail");
+    film.dropped = dropped;
+    let stats = RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        samples: report.total_samples(),
+        extension_rays: counts.extension,
+        shadow_rays: counts.shadow,
+        dropped,
+        kernel_seconds: Vec::new(),
+    };
+    (RenderOutput { film, stats }, report)
 }
 
 /// Adds one path's radiance to its pixel, as `accumulate.comp` does; false if it was dropped

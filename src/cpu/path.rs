@@ -42,18 +42,31 @@ impl RayCounts {
     }
 }
 
-/// Pixel and sample of path `i` of a batch (`scene.glsl`; see `DispatchParams`).
+/// Pixel and sample of path `i` of a batch (`scene.glsl`; see `DispatchParams`). The batch's
+/// paths go round the band's pixels in order or, in a pass of an adaptive render
+/// (`frame.active_pixel_count` > 0), round the first `active_pixel_count` entries of
+/// `active_pixels` (band-local pixel indices, every one of which has had the same number of
+/// samples, so sample = the pass's first sample + the round).
 pub fn path_pixel_sample(
     frame: &FrameParams,
+    active_pixels: &[u32],
     first_sample: u32,
     first_pixel: u32,
     i: u32,
 ) -> (u32, u32) {
     let local_index = first_pixel + i;
-    (
-        frame.band_first_pixel + local_index % frame.band_pixel_count,
-        first_sample + local_index / frame.band_pixel_count,
-    )
+    if frame.active_pixel_count == 0 {
+        (
+            frame.band_first_pixel + local_index % frame.band_pixel_count,
+            first_sample + local_index / frame.band_pixel_count,
+        )
+    } else {
+        (
+            frame.band_first_pixel
+                + active_pixels[(local_index % frame.active_pixel_count) as usize],
+            first_sample + local_index / frame.active_pixel_count,
+        )
+    }
 }
 
 /// The pair (u.x, u.y) of dimension `dimension` (block · 4 + first component) of a path's

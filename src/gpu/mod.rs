@@ -12,6 +12,7 @@ pub use context::{list_devices, DeviceInfo, INSTALL_HINT};
 
 use crate::film::Film;
 use crate::layout::{counter, FilmPixel, FrameParams, PathState, QueuedRay, ShadowRay};
+use crate::progressive::{self, Pass, Progressive, ProgressiveReport};
 use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
 use anyhow::{bail, Result};
 use ash::vk;
@@ -115,6 +116,52 @@ impl GpuRenderer {
         wavefront: Option<u32>,
         progress: &ProgressBar,
     ) -> Result<RenderOutput> {
+        let setup = self.setup(scene, settings, wavefront, false)?;
+        let result = self.render_bands(settings, &setup, progress);
+        setup.destroy(&self.ctx);
+        let (pixels, mut stats) = result?;
+        self.ctx.check_validation()?;
+        stats.samples = settings.total_samples();
+        let film = Film::from_pixels(settings.width, settings.height, pixels, stats.dropped);
+        Ok(RenderOutput { film, stats })
+    }
+
+    /// Renders in passes of `settings.spp` samples per pixel until `options` say stop
+    /// (`progressive.rs`): pass p adds samples [p·spp, (p+1)·spp) of the pixels still active,
+    /// band by band; with `--adaptive` the paths of a pass go round the list of active pixels
+    /// (`Binding::ActivePixels`). `options` must have passed [`Progressive::check`].
+    pub fn render_progressive(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        wavefront: Option<u32>,
+        options: &Progressive,
+        progress: &ProgressBar,
+    ) -> Result<(RenderOutput, ProgressiveReport)> {
+        let setup = self.setup(scene, settings, wavefront, options.adaptive)?;
+        let mut film = Film::new(settings.width, settings.height);
+        let mut stats = RenderStats::default();
+        let start = Instant::now();
+        let result = progressive::run(settings, options, &mut film, progress, |pass, film| {
+            self.render_pass(settings, &setup, pass, film, progress, &mut stats)
+        });
+        setup.destroy(&self.ctx);
+        let report = result?;
+        self.ctx.check_validation()?;
+        stats.seconds = start.elapsed().as_secs_f64();
+        stats.samples = report.total_samples();
+        film.dropped = stats.dropped;
+        Ok((RenderOutput { film, stats }, report))
+    }
+
+    /// Checks the wavefront size, chooses the bands and creates the buffers of one render.
+    fn setup(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        wavefront: Option<u32>,
+        active_list: bool,
+    ) -> Result<Setup> {
         let ctx = &self.ctx;
         let capacity = wavefront.unwrap_or_else(|| self.default_wavefront());
         if capacity == 0 || capacity > self.max_wavefront() {
@@ -146,6 +193,7 @@ impl GpuRenderer {
             env,
             capacity as u64,
             band_pixels as u64,
+            if active_list { band_pixels as u64 } else { 0 },
         )?;
         let query_pool = if self.timing {
             let info = vk::QueryPoolCreateInfo::default()
@@ -155,42 +203,46 @@ impl GpuRenderer {
         } else {
             None
         };
-        let result = self.render_bands(
-            scene, settings, capacity, band_rows, &buffers, query_pool, progress,
-        );
-        if let Some(pool) = query_pool {
-            unsafe { ctx.device.destroy_query_pool(pool, None) };
+        Ok(Setup {
+            capacity,
+            band_rows,
+            frame: scene.frame_params(settings),
+            buffers,
+            query_pool,
+        })
+    }
+
+    /// The bands of the image: (first row, rows).
+    fn bands(settings: &RenderSettings, band_rows: u32) -> Vec<(u32, u32)> {
+        (0..settings.height)
+            .step_by(band_rows as usize)
+            .map(|first_row| (first_row, band_rows.min(settings.height - first_row)))
+            .collect()
+    }
+
+    /// The frame constants of the band starting at `first_row`.
+    fn band_frame(setup: &Setup, width: u32, (first_row, rows): (u32, u32)) -> FrameParams {
+        FrameParams {
+            band_first_pixel: first_row * width,
+            band_pixel_count: rows * width,
+            ..setup.frame
         }
-        let (pixels, mut stats) = result?;
-        ctx.check_validation()?;
-        stats.samples = settings.total_samples();
-        let film = Film::from_pixels(settings.width, settings.height, pixels, stats.dropped);
-        Ok(RenderOutput { film, stats })
     }
 
     /// Renders the image band by band: clear the band's film, run its batches, read it back.
-    #[allow(clippy::too_many_arguments)]
     fn render_bands(
         &self,
-        scene: &PreparedScene,
         settings: &RenderSettings,
-        capacity: u32,
-        band_rows: u32,
-        buffers: &RenderBuffers,
-        query_pool: Option<vk::QueryPool>,
+        setup: &Setup,
         progress: &ProgressBar,
     ) -> Result<(Vec<FilmPixel>, RenderStats)> {
         let ctx = &self.ctx;
+        let buffers = &setup.buffers;
         let mut pixels = Vec::with_capacity(settings.pixel_count() as usize);
         let mut stats = RenderStats::default();
         let start = Instant::now();
-        for first_row in (0..settings.height).step_by(band_rows as usize) {
-            let rows = band_rows.min(settings.height - first_row);
-            let frame = FrameParams {
-                band_first_pixel: first_row * settings.width,
-                band_pixel_count: rows * settings.width,
-                ..scene.frame_params(settings)
-            };
+        for band in Self::bands(settings, setup.band_rows) {
+            let frame = Self::band_frame(setup, settings.width, band);
             buffers.frame.write(bytemuck::bytes_of(&frame));
             let film_bytes = frame.band_pixel_count as u64 * size_of::<FilmPixel>() as u64;
             self.commands.begin()?;
@@ -203,43 +255,118 @@ impl GpuRenderer {
 
             self.run_batches(
                 settings,
-                capacity,
+                setup,
+                0,
                 frame.band_pixel_count,
-                buffers,
-                query_pool,
                 progress,
                 &mut stats,
             )?;
-
-            self.commands.begin()?;
-            self.commands
-                .copy(&buffers.film, &buffers.film_back, film_bytes);
-            self.commands
-                .submit_and_wait(ctx, "the film read-back", SUBMIT_TIMEOUT_S)?;
-            pixels.extend(bytemuck::pod_collect_to_vec::<u8, FilmPixel>(
-                &buffers.film_back.read(film_bytes as usize),
-            ));
+            pixels.extend(self.read_film(buffers, film_bytes)?);
         }
         stats.seconds = start.elapsed().as_secs_f64();
         Ok((pixels, stats))
     }
 
-    /// Every batch of one band, each recorded into one command buffer and submitted.
-    #[allow(clippy::too_many_arguments)]
-    fn run_batches(
+    /// The first `film_bytes` of the GPU film.
+    fn read_film(&self, buffers: &RenderBuffers, film_bytes: u64) -> Result<Vec<FilmPixel>> {
+        self.commands.begin()?;
+        self.commands
+            .copy(&buffers.film, &buffers.film_back, film_bytes);
+        self.commands
+            .submit_and_wait(&self.ctx, "the film read-back", SUBMIT_TIMEOUT_S)?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, FilmPixel>(
+            &buffers.film_back.read(film_bytes as usize),
+        ))
+    }
+
+    /// One pass of a render in passes, band by band: the band's accumulators go to the GPU film
+    /// (cleared on the first pass; kept there between passes when the image is one band), the
+    /// band's active pixels to the list, the pass's batches run and the band comes back into
+    /// `film`.
+    fn render_pass(
         &self,
         settings: &RenderSettings,
-        capacity: u32,
-        band_pixels: u32,
-        buffers: &RenderBuffers,
-        query_pool: Option<vk::QueryPool>,
+        setup: &Setup,
+        pass: Pass,
+        film: &mut Film,
         progress: &ProgressBar,
         stats: &mut RenderStats,
     ) -> Result<()> {
         let ctx = &self.ctx;
+        let buffers = &setup.buffers;
+        let bands = Self::bands(settings, setup.band_rows);
+        let one_band = bands.len() == 1;
+        for band in bands {
+            let mut frame = Self::band_frame(setup, settings.width, band);
+            let first = frame.band_first_pixel as usize;
+            let count = frame.band_pixel_count as usize;
+            // The band's share of the active list, made band-local.
+            let listed: Option<Vec<u32>> = pass.active.map(|list| {
+                let lo = list.partition_point(|&p| (p as usize) < first);
+                let hi = list.partition_point(|&p| (p as usize) < first + count);
+                list[lo..hi].iter().map(|&p| p - first as u32).collect()
+            });
+            let slots = match &listed {
+                Some(l) if l.is_empty() => continue,
+                Some(l) => l.len() as u32,
+                None => frame.band_pixel_count,
+            };
+            frame.active_pixel_count = if listed.is_some() { slots } else { 0 };
+            buffers.frame.write(bytemuck::bytes_of(&frame));
+            let film_bytes = count as u64 * size_of::<FilmPixel>() as u64;
+            self.commands.begin()?;
+            let cmd = self.commands.cmd;
+            if pass.index == 0 {
+                unsafe {
+                    ctx.device
+                        .cmd_fill_buffer(cmd, buffers.film.buffer, 0, film_bytes, 0)
+                };
+            } else if !one_band {
+                buffers
+                    .film_back
+                    .write(bytemuck::cast_slice(&film.pixels[first..first + count]));
+                self.commands
+                    .copy(&buffers.film_back, &buffers.film, film_bytes);
+            }
+            if let Some(l) = &listed {
+                let bytes: &[u8] = bytemuck::cast_slice(l);
+                buffers.active_upload.write(bytes);
+                self.commands.copy(
+                    &buffers.active_upload,
+                    &buffers.active_pixels,
+                    bytes.len() as u64,
+                );
+            }
+            self.commands.submit_and_wait(
+                ctx,
+                "the film and active-pixel upload",
+                SUBMIT_TIMEOUT_S,
+            )?;
+            self.run_batches(settings, setup, pass.first_sample, slots, progress, stats)?;
+            film.pixels[first..first + count]
+                .copy_from_slice(&self.read_film(buffers, film_bytes)?);
+        }
+        Ok(())
+    }
+
+    /// Every batch of one band (or of the band's `pixel_count` active pixels), samples
+    /// [first_sample, first_sample + spp), each batch recorded into one command buffer and
+    /// submitted.
+    fn run_batches(
+        &self,
+        settings: &RenderSettings,
+        setup: &Setup,
+        first_sample: u32,
+        pixel_count: u32,
+        progress: &ProgressBar,
+        stats: &mut RenderStats,
+    ) -> Result<()> {
+        let ctx = &self.ctx;
+        let (capacity, buffers, query_pool) = (setup.capacity, &setup.buffers, setup.query_pool);
         let (counters, counters_back, args) =
             (&buffers.counters, &buffers.counters_back, &buffers.args);
-        for batch in batches(band_pixels, settings.spp, capacity) {
+        for mut batch in batches(pixel_count, settings.spp, capacity) {
+            batch.first_sample += first_sample;
             self.commands.begin()?;
             let mut recorder = Recorder {
                 device: &ctx.device,
@@ -248,7 +375,7 @@ impl GpuRenderer {
                 cmd: self.commands.cmd,
                 args,
                 counters,
-                pixel_count: band_pixels,
+                pixel_count,
                 timestamps: query_pool,
                 timed: Vec::new(),
             };
@@ -306,5 +433,23 @@ impl GpuRenderer {
             }
         }
         Ok(())
+    }
+}
+
+/// What one render holds between its passes: the paths in flight, the band height, the frame
+/// constants of the whole image, the buffers and the timestamp pool.
+struct Setup {
+    capacity: u32,
+    band_rows: u32,
+    frame: FrameParams,
+    buffers: RenderBuffers,
+    query_pool: Option<vk::QueryPool>,
+}
+
+impl Setup {
+    fn destroy(self, ctx: &Context) {
+        if let Some(pool) = self.query_pool {
+            unsafe { ctx.device.destroy_query_pool(pool, None) };
+        }
     }
 }

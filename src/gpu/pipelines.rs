@@ -36,10 +36,13 @@ pub enum Binding {
     EnvMarginal = 21,
     LightNodes = 22,
     LightTrails = 23,
+    /// Band-local indices of the pixels a pass of an adaptive render samples
+    /// (`FrameParams::active_pixel_count`).
+    ActivePixels = 24,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 24] = [
+    pub const ALL: [Binding; 25] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -64,6 +67,7 @@ impl Binding {
         Binding::EnvMarginal,
         Binding::LightNodes,
         Binding::LightTrails,
+        Binding::ActivePixels,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

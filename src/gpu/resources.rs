@@ -24,13 +24,19 @@ pub struct RenderBuffers {
     pub counters: Buffer,
     pub counters_back: Buffer,
     pub args: Buffer,
+    /// The active-pixel list of adaptive passes (`Binding::ActivePixels`) and its host upload.
+    pub active_pixels: Buffer,
+    pub active_upload: Buffer,
     /// Scene and queue buffers: only the descriptor set refers to them.
     _bound: Vec<Buffer>,
 }
 
 impl RenderBuffers {
-    /// Creates every buffer for `capacity` paths in flight and a film of `band_pixels`, binds
-    /// them and uploads the scene.
+    /// Creates every buffer for `capacity` paths in flight, a film of `band_pixels` and an
+    /// active-pixel list of `active_pixels` entries (0 for renders that never use one), binds
+    /// them and uploads the scene. The film's read-back buffer also uploads a band's
+    /// accumulators between the passes of a render that stops at a target error.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &Context,
         pipelines: &Pipelines,
@@ -39,6 +45,7 @@ impl RenderBuffers {
         env: &EnvironmentMap,
         capacity: u64,
         band_pixels: u64,
+        active_pixels: u64,
     ) -> Result<RenderBuffers> {
         use vk::BufferUsageFlags as U;
         let storage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
@@ -111,7 +118,22 @@ impl RenderBuffers {
             Location::Device,
         )?;
         let counters_back = host("counters_readback", counters.size)?;
-        let film_back = host("film_readback", film_bytes)?;
+        let film_back = Buffer::new(
+            ctx,
+            "film_readback",
+            film_bytes,
+            U::TRANSFER_DST | U::TRANSFER_SRC,
+            Location::Host,
+        )?;
+        let active_bytes = active_pixels * size_of::<u32>() as u64;
+        let active = device("active_pixels", active_bytes as usize)?;
+        let active_upload = Buffer::new(
+            ctx,
+            "active_pixels_upload",
+            active_bytes,
+            U::TRANSFER_SRC,
+            Location::Host,
+        )?;
         pipelines.bind_buffers(&[
             (Binding::Frame, frame.buffer),
             (Binding::BvhNodes, nodes.buffer),
@@ -137,6 +159,7 @@ impl RenderBuffers {
             (Binding::EnvMarginal, env_marginal.buffer),
             (Binding::LightNodes, light_nodes.buffer),
             (Binding::LightTrails, light_trails.buffer),
+            (Binding::ActivePixels, active.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -184,6 +207,8 @@ impl RenderBuffers {
             counters,
             counters_back,
             args,
+            active_pixels: active,
+            active_upload,
             _bound: vec![
                 nodes,
                 triangles,

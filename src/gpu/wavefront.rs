@@ -298,7 +298,7 @@ mod tests {
                 assert!(b.first_pixel == 0 || b.first_pixel + b.size <= pixels);
                 for i in 0..b.size {
                     let (pixel, sample) =
-                        path_pixel_sample(&frame, b.first_sample, b.first_pixel, i);
+                        path_pixel_sample(&frame, &[], b.first_sample, b.first_pixel, i);
                     seen[(sample * pixels + pixel) as usize] += 1;
                 }
             }
@@ -306,6 +306,35 @@ mod tests {
                 seen.iter().all(|&c| c == 1),
                 "{pixels} px × {spp} spp, capacity {cap}"
             );
+        }
+    }
+
+    #[test]
+    fn batches_over_an_active_list_cover_each_listed_pixel_once_per_sample() {
+        // A band of 40 pixels starting at pixel 100, of which every third is still active, in
+        // a pass whose first sample is 48.
+        let list: Vec<u32> = (0..40).step_by(3).collect();
+        let n = list.len() as u32;
+        for (spp, cap) in [(4u32, 1000u32), (4, 5), (7, 14), (3, 1)] {
+            let frame = FrameParams {
+                band_first_pixel: 100,
+                band_pixel_count: 40,
+                active_pixel_count: n,
+                ..Default::default()
+            };
+            let mut seen = vec![0u32; (40 * spp) as usize];
+            for b in batches(n, spp, cap) {
+                for i in 0..b.size {
+                    let (pixel, sample) =
+                        path_pixel_sample(&frame, &list, 48 + b.first_sample, b.first_pixel, i);
+                    assert!((48..48 + spp).contains(&sample));
+                    seen[((sample - 48) * 40 + pixel - 100) as usize] += 1;
+                }
+            }
+            for (k, &c) in seen.iter().enumerate() {
+                let listed = list.contains(&(k as u32 % 40));
+                assert_eq!(c, listed as u32, "slot {k}: {spp} spp, capacity {cap}");
+            }
         }
     }
 }
