@@ -347,6 +347,18 @@ pub struct VerifyArgs {
     /// Write every figure as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub json: Option<std::path::PathBuf>,
+    /// Choose each scene's sample count so that the test detects a relative bias of the GPU
+    /// image of this size (e.g. 0.5% or 0.005) with probability --power, from pilot renders at
+    /// --spp, and report that power. Renders with the independent sampler (the power model
+    /// needs the film's variance to be the pixel mean's).
+    #[arg(long, value_name = "BIAS", value_parser = parse_fraction)]
+    pub detect: Option<f64>,
+    /// With --detect: the probability of rejecting when the bias is there.
+    #[arg(long, default_value_t = 0.9, value_parser = parse_alpha)]
+    pub power: f64,
+    /// With --detect: at most this many samples per pixel on each side.
+    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..=16_777_216))]
+    pub detect_max_spp: u32,
     /// With --against a reference that carries no variance (a .png or .jpg, or an .exr without
     /// wavetrace's variance and count layers, e.g. from another renderer): judge by NVIDIA's
     /// FLIP perceptual error instead, passing where its mean is at most E.
@@ -476,6 +488,25 @@ pub struct CompareArgs {
     /// Family-wise significance level, Šidák-corrected over tiles × channels.
     #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
     pub alpha: f64,
+}
+
+/// A relative size: "0.5%" or "0.005", in (0, 1).
+fn parse_fraction(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let (number, scale) = match t.strip_suffix('%') {
+        Some(n) => (n, 0.01),
+        None => (t, 1.0),
+    };
+    let v: f64 = number
+        .trim()
+        .parse()
+        .map_err(|e| format!("'{text}': {e}"))?;
+    let v = v * scale;
+    if v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err("a relative bias must lie strictly between 0 and 1 (e.g. 0.5% or 0.005)".into())
+    }
 }
 
 /// A value in [0, 1].

@@ -183,6 +183,9 @@ pub fn chi_square_gof(observed: &[f64], expected: &[f64]) -> (f64, f64, f64) {
 }
 
 mod compare;
+mod power;
+
+pub use power::PowerModel;
 
 pub use compare::{
     compare_films, film_mean, image_error, Comparison, ImageError, TileFailure,

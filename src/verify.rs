@@ -24,6 +24,22 @@ pub struct SceneVerdict {
     pub judgement: Judgement,
     /// Wall-clock seconds of the two renders together.
     pub seconds: f64,
+    /// `--detect`: the sample count chosen for the stated bias and the power it gives.
+    pub detect: Option<DetectPlan>,
+}
+
+/// What `verify --detect` chose for one scene.
+#[derive(Clone, Copy, Debug)]
+pub struct DetectPlan {
+    /// The relative bias to detect.
+    pub bias: f64,
+    /// Samples per pixel of the pilot renders and of the final ones.
+    pub pilot_spp: u32,
+    pub spp: u32,
+    /// Predicted probability that the test rejects when the GPU image carries the bias.
+    pub power: f64,
+    /// The power asked for (below it when the sample cap stopped the search).
+    pub target: f64,
 }
 
 /// How a scene's two images were judged.
@@ -203,6 +219,10 @@ pub fn json_report(verdicts: &[SceneVerdict]) -> serde_json::Value {
                 })).collect::<Vec<_>>(),
                 "tile_t": c.tile_t,
                 "seconds": v.seconds,
+                "detect": v.detect.map(|d| json!({
+                    "bias": d.bias, "pilot_spp": d.pilot_spp, "spp": d.spp,
+                    "power": d.power, "target_power": d.target,
+                })),
             })
         })
         .collect();
@@ -344,6 +364,18 @@ pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
                 .map(|k| format!("<td>{:.6} ± {:.6}</td>", mean_b[k], se_b[k]))
                 .collect::<String>(),
         );
+        if let Some(d) = &v.detect {
+            let _ = writeln!(
+                html,
+                "<p>--detect {}%: {} samples per pixel on each side (pilot {}) give the test power {:.3} \
+                 (asked {}) to detect a relative bias of that size.</p>",
+                d.bias * 100.0,
+                d.spp,
+                d.pilot_spp,
+                d.power,
+                d.target
+            );
+        }
         let worst = v.worst_tiles(10);
         if !worst.is_empty() {
             let _ = writeln!(

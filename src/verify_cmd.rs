@@ -10,7 +10,10 @@ use wavetrace::flip::{flip, DisplayImage};
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
 use wavetrace::render::RenderSettings;
 use wavetrace::stats::compare_films;
-use wavetrace::verify::{json_report, junit_xml, write_report, Judgement, SceneVerdict};
+use wavetrace::stats::PowerModel;
+use wavetrace::verify::{
+    json_report, junit_xml, write_report, DetectPlan, Judgement, SceneVerdict,
+};
 
 /// Runs every scene; true if all agree.
 pub fn verify(args: &VerifyArgs) -> Result<bool> {
@@ -20,6 +23,9 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             args.against.len(),
             args.scenes.len()
         );
+    }
+    if args.detect.is_some() && !args.against.is_empty() {
+        bail!("--detect chooses the sample count of the GPU and CPU renders; it does not apply with --against");
     }
     let needs_gpu = args.against.is_empty() || args.device == DeviceKind::Gpu;
     let gpu = if needs_gpu {
@@ -58,6 +64,46 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             };
             wavetrace::cpu::render(&prepared, &clean).film
         };
+        // --detect: pilot renders at --spp choose the sample count of the real ones.
+        let mut detect = None;
+        let mut settings = settings;
+        if let Some(bias) = args.detect {
+            // The power model needs the film's variance to be that of the pixel mean: independent
+            // samples (stats::power).
+            settings.sampler = wavetrace::layout::SAMPLER_INDEPENDENT;
+            let pilot_cpu = RenderSettings {
+                seed: settings.seed.wrapping_add(1),
+                ..settings.clone()
+            };
+            let (pa, pb) = (render_gpu(&settings)?, render_cpu(&pilot_cpu));
+            let model = PowerModel::new(&pa, &pb, settings.spp, args.tile, args.alpha);
+            let (spp, power) = model.plan(
+                bias,
+                args.power,
+                settings.spp,
+                args.detect_max_spp.max(settings.spp),
+            );
+            println!(
+                "{}: --detect {}%: {spp} spp per side gives power {power:.3} (asked {}; pilot {} spp)",
+                path.display(),
+                bias * 100.0,
+                args.power,
+                settings.spp
+            );
+            detect = Some(DetectPlan {
+                bias,
+                pilot_spp: settings.spp,
+                spp,
+                power,
+                target: args.power,
+            });
+            // Fresh seeds: the final renders are independent of the pilots that chose their size.
+            settings = RenderSettings {
+                spp,
+                seed: settings.seed.wrapping_add(2),
+                ..settings
+            };
+        }
         let (label_a, a, label_b, b) = match args.against.get(i) {
             None => {
                 // Independent seeds: the same seed would draw the same numbers on both sides.
@@ -128,6 +174,7 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             b: judgement.0,
             judgement: judgement.1,
             seconds: start.elapsed().as_secs_f64(),
+            detect,
         });
     }
     let agreeing = verdicts.iter().filter(|v| v.passed()).count();

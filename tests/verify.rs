@@ -268,3 +268,61 @@ fn references_without_variance_are_judged_by_flip() {
     assert!(stdout.contains("mean 0.000000"), "{stdout}");
     assert_eq!(image::open(&map).unwrap().width(), 32);
 }
+
+/// `verify --detect`'s power model against the rejection rate of the per-tile test over
+/// repeated renders carrying exactly the stated bias (every sample of one side × (1 + δ)), on
+/// the CPU in-process, with the independent sampler as `--detect` uses. The rate must match
+/// the prediction within binomial noise (exact two-sided test at 10⁻³); both are printed.
+#[test]
+fn detect_power_matches_the_rejection_rate_of_biased_renders() {
+    use statrs::distribution::{Binomial, DiscreteCDF};
+    use wavetrace::render::RenderSettings;
+    use wavetrace::stats::{compare_films, PowerModel};
+    let scene = common::prepared("cornell-box.gltf");
+    let (tile, alpha, delta) = (8, 0.01, 0.05);
+    let settings = |spp, seed| RenderSettings {
+        width: 16,
+        height: 16,
+        spp,
+        max_depth: 4,
+        seed,
+        // As verify --detect renders: independent samples, whose variance the film estimates.
+        sampler: wavetrace::layout::SAMPLER_INDEPENDENT,
+        ..RenderSettings::default()
+    };
+    let pilot_spp = 1024;
+    let pa = common::render_cpu(&scene, &settings(pilot_spp, 1)).film;
+    let pb = common::render_cpu(&scene, &settings(pilot_spp, 2)).film;
+    let model = PowerModel::new(&pa, &pb, pilot_spp, tile, alpha);
+    // The spp where the predicted power is about one half: the most informative test.
+    let (spp, predicted) = model.plan(delta, 0.5, 2, 4096);
+    let runs = 120u64;
+    let mut rejected = 0u64;
+    for r in 0..runs as u32 {
+        let mut a = common::render_cpu(&scene, &settings(spp, 100 + 2 * r)).film;
+        let b = common::render_cpu(&scene, &settings(spp, 101 + 2 * r)).film;
+        let k = (1.0 + delta) as f32;
+        for p in &mut a.pixels {
+            p.sum = p.sum.map(|s| s * k);
+            p.sum_sq = p.sum_sq.map(|s| s * k * k);
+        }
+        if !compare_films(&a, &b, tile, alpha).unwrap().passed() {
+            rejected += 1;
+        }
+    }
+    let rate = rejected as f64 / runs as f64;
+    println!("--detect {delta}: {spp} spp, predicted power {predicted:.3}, measured rejection rate {rate:.3} ({rejected}/{runs})");
+    // Exact binomial tails of the count under the predicted power, each at 5·10⁻⁴ (two-sided
+    // 10⁻³): too few rejections break the promise; too many would mean the bound is loose.
+    let binomial = Binomial::new(predicted, runs).unwrap();
+    let p_low = binomial.cdf(rejected);
+    let p_high = if rejected == 0 {
+        1.0
+    } else {
+        binomial.sf(rejected - 1)
+    };
+    assert!(
+        p_low > 5e-4 && p_high > 5e-4,
+        "the measured rejection rate {rate} does not match the predicted power {predicted} (P(K ≤ k) = {p_low:.2e}, P(K ≥ k) = {p_high:.2e})"
+    );
+}

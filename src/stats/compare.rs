@@ -103,11 +103,11 @@ impl fmt::Display for Comparison {
 const F32_UNIT_ROUNDOFF: f64 = f32::EPSILON as f64 / 2.0;
 
 /// One film's statistics over one tile, per channel.
-struct TileSide {
+pub(super) struct TileSide {
     /// Mean over the tile's P pixels of the pixel means.
-    mean: [f64; 3],
+    pub(super) mean: [f64; 3],
     /// Variance of that mean: Σ variance_of_mean / P².
-    var: [f64; 3],
+    pub(super) var: [f64; 3],
     /// Welch–Satterthwaite degrees of freedom of `var`.
     df: [f64; 3],
     /// Bound on the f32 summation error of `mean` (Higham 2002, §4.2: |error of a sum of n
@@ -115,7 +115,7 @@ struct TileSide {
     rounding: [f64; 3],
 }
 
-fn tile_side(film: &Film, x0: u32, x1: u32, y0: u32, y1: u32) -> TileSide {
+pub(super) fn tile_side(film: &Film, x0: u32, x1: u32, y0: u32, y1: u32) -> TileSide {
     let mut side = TileSide {
         mean: [0.0; 3],
         var: [0.0; 3],
