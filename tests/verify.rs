@@ -20,6 +20,34 @@ fn skip_without_gpu() -> bool {
     skip
 }
 
+/// Validates a JUnit file against `tests/schemas/junit.xsd` with xmllint (libxml2-utils).
+/// `.ci/run` installs it and sets WAVETRACE_NEED_XMLLINT=1, so CI cannot skip this; elsewhere a
+/// missing xmllint skips the check with a notice.
+fn assert_valid_junit(file: &std::path::Path) {
+    let schema = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/schemas/junit.xsd");
+    let run = std::process::Command::new("xmllint")
+        .arg("--noout")
+        .arg("--schema")
+        .arg(&schema)
+        .arg(file)
+        .output();
+    match run {
+        Ok(o) => assert!(
+            o.status.success(),
+            "{} does not validate against the JUnit schema:\n{}",
+            file.display(),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+        Err(e) => {
+            assert!(
+                std::env::var("WAVETRACE_NEED_XMLLINT").is_err(),
+                "xmllint is required (WAVETRACE_NEED_XMLLINT) but cannot run: {e}"
+            );
+            eprintln!("skipping the JUnit schema check: xmllint cannot run ({e})");
+        }
+    }
+}
+
 fn json(path: &PathBuf) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -59,6 +87,7 @@ fn every_committed_scene_verifies_and_the_reports_say_so() {
     let xml = std::fs::read_to_string(&junit).unwrap();
     assert!(xml.contains("tests=\"4\" failures=\"0\""), "{xml}");
     assert_eq!(xml.matches("<testcase ").count(), 4);
+    assert_valid_junit(&junit);
     let v = json(&json_file);
     assert_eq!(v["passed"], true);
     assert_eq!(v["scenes"].as_array().unwrap().len(), 4);
@@ -113,6 +142,7 @@ fn a_biased_gpu_render_fails_and_the_heat_map_marks_its_tiles() {
         xml.contains("failures=\"1\"") && xml.contains("<failure "),
         "{xml}"
     );
+    assert_valid_junit(&junit);
     let v = json(&json_file);
     assert_eq!(v["passed"], false);
     let scene = &v["scenes"][0];
