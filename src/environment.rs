@@ -361,6 +361,13 @@ pub fn env_sample(map: &EnvironmentMap, frame: &FrameParams, u: Vec2) -> Option<
     Some((env_from_map(frame, m), pdf))
 }
 
+/// The map of `RenderSettings::environment_map`'s answer, or the empty one.
+pub fn map_or_none(environment: &Option<(Arc<EnvironmentMap>, Vec3)>) -> &EnvironmentMap {
+    environment
+        .as_ref()
+        .map_or(no_environment(), |(map, _)| map.as_ref())
+}
+
 /// An empty map: what the integrators read when there is no environment (frame.env_width 0).
 pub fn no_environment() -> &'static EnvironmentMap {
     static EMPTY: EnvironmentMap = EnvironmentMap {

@@ -27,11 +27,7 @@ pub fn render_with_progress(
 ) -> RenderOutput {
     let frame = scene.frame_params(settings);
     let environment = settings.environment_map();
-    let env = environment
-        .as_ref()
-        .map_or(crate::environment::no_environment(), |(map, _)| {
-            map.as_ref()
-        });
+    let env = crate::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
     let (counts, dropped) = render_samples(
@@ -107,11 +103,7 @@ pub fn render_progressive(
 ) -> (RenderOutput, ProgressiveReport) {
     let frame = scene.frame_params(settings);
     let environment = settings.environment_map();
-    let env = environment
-        .as_ref()
-        .map_or(crate::environment::no_environment(), |(map, _)| {
-            map.as_ref()
-        });
+    let env = crate::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
     let mut counts = RayCounts::default();

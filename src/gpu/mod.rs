@@ -180,11 +180,7 @@ impl GpuRenderer {
             (band_limit / settings.width as u64).clamp(1, settings.height as u64) as u32;
         let band_pixels = band_rows * settings.width;
         let environment = settings.environment_map();
-        let env = environment
-            .as_ref()
-            .map_or(crate::environment::no_environment(), |(map, _)| {
-                map.as_ref()
-            });
+        let env = crate::environment::map_or_none(&environment);
         let buffers = RenderBuffers::new(
             ctx,
             &self.pipelines,
