@@ -24,16 +24,41 @@ float triangle_light_pmf(GpuTriangle tri, uint index, PathState state) {
     return tri.light_pmf;
 }
 
+// One light sample seen from a shading point (src/cpu/path.rs, LightSample): the direction to
+// the light, where the shadow ray ends (target, or at infinity), the radiance arriving and the
+// solid-angle density of the sample (the pmf for a delta light, which has no MIS partner).
+struct LightSample {
+    vec3 wi;
+    bool has_target;
+    vec3 target;
+    bool delta;
+    vec3 radiance;
+    float pdf;
+};
+
+// Next event estimation towards the environment (src/cpu/path.rs, sample_environment).
+bool sample_environment(vec2 u, out LightSample ls) {
+    float pdf;
+    bool found = env_sample(u, ls.wi, pdf);
+    ls.has_target = false;
+    ls.target = vec3(0.0);
+    ls.delta = false;
+    ls.radiance = found ? env_radiance(ls.wi) : vec3(0.0);
+    ls.pdf = frame.env_pmf * pdf;
+    return found;
+}
+
 // Next event estimation towards the emitter table (src/cpu/path.rs, sample_emitter): for u_pick
 // rescaled past the environment's share, a bounded emitter through the light BVH or an entry of
-// the table by power, then the punctual light it names or a point on its triangle for u_point;
-// the shadow ray (origin, dir, t_max, contribution) if any.
-bool sample_emitter(BsdfFrame bsdf, uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng,
-                    vec3 throughput, float u_pick, vec2 u_point, out ShadowRay shadow) {
-    shadow.origin = p;
-    shadow.dir = vec3(0.0, 0.0, 1.0);
-    shadow.t_max = 0.0;
-    shadow.contribution = vec3(0.0);
+// the table by power, then the punctual light it names or a point on its triangle for u_point.
+bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, float u_pick,
+                    vec2 u_point, out LightSample ls) {
+    ls.wi = vec3(0.0, 0.0, 1.0);
+    ls.has_target = false;
+    ls.target = vec3(0.0);
+    ls.delta = false;
+    ls.radiance = vec3(0.0);
+    ls.pdf = 0.0;
     if (frame.light_count == 0u) return false;
     float keep = 1.0 - frame.env_pmf;
     float u_table = min((u_pick - frame.env_pmf) / keep, ONE_MINUS_EPSILON);
@@ -52,17 +77,13 @@ bool sample_emitter(BsdfFrame bsdf, uint pixel, uint sample_index, uint depth, v
     }
     pmf *= keep;
     if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
-        // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
         GpuPunctualLight pl = punctual_lights[entry.triangle & ~LIGHT_ENTRY_PUNCTUAL];
-        vec3 wi;
         float dist;
-        vec3 li = punctual_incident(pl, p, wi, dist);
-        vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
-        if (!(max_component(f) > 0.0 && max_component(li) > 0.0 && pmf > 0.0)) return false;
-        shadow.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
-        shadow.dir = wi;
-        shadow.t_max = dist < 0.0 ? 3.402823466e38 : length(pl.position - shadow.origin);
-        shadow.contribution = throughput * f * bsdf_frame_cos(bsdf, wi) * li / pmf;
+        ls.radiance = punctual_incident(pl, p, ls.wi, dist);
+        ls.has_target = dist >= 0.0;
+        ls.target = pl.position;
+        ls.delta = true;
+        ls.pdf = pmf;
         return true;
     }
     GpuTriangle light = triangles[entry.triangle];
@@ -71,29 +92,19 @@ bool sample_emitter(BsdfFrame bsdf, uint pixel, uint sample_index, uint depth, v
     vec3 light_n = normalize(cross(light.e1, light.e2));
     vec3 to_light = y - p;
     float dist2 = dot(to_light, to_light);
-    float dist = sqrt(dist2);
-    vec3 wi = to_light / dist;
-    float cos_light = dot(light_n, -wi);
-    float cos_surface = dot(ng, wi);
+    ls.wi = to_light / sqrt(dist2);
+    float cos_light = dot(light_n, -ls.wi);
     // The light point's emission (its textures at level 0) where its surface exists.
     SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
     GpuMaterial light_mat = surface_material(materials[triangle_material(light)], light_sp, LOD_MAGNIFY);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
-    vec3 light_le = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
+    ls.radiance = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
         ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
-    // Solid-angle pdf of the light sample: pmf * (1/area) * dist^2 / |cos at the light|.
-    float light_pdf = pmf * dist2 / (abs(cos_light) * light.area);
-    vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
-    if (!(max_component(f) > 0.0 && max_component(light_le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf))) {
-        return false;
-    }
-    float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_frame_pdf(bsdf, wi), true);
-    shadow.origin = offset_ray_origin(p, cos_surface > 0.0 ? ng : -ng);
-    vec3 target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
-    vec3 d = target - shadow.origin;
-    shadow.t_max = length(d);
-    shadow.dir = d / shadow.t_max;
-    shadow.contribution = throughput * f * bsdf_frame_cos(bsdf, wi) * light_le * (w / light_pdf);
+    // The shadow ray ends just off the light's surface, on the side it leaves towards p.
+    ls.has_target = true;
+    ls.target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
+    // Solid-angle pdf: pmf * (1/area) * dist^2 / |cos at the light|.
+    ls.pdf = pmf * dist2 / (abs(cos_light) * light.area);
     return true;
 }
 
@@ -176,32 +187,31 @@ void main() {
     if ((frame.light_count > 0u || frame.env_pmf > 0.0) && (frame.debug_flags & DEBUG_NO_NEE) == 0u
         && frame.mis_heuristic != MIS_BSDF_ONLY) {
         vec2 u_point = sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz);
-        ShadowRay shadow;
-        bool queued;
-        if (u_light.x < frame.env_pmf) {
-            vec3 wi;
-            float pdf;
-            queued = false;
-            if (env_sample(u_point, wi, pdf)) {
-                float light_pdf = frame.env_pmf * pdf;
-                vec3 le = env_radiance(wi);
-                vec3 f = bsdf_frame_eval(bsdf, wi, TRANSPORT_RADIANCE);
-                if (max_component(f) > 0.0 && max_component(le) > 0.0 && light_pdf > 0.0 && !isinf(light_pdf)) {
-                    float w = mis_weight2(frame.mis_heuristic, frame.mis_beta, light_pdf, bsdf_frame_pdf(bsdf, wi), true);
-                    shadow.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
-                    shadow.dir = wi;
+        LightSample ls;
+        bool found = u_light.x < frame.env_pmf
+            ? sample_environment(u_point, ls)
+            : sample_emitter(pixel, sample_index, depth, p, ng, u_light.x, u_point, ls);
+        if (found) {
+            vec3 f = bsdf_frame_eval(bsdf, ls.wi, TRANSPORT_RADIANCE);
+            if (max_component(f) > 0.0 && max_component(ls.radiance) > 0.0 && ls.pdf > 0.0 && !isinf(ls.pdf)) {
+                // A delta light has no MIS partner (no BSDF sample can reach it): weight 1.
+                float w = ls.delta ? 1.0
+                    : mis_weight2(frame.mis_heuristic, frame.mis_beta, ls.pdf, bsdf_frame_pdf(bsdf, ls.wi), true);
+                ShadowRay shadow;
+                shadow.origin = offset_ray_origin(p, dot(ng, ls.wi) > 0.0 ? ng : -ng);
+                shadow.path = ray.path;
+                if (ls.has_target) {
+                    vec3 d = ls.target - shadow.origin;
+                    shadow.t_max = length(d);
+                    shadow.dir = d / shadow.t_max;
+                } else {
+                    shadow.dir = ls.wi;
                     shadow.t_max = 3.402823466e38;
-                    shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, wi) * le * (w / light_pdf);
-                    queued = true;
                 }
+                shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, ls.wi) * ls.radiance * (w / ls.pdf);
+                shadow.pad = 0u;
+                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
             }
-        } else {
-            queued = sample_emitter(bsdf, pixel, sample_index, depth, p, ng, state.throughput, u_light.x, u_point, shadow);
-        }
-        if (queued) {
-            shadow.path = ray.path;
-            shadow.pad = 0u;
-            shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
         }
     }
 

@@ -305,45 +305,45 @@ fn shade(
             4 * dim::bounce_block(depth) + 1,
             Vec2::new(u_light.y, u_light.z),
         );
-        if u_light.x < frame.env_pmf {
-            if let Some((wi, pdf)) = env_sample(env, frame, u_point) {
-                let light_pdf = frame.env_pmf * pdf;
-                let le = env_radiance(env, frame, wi);
-                let f = bsdf.eval(wi, TransportMode::Radiance);
-                if f.max_element() > 0.0
-                    && le.max_element() > 0.0
-                    && light_pdf > 0.0
-                    && light_pdf.is_finite()
-                {
-                    let w = mis_weight2(
+        let light = if u_light.x < frame.env_pmf {
+            sample_environment(env, frame, u_point)
+        } else {
+            sample_emitter(scene, frame, (pixel, sample, depth), p, ng, u_light.x, u_point)
+        };
+        if let Some(ls) = light {
+            let f = bsdf.eval(ls.wi, TransportMode::Radiance);
+            if f.max_element() > 0.0
+                && ls.radiance.max_element() > 0.0
+                && ls.pdf > 0.0
+                && ls.pdf.is_finite()
+            {
+                // A delta light has no MIS partner (no BSDF sample can reach it): weight 1.
+                let w = if ls.delta {
+                    1.0
+                } else {
+                    mis_weight2(
                         frame.mis_heuristic,
                         frame.mis_beta,
-                        light_pdf,
-                        bsdf.pdf(wi),
+                        ls.pdf,
+                        bsdf.pdf(ls.wi),
                         true,
-                    );
-                    shadow = Some(ShadowRay {
-                        ray: Ray {
-                            origin: offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng }),
-                            dir: wi,
-                        },
-                        t_max: f32::MAX,
-                        contribution: throughput * f * bsdf.cos_theta(wi) * le * (w / light_pdf),
-                    });
-                }
+                    )
+                };
+                let origin = offset_ray_origin(p, if ng.dot(ls.wi) > 0.0 { ng } else { -ng });
+                let (dir, t_max) = match ls.target {
+                    Some(target) => {
+                        let d = target - origin;
+                        let t_max = d.length();
+                        (d / t_max, t_max)
+                    }
+                    None => (ls.wi, f32::MAX),
+                };
+                shadow = Some(ShadowRay {
+                    ray: Ray { origin, dir },
+                    t_max,
+                    contribution: throughput * f * bsdf.cos_theta(ls.wi) * ls.radiance * (w / ls.pdf),
+                });
             }
-        } else {
-            shadow = sample_emitter(
-                scene,
-                frame,
-                &bsdf,
-                (pixel, sample, depth),
-                p,
-                ng,
-                throughput,
-                u_light.x,
-                u_point,
-            );
         }
     }
 
@@ -419,57 +419,69 @@ fn triangle_light_pmf(
     }
 }
 
+/// One light sample seen from a shading point (shade.comp, `LightSample`): the direction to
+/// the light, where the shadow ray ends (a point, or at infinity), the radiance arriving and
+/// the solid-angle density of the sample (the pmf for a delta light, which has no MIS partner).
+struct LightSample {
+    wi: Vec3,
+    target: Option<Vec3>,
+    radiance: Vec3,
+    pdf: f32,
+    delta: bool,
+}
+
+/// Next event estimation towards the environment (shade.comp, `sample_environment`): a
+/// direction from the map's distribution, with the environment's share of the choice.
+fn sample_environment(env: &EnvironmentMap, frame: &FrameParams, u: Vec2) -> Option<LightSample> {
+    let (wi, pdf) = env_sample(env, frame, u)?;
+    Some(LightSample {
+        wi,
+        target: None,
+        radiance: env_radiance(env, frame, wi),
+        pdf: frame.env_pmf * pdf,
+        delta: false,
+    })
+}
+
 /// Next event estimation towards the emitter table (shade.comp, `sample_emitter`): for `u_pick`
 /// rescaled past the environment's share, a bounded emitter through the light BVH (its share
 /// of the table, `light_bounded_cdf`) or an entry of the table by power, then the punctual
-/// light it names, or a point on its triangle for `u_point`; the shadow ray and its
-/// MIS-weighted contribution.
-#[allow(clippy::too_many_arguments)]
+/// light it names, or a point on its triangle for `u_point`.
 fn sample_emitter(
     scene: &PreparedScene,
     frame: &FrameParams,
-    bsdf: &BsdfFrame,
     (pixel, sample, depth): (u32, u32, u32),
     p: Vec3,
     ng: Vec3,
-    throughput: Vec3,
     u_pick: f32,
     u_point: Vec2,
-) -> Option<ShadowRay> {
+) -> Option<LightSample> {
     if frame.light_count == 0 {
         return None;
     }
     let keep = 1.0 - frame.env_pmf;
     let u_table = ((u_pick - frame.env_pmf) / keep).min(ONE_MINUS_EPSILON);
-    let (entry, pmf) =
-        if frame.light_sampler == LIGHT_SAMPLER_BVH && u_table < frame.light_bounded_cdf {
-            // A bounded emitter, by its importance to (p, ng) through the light BVH.
-            let u_bvh = (u_table / frame.light_bounded_cdf).min(ONE_MINUS_EPSILON);
-            let (k, pmf) = light_bvh_sample(&scene.light_nodes, p, ng, u_bvh)?;
-            (&scene.lights[k as usize], pmf * frame.light_bounded_cdf)
-        } else {
-            let entry = &scene.lights[sample_light(&scene.lights, u_table)];
-            (entry, entry.pmf)
-        };
+    let (entry, pmf) = if frame.light_sampler == LIGHT_SAMPLER_BVH
+        && u_table < frame.light_bounded_cdf
+    {
+        // A bounded emitter, by its importance to (p, ng) through the light BVH.
+        let u_bvh = (u_table / frame.light_bounded_cdf).min(ONE_MINUS_EPSILON);
+        let (k, pmf) = light_bvh_sample(&scene.light_nodes, p, ng, u_bvh)?;
+        (&scene.lights[k as usize], pmf * frame.light_bounded_cdf)
+    } else {
+        let entry = &scene.lights[sample_light(&scene.lights, u_table)];
+        (entry, entry.pmf)
+    };
     let pmf = pmf * keep;
     if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
-        // A delta light: reached by emitter sampling only, with weight 1 (no MIS partner).
         let light = &scene.punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];
         let (wi, dist, li) = punctual_incident(light, p);
-        let f = bsdf.eval(wi, TransportMode::Radiance);
-        if !(f.max_element() > 0.0 && li.max_element() > 0.0 && pmf > 0.0) {
-            return None;
-        }
-        let origin = offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng });
-        let t_max = if dist >= 0.0 {
-            (Vec3::from(light.position) - origin).length()
-        } else {
-            f32::MAX
-        };
-        return Some(ShadowRay {
-            ray: Ray { origin, dir: wi },
-            t_max,
-            contribution: throughput * f * bsdf.cos_theta(wi) * li / pmf,
+        return Some(LightSample {
+            wi,
+            target: (dist >= 0.0).then(|| Vec3::from(light.position)),
+            radiance: li,
+            pdf: pmf,
+            delta: true,
         });
     }
     let light = &scene.triangles[entry.triangle as usize];
@@ -480,10 +492,8 @@ fn sample_emitter(
     let light_n = l1.cross(l2).normalize();
     let to_light = y - p;
     let dist2 = to_light.dot(to_light);
-    let dist = dist2.sqrt();
-    let wi = to_light / dist;
+    let wi = to_light / dist2.sqrt();
     let cos_light = light_n.dot(-wi);
-    let cos_surface = ng.dot(wi);
     // The light point's emission (its textures at level 0) where its surface exists.
     let textures = scene.texture_data();
     let light_raw = &scene.materials[light.material_index() as usize];
@@ -491,38 +501,21 @@ fn sample_emitter(
     let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
     let key = alpha_key(frame.seed, pixel, sample, depth, true);
     // (Culling does not apply: the light's own sidedness is its emission's.)
-    let light_le = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
+    let radiance = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
         emitted_radiance(&light_mat, cos_light)
     } else {
         Vec3::ZERO
     };
-    // Solid-angle pdf of the light sample: pmf · (1/area) · dist² / |cos at the light|.
-    let light_pdf = pmf * dist2 / (cos_light.abs() * light.area);
-    let f = bsdf.eval(wi, TransportMode::Radiance);
-    if !(f.max_element() > 0.0
-        && light_le.max_element() > 0.0
-        && light_pdf > 0.0
-        && light_pdf.is_finite())
-    {
-        return None;
-    }
-    let w = mis_weight2(
-        frame.mis_heuristic,
-        frame.mis_beta,
-        light_pdf,
-        bsdf.pdf(wi),
-        true,
-    );
-    let origin = offset_ray_origin(p, if cos_surface > 0.0 { ng } else { -ng });
-    let target = offset_ray_origin(y, if cos_light > 0.0 { light_n } else { -light_n });
-    let d = target - origin;
-    let t_max = d.length();
-    Some(ShadowRay {
-        ray: Ray {
-            origin,
-            dir: d / t_max,
-        },
-        t_max,
-        contribution: throughput * f * bsdf.cos_theta(wi) * light_le * (w / light_pdf),
+    Some(LightSample {
+        wi,
+        // The shadow ray ends just off the light's surface, on the side it leaves towards p.
+        target: Some(offset_ray_origin(
+            y,
+            if cos_light > 0.0 { light_n } else { -light_n },
+        )),
+        radiance,
+        // Solid-angle pdf: pmf · (1/area) · dist² / |cos at the light|.
+        pdf: pmf * dist2 / (cos_light.abs() * light.area),
+        delta: false,
     })
 }
