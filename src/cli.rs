@@ -395,6 +395,14 @@ pub struct BenchArgs {
     /// An environment map (.hdr or .exr) lighting every scene.
     #[arg(long, value_name = "FILE", conflicts_with = "environment")]
     pub env: Option<PathBuf>,
+    /// Write every figure as JSON: one object per scene × device (samples/s, rays/s, per-kernel
+    /// ms, BVH build ms, device and driver), to track speed between commits.
+    #[arg(long, value_name = "FILE.json")]
+    pub json: Option<PathBuf>,
+    /// A JSON file written by an earlier `bench --json`: print each row's samples/s as a ratio
+    /// to the same scene × device there.
+    #[arg(long, value_name = "FILE.json")]
+    pub baseline: Option<PathBuf>,
 }
 
 /// A finite number.

@@ -457,10 +457,50 @@ fn bench(args: &BenchArgs) -> Result<()> {
         args.max_depth,
         rayon::current_num_threads()
     );
+    // Rows of an earlier `bench --json`, by (scene, device): samples/s.
+    let baseline: std::collections::HashMap<(String, String), f64> = match &args.baseline {
+        Some(file) => {
+            let text = std::fs::read_to_string(file)
+                .with_context(|| format!("reading {}", file.display()))?;
+            let v: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not JSON", file.display()))?;
+            v["rows"]
+                .as_array()
+                .with_context(|| {
+                    format!(
+                        "{}: no \"rows\" (write it with bench --json)",
+                        file.display()
+                    )
+                })?
+                .iter()
+                .filter_map(|r| {
+                    Some((
+                        (
+                            r["scene"].as_str()?.to_owned(),
+                            r["device"].as_str()?.to_owned(),
+                        ),
+                        r["samples_per_second"].as_f64()?,
+                    ))
+                })
+                .collect()
+        }
+        None => Default::default(),
+    };
     println!(
-        "{:<20} {:<6} {:>9} {:>14} {:>12} {:>9}",
-        "scene", "device", "time s", "M samples/s", "M rays/s", "dropped"
+        "{:<20} {:<6} {:>9} {:>14} {:>12} {:>9}{}",
+        "scene",
+        "device",
+        "time s",
+        "M samples/s",
+        "M rays/s",
+        "dropped",
+        if args.baseline.is_some() {
+            "  × baseline"
+        } else {
+            ""
+        }
     );
+    let mut json_rows = Vec::new();
     for path in &scenes {
         let (_, prepared) = load(path)?;
         let name = path
@@ -476,13 +516,32 @@ fn bench(args: &BenchArgs) -> Result<()> {
             rows.push(("cpu", wavetrace::cpu::render(&prepared, &settings).stats));
         }
         for (device, s) in rows {
+            let ratio = baseline
+                .get(&(name.clone(), device.to_owned()))
+                .map_or(String::new(), |b| {
+                    format!("  {:>10.3}", s.samples_per_second() / b)
+                });
             println!(
-                "{name:<20} {device:<6} {:>9.3} {:>14.3} {:>12.3} {:>9}",
+                "{name:<20} {device:<6} {:>9.3} {:>14.3} {:>12.3} {:>9}{ratio}",
                 s.seconds,
                 s.samples_per_second() * 1e-6,
                 s.rays_per_second() * 1e-6,
                 s.dropped
             );
+            json_rows.push(serde_json::json!({
+                "scene": name,
+                "device": device,
+                "device_name": if device == "gpu" { gpu_name.clone() } else { format!("CPU reference, {} threads", rayon::current_num_threads()) },
+                "seconds": s.seconds,
+                "samples_per_second": s.samples_per_second(),
+                "rays_per_second": s.rays_per_second(),
+                "extension_rays": s.extension_rays,
+                "shadow_rays": s.shadow_rays,
+                "dropped": s.dropped,
+                "kernel_ms": s.kernel_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
+                "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
+                "triangles": prepared.triangles.len(),
+            }));
             if !s.kernel_seconds.is_empty() {
                 let kernels: Vec<String> = s
                     .kernel_seconds
@@ -492,6 +551,20 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 println!("{:<20} {:<6} per kernel: {}", "", "", kernels.join(", "));
             }
         }
+    }
+    if let Some(file) = &args.json {
+        let doc = serde_json::json!({
+            "width": args.width,
+            "height": args.height,
+            "spp": args.spp,
+            "max_depth": args.max_depth,
+            "gpu": gpu_name,
+            "cpu_threads": rayon::current_num_threads(),
+            "rows": json_rows,
+        });
+        std::fs::write(file, serde_json::to_string_pretty(&doc)?)
+            .with_context(|| format!("writing {}", file.display()))?;
+        println!("wrote {}", file.display());
     }
     Ok(())
 }

@@ -151,6 +151,20 @@ pub fn surface_lod_base(sp: &SurfacePoint, cone_width: f32, cos_view: f32) -> [f
 pub const LOD_MAGNIFY: [f32; 2] = [-1e30, -1e30];
 
 /// Material `m` at the surface point: factors times textures times vertex colour.
+/// The emitted radiance factor at the point: emissive factor × texture (surface.glsl).
+pub fn surface_emission(
+    data: &TextureData,
+    m: &GpuMaterial,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> Vec3 {
+    let e = Vec3::from(m.emission);
+    if m.emissive_texture == NO_TEXTURE {
+        return e;
+    }
+    e * sample_texture_ref(data, m.emissive_texture, sp.uv, lod).truncate()
+}
+
 pub fn surface_material(
     data: &TextureData,
     m: &GpuMaterial,
@@ -169,10 +183,7 @@ pub fn surface_material(
         out.metallic *= mr.z;
         out.roughness *= mr.y;
     }
-    if m.emissive_texture != NO_TEXTURE {
-        let e = sample_texture_ref(data, m.emissive_texture, sp.uv, lod);
-        out.emission = (Vec3::from(m.emission) * e.truncate()).to_array();
-    }
+    out.emission = surface_emission(data, m, sp, lod).to_array();
     if m.transmission_texture != NO_TEXTURE {
         out.transmission *= sample_texture_ref(data, m.transmission_texture, sp.uv, lod).x;
     }

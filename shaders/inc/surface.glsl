@@ -86,6 +86,12 @@ vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
 #define LOD_MAGNIFY vec2(-1e30)
 
 // Material m at the surface point: factors times textures times vertex colour.
+// The emitted radiance factor at the point: emissive factor × texture (src/surface.rs).
+vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    if (m.emissive_texture == NO_TEXTURE) return m.emission;
+    return m.emission * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
+}
+
 GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     GpuMaterial o = m;
     vec4 base = vec4(m.base_color, m.alpha) * sp.color;
@@ -97,9 +103,7 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
         o.metallic *= mr.z;
         o.roughness *= mr.y;
     }
-    if (m.emissive_texture != NO_TEXTURE) {
-        o.emission = m.emission * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
-    }
+    o.emission = surface_emission(m, sp, lod);
     if (m.transmission_texture != NO_TEXTURE) {
         o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
     }

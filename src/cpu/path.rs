@@ -21,8 +21,8 @@ use crate::sampling::{
 };
 use crate::scene::camera_ray;
 use crate::surface::{
-    alpha_key, surface_lod_base, surface_material, surface_normal, surface_point, surface_to_world,
-    LOD_MAGNIFY,
+    alpha_key, surface_emission, surface_lod_base, surface_material, surface_normal, surface_point,
+    surface_to_world, LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
 
@@ -308,7 +308,15 @@ fn shade(
         let light = if u_light.x < frame.env_pmf {
             sample_environment(env, frame, u_point)
         } else {
-            sample_emitter(scene, frame, (pixel, sample, depth), p, ng, u_light.x, u_point)
+            sample_emitter(
+                scene,
+                frame,
+                (pixel, sample, depth),
+                p,
+                ng,
+                u_light.x,
+                u_point,
+            )
         };
         if let Some(ls) = light {
             let f = bsdf.eval(ls.wi, TransportMode::Radiance);
@@ -341,7 +349,11 @@ fn shade(
                 shadow = Some(ShadowRay {
                     ray: Ray { origin, dir },
                     t_max,
-                    contribution: throughput * f * bsdf.cos_theta(ls.wi) * ls.radiance * (w / ls.pdf),
+                    contribution: throughput
+                        * f
+                        * bsdf.cos_theta(ls.wi)
+                        * ls.radiance
+                        * (w / ls.pdf),
                 });
             }
         }
@@ -461,17 +473,16 @@ fn sample_emitter(
     }
     let keep = 1.0 - frame.env_pmf;
     let u_table = ((u_pick - frame.env_pmf) / keep).min(ONE_MINUS_EPSILON);
-    let (entry, pmf) = if frame.light_sampler == LIGHT_SAMPLER_BVH
-        && u_table < frame.light_bounded_cdf
-    {
-        // A bounded emitter, by its importance to (p, ng) through the light BVH.
-        let u_bvh = (u_table / frame.light_bounded_cdf).min(ONE_MINUS_EPSILON);
-        let (k, pmf) = light_bvh_sample(&scene.light_nodes, p, ng, u_bvh)?;
-        (&scene.lights[k as usize], pmf * frame.light_bounded_cdf)
-    } else {
-        let entry = &scene.lights[sample_light(&scene.lights, u_table)];
-        (entry, entry.pmf)
-    };
+    let (entry, pmf) =
+        if frame.light_sampler == LIGHT_SAMPLER_BVH && u_table < frame.light_bounded_cdf {
+            // A bounded emitter, by its importance to (p, ng) through the light BVH.
+            let u_bvh = (u_table / frame.light_bounded_cdf).min(ONE_MINUS_EPSILON);
+            let (k, pmf) = light_bvh_sample(&scene.light_nodes, p, ng, u_bvh)?;
+            (&scene.lights[k as usize], pmf * frame.light_bounded_cdf)
+        } else {
+            let entry = &scene.lights[sample_light(&scene.lights, u_table)];
+            (entry, entry.pmf)
+        };
     let pmf = pmf * keep;
     if entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0 {
         let light = &scene.punctual[(entry.triangle & !LIGHT_ENTRY_PUNCTUAL) as usize];
@@ -496,9 +507,9 @@ fn sample_emitter(
     let cos_light = light_n.dot(-wi);
     // The light point's emission (its textures at level 0) where its surface exists.
     let textures = scene.texture_data();
-    let light_raw = &scene.materials[light.material_index() as usize];
+    let mut light_mat = scene.materials[light.material_index() as usize];
     let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
-    let light_mat = surface_material(&textures, light_raw, &light_sp, LOD_MAGNIFY);
+    light_mat.emission = surface_emission(&textures, &light_mat, &light_sp, LOD_MAGNIFY).to_array();
     let key = alpha_key(frame.seed, pixel, sample, depth, true);
     // (Culling does not apply: the light's own sidedness is its emission's.)
     let radiance = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
