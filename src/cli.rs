@@ -44,6 +44,9 @@ pub enum DeviceKind {
     Gpu,
     /// The reference path tracer on all CPU cores.
     Cpu,
+    /// A real GPU when Vulkan has one, else the CPU reference (faster than a CPU Vulkan
+    /// driver such as lavapipe on every scene `wavetrace bench` measures); says which.
+    Auto,
 }
 
 /// How the random numbers of a pixel's samples relate.
@@ -171,8 +174,8 @@ impl RrArg {
 pub struct RenderArgs {
     /// Scene file; default: scenes/cornell-box.gltf.
     pub scene: Option<PathBuf>,
-    /// Which integrator renders.
-    #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
+    /// Which integrator renders: a real GPU if there is one, else the CPU (auto), or say which.
+    #[arg(long, value_enum, default_value_t = DeviceKind::Auto)]
     pub device: DeviceKind,
     /// Output image: .exr (linear, with variance) or .png (tonemapped sRGB); default: SCENE.png.
     #[arg(short = 'o', long = "output")]

@@ -242,12 +242,54 @@ fn prepare(
     Ok((scene, prepared, settings))
 }
 
+/// `--device auto`: a GPU (discrete, integrated or virtual) when the Vulkan loader reports a
+/// usable one or `--gpu-index` names a device, else the CPU reference, which `wavetrace bench`
+/// measures faster than a CPU Vulkan driver (lavapipe) on every committed scene. Says which.
+pub(crate) fn resolve_device(kind: DeviceKind, gpu_index: Option<usize>) -> DeviceKind {
+    if kind != DeviceKind::Auto {
+        return kind;
+    }
+    if gpu_index.is_some() {
+        eprintln!("device auto: gpu (--gpu-index names one)");
+        return DeviceKind::Gpu;
+    }
+    match wavetrace::gpu::list_devices() {
+        Ok(devices) => match devices.iter().find(|d| d.usable && d.kind != "cpu") {
+            Some(d) => {
+                eprintln!("device auto: gpu ({})", d.name);
+                DeviceKind::Gpu
+            }
+            None => {
+                let cpu_drivers: Vec<&str> = devices
+                    .iter()
+                    .filter(|d| d.usable)
+                    .map(|d| d.name.as_str())
+                    .collect();
+                eprintln!(
+                    "device auto: cpu (no GPU{}; the CPU reference is the faster there)",
+                    if cpu_drivers.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", only the CPU Vulkan driver {}", cpu_drivers.join(", "))
+                    }
+                );
+                DeviceKind::Cpu
+            }
+        },
+        Err(_) => {
+            eprintln!("device auto: cpu (no Vulkan driver)");
+            DeviceKind::Cpu
+        }
+    }
+}
+
 fn render(args: &RenderArgs) -> Result<()> {
     let path = args
         .scene
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
-    let (_scene, prepared, settings) = prepare(&path, &args.opts, args.device)?;
+    let device = resolve_device(args.device, args.opts.gpu_index);
+    let (_scene, prepared, settings) = prepare(&path, &args.opts, device)?;
     let (width, height) = (settings.width, settings.height);
     let output = args.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
@@ -293,7 +335,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         ),
     };
     let mut report = None;
-    let RenderOutput { film, stats } = match args.device {
+    let RenderOutput { film, stats } = match device {
         DeviceKind::Gpu => {
             let gpu = GpuRenderer::new(&GpuOptions {
                 device_index: args.opts.gpu_index,
@@ -322,7 +364,8 @@ fn render(args: &RenderArgs) -> Result<()> {
             progress.finish_and_clear();
             out?
         }
-        DeviceKind::Cpu => {
+        // (resolve_device never answers Auto.)
+        DeviceKind::Cpu | DeviceKind::Auto => {
             println!(
                 "rendering {width}×{height} {how}, max depth {}, on the CPU ({} threads)",
                 args.opts.max_depth,

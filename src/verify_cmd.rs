@@ -27,7 +27,12 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     if args.detect.is_some() && !args.against.is_empty() {
         bail!("--detect chooses the sample count of the GPU and CPU renders; it does not apply with --against");
     }
-    let needs_gpu = args.against.is_empty() || args.device == DeviceKind::Gpu;
+    let side = if args.against.is_empty() {
+        DeviceKind::Gpu
+    } else {
+        crate::resolve_device(args.device, args.opts.gpu_index)
+    };
+    let needs_gpu = args.against.is_empty() || side == DeviceKind::Gpu;
     let gpu = if needs_gpu {
         Some(GpuRenderer::new(&GpuOptions {
             device_index: args.opts.gpu_index,
@@ -43,11 +48,7 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     };
     let mut verdicts = Vec::new();
     for (i, path) in args.scenes.iter().enumerate() {
-        let device = if args.against.is_empty() {
-            DeviceKind::Gpu
-        } else {
-            args.device
-        };
+        let device = side;
         let (_scene, prepared, settings) = prepare(path, &args.opts, device)?;
         let start = Instant::now();
         let render_gpu = |s: &RenderSettings| -> Result<wavetrace::film::Film> {
@@ -120,13 +121,14 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             }
             Some(reference) => {
                 let b = read_reference(reference, args.max_flip)?;
-                let a = match args.device {
+                let a = match side {
                     DeviceKind::Gpu => render_gpu(&settings)?,
-                    DeviceKind::Cpu => render_cpu(&settings),
+                    // (resolve_device never answers Auto.)
+                    DeviceKind::Cpu | DeviceKind::Auto => render_cpu(&settings),
                 };
-                let label = match args.device {
+                let label = match side {
                     DeviceKind::Gpu => gpu_label(settings.seed),
-                    DeviceKind::Cpu => format!("CPU, seed {}", settings.seed),
+                    DeviceKind::Cpu | DeviceKind::Auto => format!("CPU, seed {}", settings.seed),
                 };
                 (label, a, format!("reference {}", reference.display()), b)
             }

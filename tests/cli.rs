@@ -51,6 +51,8 @@ fn gpu_render_writes_a_png() {
     let out = temp("gpu.png");
     let o = wavetrace(&[
         "render",
+        "--device",
+        "gpu",
         "--width",
         "16",
         "--spp",
@@ -174,6 +176,8 @@ fn no_vulkan_driver_gives_advice_and_a_failure() {
     let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
         .args([
             "render",
+            "--device",
+            "gpu",
             "--width",
             "8",
             "--spp",
@@ -192,6 +196,44 @@ fn no_vulkan_driver_gives_advice_and_a_failure() {
         e.contains("--device cpu") && e.contains("install-vulkan.sh"),
         "{e}"
     );
+}
+
+/// The default device, auto, says what it chose: with no Vulkan driver at all, the CPU (and
+/// the render succeeds); on a machine whose only Vulkan device is a CPU driver, also the CPU.
+#[test]
+fn device_auto_says_what_it_chose() {
+    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(["render", "--width", "8", "--spp", "1", "-o"])
+        .arg(temp("auto-none.png"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("device auto: cpu"), "{}", stderr(&o));
+    let o = wavetrace(&[
+        "render",
+        "--width",
+        "8",
+        "--spp",
+        "1",
+        "-o",
+        temp("auto.png").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    let gpus: Vec<_> = wavetrace::gpu::list_devices()
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|d| d.usable && d.kind != "cpu")
+        .collect();
+    let want = if gpus.is_empty() {
+        "device auto: cpu"
+    } else {
+        "device auto: gpu"
+    };
+    assert!(e.contains(want), "{e}");
 }
 
 #[test]
