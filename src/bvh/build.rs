@@ -154,6 +154,115 @@ fn choose_split(
     Some(mid)
 }
 
+/// Subtrees with at least this many primitives build their two children on separate threads.
+const PARALLEL_MIN: usize = 16384;
+
+/// Builds the subtree over `refs` (which start at `start` in the whole array) at `depth`:
+/// large ranges split here and build both halves in parallel (rayon::join), small ones with
+/// [`build_range`]. Node indices in the result are relative to it; the order is the same
+/// depth-first, left-first order as a sequential build, so the tree does not depend on threads.
+fn build_parallel(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode>, BvhStats) {
+    if refs.len() < PARALLEL_MIN {
+        return build_range(refs, start, depth);
+    }
+    let (bounds, centroids) = range_bounds(refs);
+    let Some(mid) = choose_split(refs, &bounds, &centroids, depth) else {
+        return build_range(refs, start, depth);
+    };
+    let (left, right) = refs.split_at_mut(mid);
+    let ((left_nodes, left_stats), (right_nodes, right_stats)) = rayon::join(
+        || build_parallel(left, start, depth + 1),
+        || build_parallel(right, start + mid, depth + 1),
+    );
+    let mut nodes = Vec::with_capacity(1 + left_nodes.len() + right_nodes.len());
+    nodes.push(BvhNode {
+        bounds_min: bounds.min.into(),
+        offset: (1 + left_nodes.len()) as u32,
+        bounds_max: bounds.max.into(),
+        count: 0,
+    });
+    let shift = |mut n: BvhNode, by: usize| {
+        if !n.is_leaf() {
+            n.offset += by as u32;
+        }
+        n
+    };
+    nodes.extend(left_nodes.iter().map(|&n| shift(n, 1)));
+    let right_base = 1 + left_nodes.len();
+    nodes.extend(right_nodes.iter().map(|&n| shift(n, right_base)));
+    let stats = BvhStats {
+        leaves: left_stats.leaves + right_stats.leaves,
+        max_depth: left_stats.max_depth.max(right_stats.max_depth),
+        max_leaf_size: left_stats.max_leaf_size.max(right_stats.max_leaf_size),
+        ..BvhStats::default()
+    };
+    (nodes, stats)
+}
+
+/// Bounds of the primitives and of their centroids.
+fn range_bounds(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let (mut bounds, mut centroids) = (Aabb::EMPTY, Aabb::EMPTY);
+    for r in refs {
+        bounds.grow(r.min, r.max);
+        centroids.grow(r.centroid(), r.centroid());
+    }
+    (bounds, centroids)
+}
+
+/// The sequential build of the subtree over `refs` (which start at `start` in the whole array)
+/// at `depth`, with a work stack: node indices relative to the result, leaf offsets absolute.
+fn build_range(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode>, BvhStats) {
+    let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
+    let mut stats = BvhStats::default();
+    let mut stack = vec![Task {
+        start: 0,
+        end: refs.len(),
+        depth,
+        patch: u32::MAX,
+    }];
+    while let Some(task) = stack.pop() {
+        let index = nodes.len() as u32;
+        if task.patch != u32::MAX {
+            nodes[task.patch as usize].offset = index;
+        }
+        let range = &mut refs[task.start..task.end];
+        let (bounds, centroids) = range_bounds(range);
+        let mut node = BvhNode {
+            bounds_min: bounds.min.into(),
+            offset: 0,
+            bounds_max: bounds.max.into(),
+            count: 0,
+        };
+        match choose_split(range, &bounds, &centroids, task.depth) {
+            Some(mid) => {
+                let mid = task.start + mid;
+                // Right pushed first: the left subtree is built (and numbered) first.
+                stack.push(Task {
+                    start: mid,
+                    end: task.end,
+                    depth: task.depth + 1,
+                    patch: index,
+                });
+                stack.push(Task {
+                    start: task.start,
+                    end: mid,
+                    depth: task.depth + 1,
+                    patch: u32::MAX,
+                });
+            }
+            None => {
+                node.offset = (start + task.start) as u32;
+                node.count = range.len() as u32;
+                stats.leaves += 1;
+                stats.max_depth = stats.max_depth.max(task.depth);
+                stats.max_leaf_size = stats.max_leaf_size.max(range.len());
+            }
+        }
+        nodes.push(node);
+    }
+    (nodes, stats)
+}
+
 impl Bvh {
     /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
     /// for millions (work stack, bounded depth).
@@ -178,69 +287,17 @@ impl Bvh {
                 id: i as u32,
             })
             .collect();
-        let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
-        let mut stats = BvhStats::default();
-
-        let mut stack = Vec::new();
-        if refs.is_empty() {
-            nodes.push(BvhNode {
+        let (nodes, mut stats) = if refs.is_empty() {
+            let empty = BvhNode {
                 bounds_min: [f32::MAX; 3],
                 offset: 0,
                 bounds_max: [-f32::MAX; 3],
                 count: 0,
-            });
-        } else {
-            stack.push(Task {
-                start: 0,
-                end: refs.len(),
-                depth: 0,
-                patch: u32::MAX,
-            });
-        }
-        while let Some(task) = stack.pop() {
-            let index = nodes.len() as u32;
-            if task.patch != u32::MAX {
-                nodes[task.patch as usize].offset = index;
-            }
-            let range = &mut refs[task.start..task.end];
-            let (mut bounds, mut centroids) = (Aabb::EMPTY, Aabb::EMPTY);
-            for r in range.iter() {
-                bounds.grow(r.min, r.max);
-                centroids.grow(r.centroid(), r.centroid());
-            }
-            let mut node = BvhNode {
-                bounds_min: bounds.min.into(),
-                offset: 0,
-                bounds_max: bounds.max.into(),
-                count: 0,
             };
-            match choose_split(range, &bounds, &centroids, task.depth) {
-                Some(mid) => {
-                    let mid = task.start + mid;
-                    // Right pushed first: the left subtree is built (and numbered) first.
-                    stack.push(Task {
-                        start: mid,
-                        end: task.end,
-                        depth: task.depth + 1,
-                        patch: index,
-                    });
-                    stack.push(Task {
-                        start: task.start,
-                        end: mid,
-                        depth: task.depth + 1,
-                        patch: u32::MAX,
-                    });
-                }
-                None => {
-                    node.offset = task.start as u32;
-                    node.count = range.len() as u32;
-                    stats.leaves += 1;
-                    stats.max_depth = stats.max_depth.max(task.depth);
-                    stats.max_leaf_size = stats.max_leaf_size.max(range.len());
-                }
-            }
-            nodes.push(node);
-        }
+            (vec![empty], BvhStats::default())
+        } else {
+            build_parallel(&mut refs, 0, 0)
+        };
 
         stats.nodes = nodes.len();
         stats.sah_cost = sah_cost(&nodes);
@@ -278,4 +335,43 @@ pub fn sah_cost(nodes: &[BvhNode]) -> f32 {
         })
         .sum();
     (total / root_area as f64) as f32
+}
+
+#[cfg(test)]
+mod parallel_tests {
+    use super::*;
+
+    /// The parallel build makes the same tree, node for node and in the same order, as the
+    /// sequential one: the threads only change who builds a subtree.
+    #[test]
+    fn parallel_build_equals_sequential_build() {
+        let n = 3 * PARALLEL_MIN + 123;
+        let make = || -> Vec<PrimRef> {
+            (0..n as u32)
+                .map(|i| {
+                    let u = crate::sampling::rng_uniform4(3, i, 0, 0);
+                    let c = Vec3::new(u.x, u.y * u.y, u.z) * 100.0;
+                    let h = Vec3::splat(0.01 + u.w);
+                    PrimRef {
+                        min: c - h,
+                        max: c + h,
+                        id: i,
+                    }
+                })
+                .collect()
+        };
+        let (mut a, mut b) = (make(), make());
+        let (pa, sa) = build_parallel(&mut a, 0, 0);
+        let (pb, sb) = build_range(&mut b, 0, 0);
+        assert!(pa.len() > 2 * n / MAX_LEAF_SIZE);
+        assert_eq!(pa, pb);
+        assert_eq!(
+            a.iter().map(|r| r.id).collect::<Vec<_>>(),
+            b.iter().map(|r| r.id).collect::<Vec<_>>()
+        );
+        assert_eq!(
+            (sa.leaves, sa.max_depth, sa.max_leaf_size),
+            (sb.leaves, sb.max_depth, sb.max_leaf_size)
+        );
+    }
 }
