@@ -167,6 +167,16 @@ impl EnvironmentMap {
         })
     }
 
+    /// Writes the map's lookup constants into `frame`: its size, the RGB `scale` on its
+    /// radiance and the rotation of `degrees` about +Y (`env_pmf` is the scene's business).
+    pub fn write_frame_params(&self, scale: Vec3, degrees: f32, frame: &mut FrameParams) {
+        frame.env_width = self.width;
+        frame.env_height = self.height;
+        frame.env_scale = scale.to_array();
+        let a = degrees.to_radians();
+        frame.env_rotation = [a.cos(), a.sin()];
+    }
+
     /// The map of `--environment R,G,B`: radiance 1 everywhere (the colour is the frame's
     /// scale), 16 × 8 texels so that its rows' weights follow sin θ and sampling it is close
     /// to uniform over the sphere.
@@ -386,14 +396,9 @@ mod tests {
     use super::*;
 
     fn frame_for(map: &EnvironmentMap, degrees: f32) -> FrameParams {
-        let a = degrees.to_radians();
-        FrameParams {
-            env_width: map.width,
-            env_height: map.height,
-            env_rotation: [a.cos(), a.sin()],
-            env_scale: [1.0; 3],
-            ..Default::default()
-        }
+        let mut frame = FrameParams::default();
+        map.write_frame_params(Vec3::ONE, degrees, &mut frame);
+        frame
     }
 
     #[test]

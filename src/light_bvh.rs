@@ -595,16 +595,29 @@ fn split(lights: &mut [BuildLight], depth: u32) -> usize {
     mid
 }
 
-/// Chooses a light for the point `p` with normal `n` (0 for none) by descending from the root,
-/// taking each child with probability proportional to its importance and remapping `u` to
-/// [0, 1) after each choice (pbrt-v4 `BVHLightSampler::Sample`). Returns (light index, pmf), the
-/// pmf being the product of the choices' probabilities, or `None` when no light can reach `p`
-/// (both children of a node, or a lone root leaf, of importance 0) or the tree is empty.
-pub fn light_bvh_sample(nodes: &[GpuLightNode], p: Vec3, n: Vec3, u: f32) -> Option<(u32, f32)> {
+/// How [`light_bvh_walk`] picks a child at each node.
+#[derive(Clone, Copy)]
+enum Choice {
+    /// The child `u` falls in, by the children's probabilities, `u` remapped to [0, 1) after.
+    Sample(f32),
+    /// The child the trail's next bit names (bit d = 1: second child at depth d).
+    Trail(u32),
+}
+
+/// One descent from the root for the point `p` with normal `n` (0 for none): at each interior
+/// node a child is taken as `choice` says, and the probabilities of the children taken —
+/// importance over the sum of the two — are multiplied (pbrt-v4 `BVHLightSampler::Sample` and
+/// `PMF` share it). Returns (light index, product), or `None` when no light can reach `p` (both
+/// children of a node, or a lone root leaf, of importance 0) or the tree is empty.
+fn light_bvh_walk(nodes: &[GpuLightNode], p: Vec3, n: Vec3, choice: Choice) -> Option<(u32, f32)> {
     if nodes.is_empty() {
         return None;
     }
-    let mut u = u.clamp(0.0, ONE_MINUS_EPSILON);
+    let (mut u, mut trail) = match choice {
+        Choice::Sample(u) => (u.clamp(0.0, ONE_MINUS_EPSILON), 0),
+        Choice::Trail(trail) => (0.0, trail),
+    };
+    let by_trail = matches!(choice, Choice::Trail(_));
     let mut index = 0usize;
     let mut pmf = 1.0f32;
     for _ in 0..=MAX_LIGHT_BVH_DEPTH {
@@ -623,7 +636,8 @@ pub fn light_bvh_sample(nodes: &[GpuLightNode], p: Vec3, n: Vec3, u: f32) -> Opt
             return None;
         }
         let p0 = c0 / sum;
-        if u < p0 {
+        let first = if by_trail { trail & 1 == 0 } else { u < p0 };
+        if first {
             pmf *= p0;
             u = (u / p0).min(ONE_MINUS_EPSILON);
             index += 1;
@@ -633,46 +647,28 @@ pub fn light_bvh_sample(nodes: &[GpuLightNode], p: Vec3, n: Vec3, u: f32) -> Opt
             u = ((u - p0) / p1).min(ONE_MINUS_EPSILON);
             index = second;
         }
+        trail >>= 1;
     }
     None
 }
 
-/// The probability that [`light_bvh_sample`] at (`p`, `n`) returns `light`: the same product of
-/// child probabilities along the light's trail (pbrt-v4 `BVHLightSampler::PMF`), bit for bit.
-/// 0 for a light not in the tree or out of range.
+/// Chooses a light for the point `p` with normal `n` (0 for none) by descending from the root,
+/// taking each child with probability proportional to its importance and remapping `u` to
+/// [0, 1) after each choice (pbrt-v4 `BVHLightSampler::Sample`). Returns (light index, pmf), the
+/// pmf being the product of the choices' probabilities, or `None` when no light can reach `p`
+/// (both children of a node, or a lone root leaf, of importance 0) or the tree is empty.
+pub fn light_bvh_sample(nodes: &[GpuLightNode], p: Vec3, n: Vec3, u: f32) -> Option<(u32, f32)> {
+    light_bvh_walk(nodes, p, n, Choice::Sample(u))
+}
+
+/// The probability that [`light_bvh_sample`] at (`p`, `n`) returns `light`: the same walk along
+/// the light's trail (pbrt-v4 `BVHLightSampler::PMF`), bit for bit. 0 for a light not in the
+/// tree or out of range.
 pub fn light_bvh_pmf(nodes: &[GpuLightNode], trails: &[u32], p: Vec3, n: Vec3, light: u32) -> f32 {
-    let Some(&trail) = trails.get(light as usize) else {
-        return 0.0;
-    };
-    if trail == NO_LIGHT_TRAIL || nodes.is_empty() {
-        return 0.0;
+    match trails.get(light as usize) {
+        Some(&trail) if trail != NO_LIGHT_TRAIL => {
+            light_bvh_walk(nodes, p, n, Choice::Trail(trail)).map_or(0.0, |(_, pmf)| pmf)
+        }
+        _ => 0.0,
     }
-    let mut trail = trail;
-    let mut index = 0usize;
-    let mut pmf = 1.0f32;
-    for _ in 0..=MAX_LIGHT_BVH_DEPTH {
-        let node = &nodes[index];
-        if node.is_leaf() {
-            if index == 0 && light_bounds_importance(node, p, n) <= 0.0 {
-                return 0.0;
-            }
-            return pmf;
-        }
-        let second = node.child_or_light as usize;
-        let c0 = light_bounds_importance(&nodes[index + 1], p, n);
-        let c1 = light_bounds_importance(&nodes[second], p, n);
-        let sum = c0 + c1;
-        if sum.is_nan() || sum <= 0.0 {
-            return 0.0;
-        }
-        if trail & 1 == 0 {
-            pmf *= c0 / sum;
-            index += 1;
-        } else {
-            pmf *= c1 / sum;
-            index = second;
-        }
-        trail >>= 1;
-    }
-    0.0
 }

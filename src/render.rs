@@ -576,11 +576,7 @@ impl PreparedScene {
         let lens = self.thin_lens(settings).unwrap_or_default();
         self.camera.write_frame_params(lens, &mut frame);
         if let Some((map, scale)) = settings.environment_map() {
-            frame.env_width = map.width;
-            frame.env_height = map.height;
-            frame.env_scale = scale.to_array();
-            let a = settings.env_rotate.to_radians();
-            frame.env_rotation = [a.cos(), a.sin()];
+            map.write_frame_params(scale, settings.env_rotate, &mut frame);
             // The environment's power through the scene's bounding disc, π·R²·∫L dω, against
             // the emitters' (as for a directional light, `punctual_power`).
             let env_power =

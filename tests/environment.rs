@@ -172,14 +172,9 @@ fn sky_map(w: u32, h: u32, sun: (u32, u32), sun_radiance: f32) -> Arc<Environmen
 }
 
 fn frame_for(map: &EnvironmentMap, degrees: f32) -> FrameParams {
-    let a = degrees.to_radians();
-    FrameParams {
-        env_width: map.width,
-        env_height: map.height,
-        env_rotation: [a.cos(), a.sin()],
-        env_scale: [1.0; 3],
-        ..Default::default()
-    }
+    let mut frame = FrameParams::default();
+    map.write_frame_params(Vec3::ONE, degrees, &mut frame);
+    frame
 }
 
 #[test]
@@ -320,12 +315,7 @@ fn gpu_agrees_with_cpu_on_a_turned_map() {
         env_scale: 0.7,
         ..RenderSettings::default()
     };
-    let cpu = render_cpu(&scene, &s(2));
-    assert_eq!(cpu.film.dropped, 0);
-    if let Some(gpu) = render_gpu(&scene, &s(1), None) {
-        assert_eq!(gpu.film.dropped, 0);
-        assert_agree_at(&gpu.film, &cpu.film, 0.01, "turned sky map");
-    }
+    common::gpu_agrees_with_cpu(&scene, &s(1), &s(2), "turned sky map");
 }
 
 #[test]
@@ -349,17 +339,12 @@ fn hdr_file_loads_exactly_and_renders_alike_on_gpu_and_cpu() {
         env_map: Some(Arc::clone(&map)),
         ..RenderSettings::default()
     };
-    let cpu = render_cpu(&scene, &s(2));
-    assert_eq!(cpu.film.dropped, 0);
-    if let Some(gpu) = render_gpu(&scene, &s(1), None) {
-        assert_eq!(gpu.film.dropped, 0);
-        assert_agree_at(
-            &gpu.film,
-            &cpu.film,
-            0.01,
-            "DamagedHelmet under venice_sunset_1k.hdr",
-        );
-    }
+    common::gpu_agrees_with_cpu(
+        &scene,
+        &s(1),
+        &s(2),
+        "DamagedHelmet under venice_sunset_1k.hdr",
+    );
 }
 
 #[test]

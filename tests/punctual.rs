@@ -244,12 +244,7 @@ fn lights_punctual_lamp_renders_alike() {
         seed,
         ..RenderSettings::default()
     };
-    let cpu = render_cpu(&prepared, &s(2));
-    assert_eq!(cpu.film.dropped, 0);
-    if let Some(gpu) = render_gpu(&prepared, &s(1), None) {
-        assert_eq!(gpu.film.dropped, 0);
-        assert_agree_at(&gpu.film, &cpu.film, 0.01, "LightsPunctualLamp");
-    }
+    common::gpu_agrees_with_cpu(&prepared, &s(1), &s(2), "LightsPunctualLamp");
 }
 
 /// An emissive texture that is black on its left half: the emitter table gives the triangles

@@ -92,10 +92,10 @@ float light_bounds_importance(GpuLightNode node, vec3 p, vec3 n) {
     return max(importance, 0.0);
 }
 
-// Descends from the root choosing each child with probability proportional to its importance,
-// remapping u after each choice. False when the tree is empty (light_count 0 is the caller's to
-// check: an empty light_nodes[] buffer cannot be read) or when no light can reach p.
-bool light_bvh_sample(vec3 p, vec3 n, float u, out uint light, out float pmf) {
+// One descent from the root (src/light_bvh.rs, light_bvh_walk): at each interior node the child
+// the trail's next bit names (by_trail) or the one u falls in (u remapped after), multiplying the
+// children's probabilities. False at a dead end (no light can reach p).
+bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint light, out float pmf) {
     light = 0u;
     pmf = 0.0;
     u = clamp(u, 0.0, ONE_MINUS_EPSILON);
@@ -115,7 +115,8 @@ bool light_bvh_sample(vec3 p, vec3 n, float u, out uint light, out float pmf) {
         float sum = c0 + c1;
         if (!(sum > 0.0)) return false;
         float p0 = c0 / sum;
-        if (u < p0) {
+        bool first = by_trail ? (trail & 1u) == 0u : u < p0;
+        if (first) {
             prob *= p0;
             u = min(u / p0, ONE_MINUS_EPSILON);
             index += 1u;
@@ -125,38 +126,26 @@ bool light_bvh_sample(vec3 p, vec3 n, float u, out uint light, out float pmf) {
             u = min((u - p0) / p1, ONE_MINUS_EPSILON);
             index = second;
         }
+        trail >>= 1u;
     }
     return false;
 }
 
-// The probability that light_bvh_sample at (p, n) returns `light`: the same product along the
+// Descends from the root choosing each child with probability proportional to its importance,
+// remapping u after each choice. False when the tree is empty (light_count 0 is the caller's to
+// check: an empty light_nodes[] buffer cannot be read) or when no light can reach p.
+bool light_bvh_sample(vec3 p, vec3 n, float u, out uint light, out float pmf) {
+    return light_bvh_walk(p, n, false, 0u, u, light, pmf);
+}
+
+// The probability that light_bvh_sample at (p, n) returns `light`: the same walk along the
 // light's trail. 0 for a light not in the tree.
 float light_bvh_pmf(vec3 p, vec3 n, uint light) {
     uint trail = light_trails[light];
     if (trail == NO_LIGHT_TRAIL) return 0.0;
-    uint index = 0u;
-    float pmf = 1.0;
-    for (uint depth = 0u; depth <= MAX_LIGHT_BVH_DEPTH; depth++) {
-        GpuLightNode node = light_nodes[index];
-        if (light_node_is_leaf(node)) {
-            if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return 0.0;
-            return pmf;
-        }
-        uint second = node.child_or_light;
-        float c0 = light_bounds_importance(light_nodes[index + 1u], p, n);
-        float c1 = light_bounds_importance(light_nodes[second], p, n);
-        float sum = c0 + c1;
-        if (!(sum > 0.0)) return 0.0;
-        if ((trail & 1u) == 0u) {
-            pmf *= c0 / sum;
-            index += 1u;
-        } else {
-            pmf *= c1 / sum;
-            index = second;
-        }
-        trail >>= 1u;
-    }
-    return 0.0;
+    uint leaf;
+    float pmf;
+    return light_bvh_walk(p, n, true, trail, 0.0, leaf, pmf) ? pmf : 0.0;
 }
 
 #endif  // LIGHT_BVH_GLSL
