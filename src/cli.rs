@@ -89,6 +89,32 @@ impl LightSamplerArg {
     }
 }
 
+/// Which estimator renders (`--integrator`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorArg {
+    /// Paths from the camera, next event estimation and MIS at every vertex.
+    Path,
+    /// Paths from the emitters, every vertex joined to the camera (light tracing).
+    Light,
+    /// Bidirectional path tracing: a camera and a light subpath per sample, joined in every
+    /// way, each (s, t) strategy weighted by --mis over all strategies.
+    Bdpt,
+}
+
+impl IntegratorArg {
+    pub fn integrator(self) -> wavetrace::cpu::Integrator {
+        match self {
+            IntegratorArg::Path => wavetrace::cpu::Integrator::Path,
+            IntegratorArg::Light => wavetrace::cpu::Integrator::Light,
+            IntegratorArg::Bdpt => wavetrace::cpu::Integrator::Bdpt,
+        }
+    }
+}
+
+fn parse_paths(s: &str) -> Result<std::sync::Arc<wavetrace::paths::PathExpr>, String> {
+    wavetrace::paths::PathExpr::parse(s).map(std::sync::Arc::new)
+}
+
 /// What a render records.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum AovArg {
@@ -266,7 +292,17 @@ pub struct RenderOptions {
     /// Paths in flight per GPU batch (default: 2^20 on GPUs, 2^17 on CPU Vulkan devices).
     #[arg(long)]
     pub wavefront: Option<u32>,
-    /// How emitter sampling and BSDF sampling are weighted (multiple importance sampling).
+    /// The estimator: paths from the camera (path), from the emitters joined to the camera
+    /// (light), or both joined in every way (bdpt). light and bdpt run on the CPU.
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
+    pub integrator: IntegratorArg,
+    /// Keep only the paths whose vertices match EXPR, a regular expression over L (emitter),
+    /// D (non-delta scattering), S (delta scattering) and E (eye), written emitter-first:
+    /// 'LDE' direct diffuse light, 'LS+DE' caustics on diffuse surfaces, 'L(D|S)*E' everything.
+    #[arg(long, value_name = "EXPR", value_parser = parse_paths)]
+    pub paths: Option<std::sync::Arc<wavetrace::paths::PathExpr>>,
+    /// How emitter sampling and BSDF sampling are weighted (multiple importance sampling);
+    /// with --integrator bdpt, how all (s, t) strategies are.
     #[arg(long, value_enum, default_value_t = MisArg::Power)]
     pub mis: MisArg,
     /// β of the power heuristic (2 is Veach's recommendation; 1 is the balance heuristic).

@@ -22,6 +22,14 @@ pub mod dim {
     pub const fn bounce_block(depth: u32) -> u32 {
         1 + depth * BLOCKS_PER_BOUNCE
     }
+    /// Light subpaths (`--integrator light|bdpt`) draw from blocks of their own, far above any
+    /// camera bounce's: `light_block(0)` = emitter pick, point u, point v, side;
+    /// `light_block(0) + 1` = emission direction u, v; `light_block(i)` for the i-th scattering
+    /// vertex = BSDF u, BSDF v, lobe, roulette.
+    pub const LIGHT_BLOCK_BASE: u32 = 1 << 24;
+    pub const fn light_block(vertex: u32) -> u32 {
+        LIGHT_BLOCK_BASE + 2 * vertex
+    }
 }
 
 /// A node of the flattened BVH, depth-first: an interior node's left child is the next node.

@@ -13,6 +13,7 @@ pub mod layout;
 pub mod light_bvh;
 pub mod mc;
 pub mod mis;
+pub mod paths;
 pub mod progressive;
 pub mod render;
 pub mod sampling;

@@ -223,10 +223,23 @@ fn prepare(
         aov: opts.aov.code(),
         aperture: opts.aperture,
         focus_distance: opts.focus_distance,
+        integrator: opts.integrator.integrator(),
+        paths: opts.paths.clone(),
     };
     prepared
         .thin_lens(&settings)
         .with_context(|| format!("{}", path.display()))?;
+    wavetrace::cpu::bidir::check(&prepared, &settings)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    if settings.integrator != wavetrace::cpu::Integrator::Path && device == DeviceKind::Gpu {
+        bail!(
+            "--integrator {} runs on the CPU only so far: add --device cpu",
+            if settings.integrator == wavetrace::cpu::Integrator::Light { "light" } else { "bdpt" }
+        );
+    }
+    if settings.paths.is_some() && device == DeviceKind::Gpu {
+        bail!("--paths runs on the CPU only so far: add --device cpu");
+    }
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());
     }

@@ -68,6 +68,10 @@ pub struct RenderSettings {
     /// Distance of the plane in focus (`--focus-distance`); `None` focuses on the centre of
     /// the scene's bounding box.
     pub focus_distance: Option<f32>,
+    /// The estimator (`--integrator`): the path tracer by default.
+    pub integrator: crate::cpu::Integrator,
+    /// Only paths matching this expression count (`--paths`).
+    pub paths: Option<Arc<crate::paths::PathExpr>>,
 }
 
 impl Default for RenderSettings {
@@ -91,6 +95,8 @@ impl Default for RenderSettings {
             aov: crate::layout::AOV_RADIANCE,
             aperture: 0.0,
             focus_distance: None,
+            integrator: crate::cpu::Integrator::Path,
+            paths: None,
         }
     }
 }

@@ -465,3 +465,17 @@ mod tests {
         }
     }
 }
+
+/// Uniform direction in the cone of half-angle θmax around +Z (cos θ uniform on
+/// [cos θmax, 1]; pbrt-v3 §13.6.4); `cos_max` = −1 gives the whole sphere.
+pub fn sample_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let z = 1.0 - u.x * (1.0 - cos_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Pdf of [`sample_uniform_cone`] with respect to solid angle: 1 / (2π (1 − cos θmax)).
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}

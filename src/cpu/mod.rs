@@ -1,9 +1,13 @@
 //! The CPU reference integrator: the same path tracer as the GPU's wavefront kernels, one path
 //! at a time, parallel over image rows with rayon. Same random numbers, same maths, same names.
 
+pub mod bidir;
 mod path;
 
-pub use path::{emitted_radiance, path_pixel_sample, sample_pair, trace_path, RayCounts};
+pub use bidir::Integrator;
+pub use path::{
+    emitted_radiance, path_pixel_sample, sample_pair, trace_path, trace_path_matching, RayCounts,
+};
 
 use crate::film::Film;
 use crate::layout::FilmPixel;
@@ -30,15 +34,27 @@ pub fn render_with_progress(
     let env = crate::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
-    let (counts, dropped) = render_samples(
-        scene,
-        &frame,
-        env,
-        &mut film,
-        0..settings.spp,
-        None,
-        progress,
-    );
+    let (counts, dropped) = if settings.integrator == Integrator::Path {
+        render_samples(
+            scene,
+            &frame,
+            env,
+            settings.paths.as_deref().map(|p| &p.reversed),
+            &mut film,
+            0..settings.spp,
+            None,
+            progress,
+        )
+    } else {
+        let bidir = bidir::Bidir::new(
+            scene,
+            &frame,
+            settings.integrator,
+            settings.mis,
+            settings.paths.as_deref(),
+        );
+        bidir::render_samples(&bidir, &mut film, 0..settings.spp, progress)
+    };
     film.dropped = dropped;
     let stats = RenderStats {
         seconds: start.elapsed().as_secs_f64(),
@@ -53,10 +69,12 @@ pub fn render_with_progress(
 
 /// Adds samples `samples` of every pixel (or of the pixels `active` marks) to `film`, rows in
 /// parallel, each pixel's samples in order; returns the rays traced and the samples dropped.
+#[allow(clippy::too_many_arguments)]
 fn render_samples(
     scene: &PreparedScene,
     frame: &crate::layout::FrameParams,
     env: &crate::environment::EnvironmentMap,
+    paths: Option<&crate::paths::Dfa>,
     film: &mut Film,
     samples: std::ops::Range<u32>,
     active: Option<&[bool]>,
@@ -76,7 +94,8 @@ fn render_samples(
                     continue;
                 }
                 for sample in samples.clone() {
-                    let l = trace_path(scene, frame, env, pixel, sample, &mut counts);
+                    let l =
+                        trace_path_matching(scene, frame, env, pixel, sample, &mut counts, paths);
                     if !accumulate(acc, l) {
                         dropped += 1;
                     }
@@ -123,6 +142,7 @@ pub fn render_progressive(
             scene,
             &frame,
             env,
+            settings.paths.as_deref().map(|p| &p.reversed),
             film,
             first..first + settings.spp,
             active,

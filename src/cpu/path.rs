@@ -14,6 +14,7 @@ use crate::layout::{
 use crate::light_bvh::{light_bvh_pmf, light_bvh_sample};
 use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
+use crate::paths::{Dfa, SYM_D, SYM_E, SYM_L, SYM_S};
 use crate::render::PreparedScene;
 use crate::sampling::{
     offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
@@ -123,6 +124,31 @@ pub fn punctual_incident(l: &GpuPunctualLight, p: Vec3) -> (Vec3, f32, Vec3) {
     (wi, d, li)
 }
 
+/// Where a path stands in the `--paths` automaton (read eye-first); accepts everything
+/// without one.
+pub struct Classifier<'a> {
+    dfa: Option<&'a Dfa>,
+    state: u32,
+}
+
+impl Classifier<'_> {
+    fn step(&mut self, symbol: u32) {
+        if let Some(d) = self.dfa {
+            self.state = d.step(self.state, symbol);
+        }
+    }
+    /// Whether the path so far, then `symbols`, then an emitter (L), is accepted.
+    fn ends_here(&self, symbols: &[u32]) -> bool {
+        match self.dfa {
+            None => true,
+            Some(d) => {
+                let s = symbols.iter().fold(self.state, |s, &x| d.step(s, x));
+                d.accepts(d.step(s, SYM_L))
+            }
+        }
+    }
+}
+
 /// A shadow ray and the contribution it carries if unoccluded.
 struct ShadowRay {
     ray: Ray,
@@ -139,6 +165,21 @@ pub fn trace_path(
     pixel: u32,
     sample: u32,
     counts: &mut RayCounts,
+) -> Vec3 {
+    trace_path_matching(scene, frame, env, pixel, sample, counts, None)
+}
+
+/// [`trace_path`] keeping only the contributions of paths that `paths` accepts (`--paths`):
+/// the automaton reads the path eye-first — E, then each vertex as D or S by the lobe that
+/// left it, and L at the emitter (a vertex that samples an emitter is D).
+pub fn trace_path_matching(
+    scene: &PreparedScene,
+    frame: &FrameParams,
+    env: &EnvironmentMap,
+    pixel: u32,
+    sample: u32,
+    counts: &mut RayCounts,
+    paths: Option<&Dfa>,
 ) -> Vec3 {
     // generate
     let u = rng_uniform4(frame.seed, pixel, sample, dim::CAMERA_BLOCK);
@@ -163,6 +204,10 @@ pub fn trace_path(
         cone_width: frame.cone_width,
         ..Default::default()
     };
+    let mut class = Classifier {
+        dfa: paths,
+        state: paths.map_or(0, |d| d.step(0, SYM_E)),
+    };
     let mut depth = 0;
     loop {
         // extend
@@ -170,7 +215,7 @@ pub fn trace_path(
         let key = alpha_key(frame.seed, pixel, sample, depth, false);
         let hit = scene.intersect_closest(&ray, 0.0, f32::MAX, key);
         let (next, shadow) = shade(
-            scene, frame, env, pixel, sample, depth, &ray, hit, &mut state,
+            scene, frame, env, pixel, sample, depth, &ray, hit, &mut state, &mut class,
         );
         // connect
         if let Some(s) = shadow {
@@ -201,6 +246,7 @@ fn shade(
     ray: &Ray,
     hit: Option<(crate::bvh::Hit, u32)>,
     state: &mut PathState,
+    class: &mut Classifier,
 ) -> (Option<Ray>, Option<ShadowRay>) {
     let wo = -ray.dir;
     let mut throughput = Vec3::from(state.throughput);
@@ -209,7 +255,7 @@ fn shade(
     // Escaped: the environment's radiance, weighted against sampling the environment from the
     // previous vertex.
     let Some((hit, instance)) = hit else {
-        if frame.aov == AOV_RADIANCE && frame.env_width > 0 {
+        if frame.aov == AOV_RADIANCE && frame.env_width > 0 && class.ends_here(&[]) {
             let le = env_radiance(env, frame, ray.dir);
             let mut w = 1.0;
             if state.prev_specular == 0 {
@@ -262,7 +308,7 @@ fn shade(
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     let le = emitted_radiance(mat, cos_out);
-    if le.max_element() > 0.0 {
+    if le.max_element() > 0.0 && class.ends_here(&[]) {
         let mut w = 1.0;
         if state.prev_specular == 0 {
             let pmf = triangle_light_pmf(scene, frame, tri, hit.triangle, state);
@@ -295,6 +341,7 @@ fn shade(
     let u_light = rng_uniform4(frame.seed, pixel, sample, dim::bounce_block(depth));
     let mut shadow = None;
     if (frame.light_count > 0 || frame.env_pmf > 0.0)
+        && class.ends_here(&[SYM_D])
         && frame.debug_flags & DEBUG_NO_NEE == 0
         && frame.mis_heuristic != MIS_BSDF_ONLY
     {
@@ -372,6 +419,7 @@ fn shade(
         return (None, shadow);
     };
     throughput *= s.weight;
+    class.step(if s.delta { SYM_S } else { SYM_D });
     state.prev_bsdf_pdf = s.pdf;
     state.prev_specular = u32::from(s.delta);
     state.prev_position = p.to_array();

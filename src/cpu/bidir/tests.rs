@@ -1,0 +1,128 @@
+use super::*;
+use crate::render::RenderSettings;
+
+fn cornell(name: &str) -> PreparedScene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    let scene = crate::scene::Scene::load(&path).unwrap();
+    PreparedScene::new(&scene)
+}
+
+/// A camera subpath of at least `min_vertices` that ends on an emitter, and its key.
+fn emitter_path(b: &Bidir, min_vertices: usize) -> Vec<Vertex> {
+    let mut counts = RayCounts::default();
+    let mut path = Vec::new();
+    for pixel in 0..b.frame.width * b.frame.height {
+        b.camera_subpath((pixel, 7), 9, &mut path, &mut counts);
+        if path.len() >= min_vertices
+            && emitted_radiance(&path[path.len() - 1].mat, path[path.len() - 1].ng.dot(path[path.len() - 1].wo))
+                .max_element()
+                > 0.0
+            && path.iter().all(|v| !v.delta)
+        {
+            return path;
+        }
+    }
+    panic!("no camera subpath of {min_vertices} vertices reaches the light");
+}
+
+/// The full path x₀ (emitter) … z₀ (camera) split after its first s vertices: the light
+/// subpath the other way round, its densities those a light subpath would have had.
+fn split(b: &Bidir, full: &[Vertex], s: usize) -> (Vec<Vertex>, Vec<Vertex>) {
+    let n = full.len();
+    let t = n - s;
+    let camera = full[..t].to_vec();
+    let mut light: Vec<Vertex> = Vec::new();
+    for j in 0..s {
+        let z = &full[n - 1 - j];
+        let mut y = *z;
+        if j == 0 {
+            y.kind = Kind::AreaLight;
+            y.pdf_fwd = b.light_origin_pdf(z);
+            y.beta = Vec3::splat(1.0 / y.pdf_fwd);
+            y.wo = Vec3::ZERO;
+        } else {
+            let prev = light[j - 1];
+            y.wo = (prev.p - y.p).normalize();
+            y.pdf_fwd = if j == 1 {
+                b.to_area(b.emission_pdf(&prev, (y.p - prev.p).normalize()), prev.p, &y)
+            } else {
+                b.pdf(&prev, Some(&light[j - 2]), &y)
+            };
+        }
+        // Generating it from the camera side is the camera subpath's forward density.
+        y.pdf_rev = z.pdf_fwd;
+        light.push(y);
+    }
+    (light, camera)
+}
+
+/// Veach's condition for an unbiased combination: over every strategy (s, t) that can make a
+/// path, the weights sum to 1 — for each heuristic, on paths of 3 to 7 vertices.
+#[test]
+fn mis_weights_of_all_strategies_sum_to_one() {
+    let scene = cornell("cornell-box.gltf");
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        max_depth: 8,
+        rr_mode: RR_OFF,
+        ..Default::default()
+    };
+    let frame = scene.frame_params(&settings);
+    for heuristic in [
+        Heuristic::Power(2.0),
+        Heuristic::Balance,
+        Heuristic::Average,
+        Heuristic::Maximum,
+    ] {
+        let b = Bidir::new(&scene, &frame, Integrator::Bdpt, heuristic, None);
+        for min in 3..=7 {
+            let full = emitter_path(&b, min);
+            let n = full.len();
+            let mut total = 0.0;
+            let mut weights = Vec::new();
+            for s in 0..n {
+                let t = n - s;
+                let (light, camera) = split(&b, &full, s);
+                let sampled = (s == 1).then(|| light[0]);
+                let w = b.mis_weight(&light, &camera, sampled.as_ref(), s, t);
+                assert!((0.0..=1.0).contains(&w), "{heuristic:?} s={s} t={t}: w = {w}");
+                weights.push(w);
+                total += w;
+            }
+            assert!(
+                (total - 1.0).abs() < 1e-4,
+                "{heuristic:?}, {n} vertices: weights {weights:?} sum to {total}"
+            );
+        }
+    }
+}
+
+/// The light subpath's point-light helpers give what the path tracer's `punctual_incident`
+/// gives: I·falloff·window/d².
+#[test]
+fn punctual_emission_matches_the_path_tracer() {
+    let light = GpuPunctualLight {
+        position: [0.0, 2.0, 0.0],
+        kind: LIGHT_SPOT,
+        direction: [0.0, -1.0, 0.0],
+        range: 5.0,
+        intensity: [3.0, 2.0, 1.0],
+        spot_scale: 1.0 / (0.95 - 0.8),
+        spot_offset: -0.8 / (0.95 - 0.8),
+        ..Default::default()
+    };
+    for p in [
+        Vec3::new(0.3, 0.0, 0.1),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, -2.5, 0.2),
+    ] {
+        let (_, d, li) = crate::cpu::path::punctual_incident(&light, p);
+        let w = (p - Vec3::from(light.position)) / d;
+        let mine = punctual_intensity(&light, w) * punctual_window(&light, d) / (d * d);
+        assert!((mine - li).abs().max_element() <= 1e-6 * li.max_element().max(1.0), "{p}");
+    }
+    assert!((spot_cos_outer(&light) - 0.8).abs() < 1e-5);
+}
