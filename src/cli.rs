@@ -231,6 +231,11 @@ pub struct RenderArgs {
     /// how many passes fit depends on the machine and its load.
     #[arg(long, value_name = "SECONDS", value_parser = parse_time_limit, allow_negative_numbers = true)]
     pub time_limit: Option<f64>,
+    /// With --integrator bdpt or light: write every (s, t) strategy's weighted and unweighted
+    /// image to DIR (s light vertices, t camera vertices), and the grid of them,
+    /// DIR/strategies.png.
+    #[arg(long, value_name = "DIR")]
+    pub bdpt_strategies: Option<PathBuf>,
     #[command(flatten)]
     pub opts: RenderOptions,
 }

@@ -234,7 +234,11 @@ fn prepare(
     if settings.integrator != wavetrace::cpu::Integrator::Path && device == DeviceKind::Gpu {
         bail!(
             "--integrator {} runs on the CPU only so far: add --device cpu",
-            if settings.integrator == wavetrace::cpu::Integrator::Light { "light" } else { "bdpt" }
+            if settings.integrator == wavetrace::cpu::Integrator::Light {
+                "light"
+            } else {
+                "bdpt"
+            }
         );
     }
     if settings.paths.is_some() && device == DeviceKind::Gpu {
@@ -301,7 +305,15 @@ fn render(args: &RenderArgs) -> Result<()> {
         .scene
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
-    let device = resolve_device(args.device, args.opts.gpu_index);
+    // The light and bidirectional integrators and path expressions run on the CPU so far.
+    let cpu_only =
+        args.opts.integrator != crate::cli::IntegratorArg::Path || args.opts.paths.is_some();
+    let device = if cpu_only && args.device == DeviceKind::Auto {
+        eprintln!("device auto: cpu (--integrator light|bdpt and --paths run on the CPU)");
+        DeviceKind::Cpu
+    } else {
+        resolve_device(args.device, args.opts.gpu_index)
+    };
     let (_scene, prepared, settings) = prepare(&path, &args.opts, device)?;
     let (width, height) = (settings.width, settings.height);
     let output = args.output.clone().unwrap_or_else(|| {
@@ -332,6 +344,12 @@ fn render(args: &RenderArgs) -> Result<()> {
         b.build_time.as_secs_f64() * 1e3
     );
     let progressive = progressive_options(args, &settings)?;
+    if settings.integrator != wavetrace::cpu::Integrator::Path && progressive.is_some() {
+        bail!("--target-error and --time-limit render in passes with --integrator path only");
+    }
+    if args.bdpt_strategies.is_some() && settings.integrator == wavetrace::cpu::Integrator::Path {
+        bail!("--bdpt-strategies needs --integrator bdpt (or light)");
+    }
     let how = match &progressive {
         None => format!("at {} spp", args.opts.spp),
         Some(p) => format!(
@@ -386,6 +404,18 @@ fn render(args: &RenderArgs) -> Result<()> {
             );
             let progress = progress_bar(settings.total_samples());
             let out = match &progressive {
+                None if args.bdpt_strategies.is_some() => {
+                    let dir = args.bdpt_strategies.as_ref().unwrap();
+                    let (out, strategies) =
+                        wavetrace::cpu::render_strategies(&prepared, &settings, &progress);
+                    wavetrace::cpu::bidir::write_strategies(&strategies, dir, args.exposure)?;
+                    println!(
+                        "wrote {} strategy images and strategies.png to {}",
+                        2 * strategies.films.len(),
+                        dir.display()
+                    );
+                    out
+                }
                 None => wavetrace::cpu::render_with_progress(&prepared, &settings, &progress),
                 Some(p) => {
                     let (out, r) =

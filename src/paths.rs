@@ -453,7 +453,10 @@ mod tests {
             for len in 0..=7u32 {
                 for code in 0..4u32.pow(len) {
                     let w: Vec<u32> = (0..len).map(|i| code / 4u32.pow(i) % 4).collect();
-                    let word: String = w.iter().map(|&s| ['L', 'D', 'S', 'E'][s as usize]).collect();
+                    let word: String = w
+                        .iter()
+                        .map(|&s| ['L', 'D', 'S', 'E'][s as usize])
+                        .collect();
                     let expected = matches(&node, &w).contains(&w.len());
                     assert_eq!(e.matches(&word), expected, "{source} on {word}");
                     assert_eq!(e.reversed.matches(&reversed(&word)), expected, "{source}");

@@ -22,7 +22,20 @@ const BATCHES: u32 = 12;
 
 /// Per tile and channel: the mean over `BATCHES` independent renders and the variance of that
 /// mean (from the spread of the batch means, BATCHES − 1 degrees of freedom).
-fn batch_tiles(scene: &PreparedScene, settings: &RenderSettings, seed: u32) -> Vec<[(f64, f64); 3]> {
+fn batch_tiles(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    seed: u32,
+) -> Vec<[(f64, f64); 3]> {
+    batch_tiles_of(settings, seed, |s| wavetrace::cpu::render(scene, s).film)
+}
+
+/// [`batch_tiles`] of the film `render` makes for each batch's settings.
+fn batch_tiles_of(
+    settings: &RenderSettings,
+    seed: u32,
+    render: impl Fn(&RenderSettings) -> wavetrace::film::Film,
+) -> Vec<[(f64, f64); 3]> {
     let (w, h) = (settings.width, settings.height);
     let (tx, ty) = (w.div_ceil(TILE), h.div_ceil(TILE));
     let mut sums = vec![[Vec::new(), Vec::new(), Vec::new()]; (tx * ty) as usize];
@@ -31,7 +44,7 @@ fn batch_tiles(scene: &PreparedScene, settings: &RenderSettings, seed: u32) -> V
             seed: seed * 1000 + b,
             ..settings.clone()
         };
-        let film = wavetrace::cpu::render(scene, &s).film;
+        let film = render(&s);
         assert_eq!(film.dropped, 0, "{:?} dropped samples", settings.integrator);
         let mut tile_sum = vec![[0.0f64; 3]; (tx * ty) as usize];
         let mut tile_n = vec![0u32; (tx * ty) as usize];
@@ -71,14 +84,17 @@ fn same_expectation(
     b: &RenderSettings,
     alpha: f64,
 ) -> Result<(), String> {
-    let ta = batch_tiles(scene, a, 1);
-    let tb = batch_tiles(scene, b, 2);
+    welch_tiles(&batch_tiles(scene, a, 1), &batch_tiles(scene, b, 2), alpha)
+}
+
+/// Welch's test per tile × channel of two batch-tile tables, Šidák-corrected to `alpha`.
+fn welch_tiles(ta: &[[(f64, f64); 3]], tb: &[[(f64, f64); 3]], alpha: f64) -> Result<(), String> {
     let tests = ta.len() * 3;
     let per_test = sidak(alpha, tests);
     let df = (BATCHES - 1) as f64;
     let mut failures = Vec::new();
     let mut min_p = 1.0f64;
-    for (t, (x, y)) in ta.iter().zip(&tb).enumerate() {
+    for (t, (x, y)) in ta.iter().zip(tb).enumerate() {
         for c in 0..3 {
             let (_, _, p) = welch_t_test(x[c].0, x[c].1, df, y[c].0, y[c].1, df);
             min_p = min_p.min(p);
@@ -176,7 +192,11 @@ fn mean_image(scene: &PreparedScene, s: &RenderSettings) -> Vec<[f64; 3]> {
         .iter()
         .map(|p| {
             let n = p.count.max(1) as f64;
-            [p.sum[0] as f64 / n, p.sum[1] as f64 / n, p.sum[2] as f64 / n]
+            [
+                p.sum[0] as f64 / n,
+                p.sum[1] as f64 / n,
+                p.sum[2] as f64 / n,
+            ]
         })
         .collect()
 }
@@ -243,5 +263,51 @@ fn lde_is_direct_lighting() {
                 lde[i][c]
             );
         }
+    }
+}
+
+/// Each strategy alone is unbiased: on the Cornell box, the unweighted image of every (s, t)
+/// with one or two scattering vertices estimates the path tracer's image of exactly those
+/// paths (`--paths 'L.E'`, `'L..E'`).
+#[test]
+fn each_strategy_alone_is_unbiased() {
+    let scene = prepared("cornell-box.gltf");
+    let base = RenderSettings {
+        width: 16,
+        height: 16,
+        ..settings(Integrator::Bdpt, 16, 2)
+    };
+    let strategies: Vec<(usize, usize)> = (1..=2usize)
+        .flat_map(|k| (0..=k + 1).map(move |s| (s, k + 2 - s)))
+        .collect();
+    let alpha = sidak(0.01, strategies.len());
+    let mut failed = Vec::new();
+    for &(s, t) in &strategies {
+        let k = s + t - 2;
+        let expr = format!("L{}E", ".".repeat(k));
+        let path = sized(with_paths(&settings(Integrator::Path, 16, 2), &expr), 16);
+        let reference = batch_tiles(&scene, &path, 3);
+        let ours = batch_tiles_of(&base, 4, |b| {
+            let (_, mut films) =
+                wavetrace::cpu::render_strategies(&scene, b, &indicatif::ProgressBar::hidden());
+            films
+                .films
+                .remove(&(s, t))
+                .expect("the strategy contributed")
+                .1
+        });
+        print!("(s, t) = ({s}, {t}) against {expr}: ");
+        if let Err(e) = welch_tiles(&ours, &reference, alpha) {
+            failed.push(format!("({s}, {t}):\n{e}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+fn sized(s: RenderSettings, edge: u32) -> RenderSettings {
+    RenderSettings {
+        width: edge,
+        height: edge,
+        ..s
     }
 }

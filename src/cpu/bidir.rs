@@ -37,8 +37,8 @@ use crate::cpu::path::{sample_pair, RayCounts};
 use crate::cpu::{accumulate, emitted_radiance};
 use crate::film::Film;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, GpuPunctualLight, LIGHT_DIRECTIONAL,
-    LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF,
+    dim, FrameParams, GpuMaterial, GpuPunctualLight, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL,
+    LIGHT_SPOT, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF,
 };
 use crate::mc::roulette_f32;
 use crate::mis::Heuristic;
@@ -49,8 +49,8 @@ use crate::sampling::{
     sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
 use crate::surface::{
-    alpha_key, surface_emission, surface_material, surface_normal, surface_point,
-    surface_to_world, LOD_MAGNIFY,
+    alpha_key, surface_emission, surface_material, surface_normal, surface_point, surface_to_world,
+    LOD_MAGNIFY,
 };
 use crate::texture::TextureData;
 use glam::{Vec2, Vec3};
@@ -457,7 +457,10 @@ impl<'a> Bidir<'a> {
             };
             let (block, u_rr) = if camera {
                 let b = dim::bounce_block(bounce) + 1;
-                (b, rng_uniform4(f.seed, pixel, sample, dim::bounce_block(bounce)).w)
+                (
+                    b,
+                    rng_uniform4(f.seed, pixel, sample, dim::bounce_block(bounce)).w,
+                )
             } else {
                 let b = dim::light_block(i);
                 (b, rng_uniform4(f.seed, pixel, sample, b).w)
@@ -475,8 +478,8 @@ impl<'a> Bidir<'a> {
                 // The adjoint with the shading-normal correction (module docs).
                 let (cos_gi, cos_go) = (v.ng.dot(wi).abs(), v.ng.dot(v.wo).abs());
                 if s.delta {
-                    beta *= s.weight * frame.cos_theta(v.wo) * cos_gi
-                        / (cos_go * frame.cos_theta(wi));
+                    beta *=
+                        s.weight * frame.cos_theta(v.wo) * cos_gi / (cos_go * frame.cos_theta(wi));
                 } else {
                     beta *= self.phi(&v, wi, v.wo) * cos_gi / s.pdf;
                 }
@@ -525,7 +528,13 @@ impl<'a> Bidir<'a> {
         let (pixel, sample) = key;
         let u = rng_uniform4(f.seed, pixel, sample, dim::CAMERA_BLOCK);
         let jitter = sample_pair(f, pixel, sample, 4 * dim::CAMERA_BLOCK, Vec2::new(u.x, u.y));
-        let lens = sample_pair(f, pixel, sample, 4 * dim::CAMERA_BLOCK + 2, Vec2::new(u.z, u.w));
+        let lens = sample_pair(
+            f,
+            pixel,
+            sample,
+            4 * dim::CAMERA_BLOCK + 2,
+            Vec2::new(u.z, u.w),
+        );
         let ray = crate::scene::camera_ray(f, pixel, jitter, lens);
         path.clear();
         path.push(self.camera_vertex());
@@ -621,7 +630,13 @@ impl<'a> Bidir<'a> {
     // --- connections ------------------------------------------------------------------------
 
     /// Whether the segment between two vertices is free (the camera's near plane respected).
-    fn visible(&self, a: &Vertex, b: &Vertex, key: (u32, u32, u32), counts: &mut RayCounts) -> bool {
+    fn visible(
+        &self,
+        a: &Vertex,
+        b: &Vertex,
+        key: (u32, u32, u32),
+        counts: &mut RayCounts,
+    ) -> bool {
         let f = self.frame;
         counts.shadow += 1;
         let d = b.p - a.p;
@@ -741,7 +756,11 @@ impl<'a> Bidir<'a> {
             Heuristic::Average => others += u32::from(r > 0.0),
             Heuristic::Maximum => {
                 // Ties go to the strategy with fewer light vertices.
-                beaten |= if more_light_vertices { r > 1.0 } else { r >= 1.0 }
+                beaten |= if more_light_vertices {
+                    r > 1.0
+                } else {
+                    r >= 1.0
+                }
             }
             Heuristic::LightOnly | Heuristic::BsdfOnly => {}
         };
@@ -896,7 +915,7 @@ impl<'a> Bidir<'a> {
         sample: u32,
         scratch: &mut (Vec<Vertex>, Vec<Vertex>),
         counts: &mut RayCounts,
-        mut strategies: Option<&mut Vec<(usize, usize, Vec3, Vec3, u32)>>,
+        mut strategies: Option<&mut Vec<Strategy>>,
     ) -> Contributions {
         let f = self.frame;
         let key = (pixel, sample);
@@ -929,7 +948,8 @@ impl<'a> Bidir<'a> {
                 if depth < 2 || depth - 2 > max_depth || (s == 0 && t < 2) || (s == 1 && t == 1) {
                     continue;
                 }
-                if s == 0 && emitted_radiance(&camera[t - 1].mat, 1.0).max_element() <= 0.0
+                if s == 0
+                    && emitted_radiance(&camera[t - 1].mat, 1.0).max_element() <= 0.0
                     && emitted_radiance(&camera[t - 1].mat, -1.0).max_element() <= 0.0
                 {
                     continue;
@@ -958,7 +978,10 @@ impl<'a> Bidir<'a> {
 
 /// Why `settings` cannot be rendered with `--integrator light|bdpt` on `scene`, if they cannot
 /// (the path tracer takes everything).
-pub fn check(scene: &PreparedScene, settings: &crate::render::RenderSettings) -> Result<(), String> {
+pub fn check(
+    scene: &PreparedScene,
+    settings: &crate::render::RenderSettings,
+) -> Result<(), String> {
     let name = match settings.integrator {
         Integrator::Path => return Ok(()),
         Integrator::Light => "light",
@@ -983,7 +1006,9 @@ pub fn check(scene: &PreparedScene, settings: &crate::render::RenderSettings) ->
     if settings.integrator == Integrator::Bdpt
         && matches!(settings.mis, Heuristic::LightOnly | Heuristic::BsdfOnly)
     {
-        return refuse("weighs all its strategies: --mis must be power, balance, maximum or average");
+        return refuse(
+            "weighs all its strategies: --mis must be power, balance, maximum or average",
+        );
     }
     Ok(())
 }
@@ -1018,43 +1043,66 @@ fn spot_cos_outer(light: &GpuPunctualLight) -> f32 {
     (-light.spot_offset / light.spot_scale).clamp(-1.0, 1.0)
 }
 
+/// Per (s, t) strategy: its weighted and unweighted contributions as two films
+/// (`--bdpt-strategies`). The weighted films of all strategies add up to the image; an
+/// unweighted film is that strategy alone, an estimate of every path of its length that it can
+/// make.
+#[derive(Default)]
+pub struct StrategyFilms {
+    pub films: std::collections::BTreeMap<(usize, usize), (Film, Film)>,
+}
+
 /// Adds samples `samples` of every pixel to `film` with the light or bidirectional integrator:
 /// per sample index, every pixel's subpaths in parallel by rows, the splats added in row order
-/// (deterministic), then each pixel's own estimate plus its splats as one film sample.
+/// (deterministic), then each pixel's own estimate plus its splats as one film sample. With
+/// `strategies`, each strategy's contributions are kept apart as well.
 pub fn render_samples(
     bidir: &Bidir,
     film: &mut Film,
     samples: std::ops::Range<u32>,
     progress: &ProgressBar,
+    mut strategies: Option<&mut StrategyFilms>,
 ) -> (RayCounts, u64) {
+    type Row = (Vec<Vec3>, Vec<(u32, Vec3)>, RayCounts, Vec<Strategy>);
     let width = film.width as usize;
     let rows = film.height as usize;
+    let keep = strategies.is_some();
     let mut counts = RayCounts::default();
     let mut dropped = 0u64;
     let mut image = vec![Vec3::ZERO; film.len()];
+    let mut per_strategy: std::collections::BTreeMap<(usize, usize), (Vec<Vec3>, Vec<Vec3>)> =
+        Default::default();
+    let first_sample = samples.start;
     for sample in samples {
-        let results: Vec<(Vec<Vec3>, Vec<(u32, Vec3)>, RayCounts)> = (0..rows)
+        let results: Vec<Row> = (0..rows)
             .into_par_iter()
             .map(|row| {
                 let mut scratch = (Vec::new(), Vec::new());
                 let mut c = RayCounts::default();
                 let mut own = Vec::with_capacity(width);
                 let mut splats = Vec::new();
+                let mut list = Vec::new();
                 for x in 0..width {
                     let pixel = (row * width + x) as u32;
-                    let out = bidir.sample(pixel, sample, &mut scratch, &mut c, None);
+                    let out = bidir.sample(
+                        pixel,
+                        sample,
+                        &mut scratch,
+                        &mut c,
+                        keep.then_some(&mut list),
+                    );
                     own.push(out.own);
                     splats.extend(out.splats);
                 }
                 progress.inc(width as u64);
-                (own, splats, c)
+                (own, splats, c, list)
             })
             .collect();
-        for (row, (own, _, c)) in results.iter().enumerate() {
+        for (row, (own, _, c, _)) in results.iter().enumerate() {
             image[row * width..(row + 1) * width].copy_from_slice(own);
             counts = counts.merged(c);
         }
-        for (_, splats, _) in &results {
+        for (_, splats, _, _) in &results {
             for &(p, c) in splats {
                 if c.is_finite() {
                     image[p as usize] += c;
@@ -1066,8 +1114,105 @@ pub fn render_samples(
                 dropped += 1;
             }
         }
+        if let Some(out) = strategies.as_deref_mut() {
+            for buffers in per_strategy.values_mut() {
+                buffers.0.fill(Vec3::ZERO);
+                buffers.1.fill(Vec3::ZERO);
+            }
+            for (_, _, _, list) in &results {
+                for &(s, t, weighted, unweighted, p) in list {
+                    let b = per_strategy.entry((s, t)).or_insert_with(|| {
+                        (vec![Vec3::ZERO; image.len()], vec![Vec3::ZERO; image.len()])
+                    });
+                    b.0[p as usize] += weighted;
+                    b.1[p as usize] += unweighted;
+                }
+            }
+            for (&st, b) in &per_strategy {
+                let (fw, fu) = out.films.entry(st).or_insert_with(|| {
+                    // A strategy first seen now had zero in every earlier sample.
+                    let mut empty = Film::new(film.width, film.height);
+                    let done = sample - first_sample;
+                    for p in &mut empty.pixels {
+                        p.count = done;
+                    }
+                    (empty.clone(), empty)
+                });
+                for ((pw, pu), (w, u)) in fw
+                    .pixels
+                    .iter_mut()
+                    .zip(fu.pixels.iter_mut())
+                    .zip(b.0.iter().zip(&b.1))
+                {
+                    accumulate(pw, *w);
+                    accumulate(pu, *u);
+                }
+            }
+        }
     }
     (counts, dropped)
+}
+
+/// One strategy's contribution: (s, t, weighted, unweighted, pixel).
+pub type Strategy = (usize, usize, Vec3, Vec3, u32);
+
+/// Writes each strategy's weighted and unweighted image to `dir` (`s{s}-t{t}-weighted.exr`, …)
+/// and the lecture's "Bidir PT example" figure, `strategies.png`: one row per number of
+/// scattering vertices, one column per s, weighted images above the unweighted.
+pub fn write_strategies(
+    strategies: &StrategyFilms,
+    dir: &std::path::Path,
+    exposure: f32,
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let Some(((_, _), (first, _))) = strategies.films.iter().next() else {
+        return Ok(());
+    };
+    let (w, h) = (first.width, first.height);
+    let mut lengths = std::collections::BTreeSet::new();
+    let mut max_s = 0;
+    for (&(s, t), (weighted, unweighted)) in &strategies.films {
+        for (film, kind) in [(weighted, "weighted"), (unweighted, "unweighted")] {
+            let name = format!("s{s}-t{t}-{kind}.exr");
+            crate::image_io::write_image(film, &dir.join(&name), exposure)?;
+        }
+        lengths.insert(s + t - 2);
+        max_s = max_s.max(s);
+    }
+    // The grid: for each path length k (rows, two per k: weighted, then unweighted), the
+    // strategies s = 0 … k + 1 (columns), a 2-pixel gap between cells.
+    let gap = 2;
+    let columns = max_s as u32 + 1;
+    let rows = 2 * lengths.len() as u32;
+    let (gw, gh) = (columns * (w + gap) + gap, rows * (h + gap) + gap);
+    let mut grid = image::RgbImage::from_pixel(gw, gh, image::Rgb([40, 40, 40]));
+    let scale = exposure.exp2();
+    for (row, &k) in lengths.iter().enumerate() {
+        for s in 0..=k + 1 {
+            let t = k + 2 - s;
+            let Some((weighted, unweighted)) = strategies.films.get(&(s, t)) else {
+                continue;
+            };
+            for (half, film) in [weighted, unweighted].into_iter().enumerate() {
+                let x0 = gap + s as u32 * (w + gap);
+                let y0 = gap + (2 * row as u32 + half as u32) * (h + gap);
+                for y in 0..h {
+                    for x in 0..w {
+                        let m = film.mean((x + y * w) as usize);
+                        let px = m
+                            .to_array()
+                            .map(|c| crate::image_io::srgb_encode_u8(c * scale));
+                        grid.put_pixel(x0 + x, y0 + y, image::Rgb(px));
+                    }
+                }
+            }
+        }
+    }
+    let path = dir.join("strategies.png");
+    grid.save(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
 }
 
 #[cfg(test)]

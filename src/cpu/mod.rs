@@ -53,7 +53,7 @@ pub fn render_with_progress(
             settings.mis,
             settings.paths.as_deref(),
         );
-        bidir::render_samples(&bidir, &mut film, 0..settings.spp, progress)
+        bidir::render_samples(&bidir, &mut film, 0..settings.spp, progress, None)
     };
     film.dropped = dropped;
     let stats = RenderStats {
@@ -109,6 +109,43 @@ fn render_samples(
             || (RayCounts::default(), 0),
             |(a, da), (b, db)| (a.merged(&b), da + db),
         )
+}
+
+/// Renders with `--integrator light|bdpt` keeping every (s, t) strategy's contributions apart
+/// (`--bdpt-strategies`).
+pub fn render_strategies(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    progress: &ProgressBar,
+) -> (RenderOutput, bidir::StrategyFilms) {
+    let frame = scene.frame_params(settings);
+    let mut film = Film::new(settings.width, settings.height);
+    let mut strategies = bidir::StrategyFilms::default();
+    let start = Instant::now();
+    let b = bidir::Bidir::new(
+        scene,
+        &frame,
+        settings.integrator,
+        settings.mis,
+        settings.paths.as_deref(),
+    );
+    let (counts, dropped) = bidir::render_samples(
+        &b,
+        &mut film,
+        0..settings.spp,
+        progress,
+        Some(&mut strategies),
+    );
+    film.dropped = dropped;
+    let stats = RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        samples: settings.total_samples(),
+        extension_rays: counts.extension,
+        shadow_rays: counts.shadow,
+        dropped,
+        kernel_seconds: Vec::new(),
+    };
+    (RenderOutput { film, stats }, strategies)
 }
 
 /// Renders in passes of `settings.spp` samples per pixel until `options` say stop

@@ -16,8 +16,11 @@ fn emitter_path(b: &Bidir, min_vertices: usize) -> Vec<Vertex> {
     for pixel in 0..b.frame.width * b.frame.height {
         b.camera_subpath((pixel, 7), 9, &mut path, &mut counts);
         if path.len() >= min_vertices
-            && emitted_radiance(&path[path.len() - 1].mat, path[path.len() - 1].ng.dot(path[path.len() - 1].wo))
-                .max_element()
+            && emitted_radiance(
+                &path[path.len() - 1].mat,
+                path[path.len() - 1].ng.dot(path[path.len() - 1].wo),
+            )
+            .max_element()
                 > 0.0
             && path.iter().all(|v| !v.delta)
         {
@@ -47,7 +50,11 @@ fn from_positions(b: &Bidir, path: &[Vertex]) -> Vec<Vertex> {
                 kind: Kind::AreaLight,
                 ..z[n - 1]
             };
-            b.to_area(b.emission_pdf(&light, (z[i].p - light.p).normalize()), light.p, &z[i])
+            b.to_area(
+                b.emission_pdf(&light, (z[i].p - light.p).normalize()),
+                light.p,
+                &z[i],
+            )
         };
     }
     z
@@ -72,7 +79,11 @@ fn split(b: &Bidir, full: &[Vertex], s: usize) -> (Vec<Vertex>, Vec<Vertex>) {
             let prev = light[j - 1];
             y.wo = (prev.p - y.p).normalize();
             y.pdf_fwd = if j == 1 {
-                b.to_area(b.emission_pdf(&prev, (y.p - prev.p).normalize()), prev.p, &y)
+                b.to_area(
+                    b.emission_pdf(&prev, (y.p - prev.p).normalize()),
+                    prev.p,
+                    &y,
+                )
             } else {
                 b.pdf(&prev, Some(&light[j - 2]), &y)
             };
@@ -114,7 +125,10 @@ fn mis_weights_of_all_strategies_sum_to_one() {
                 let (light, camera) = split(&b, &full, s);
                 let sampled = (s == 1).then(|| light[0]);
                 let w = b.mis_weight(&light, &camera, sampled.as_ref(), s, t);
-                assert!((0.0..=1.0).contains(&w), "{heuristic:?} s={s} t={t}: w = {w}");
+                assert!(
+                    (0.0..=1.0).contains(&w),
+                    "{heuristic:?} s={s} t={t}: w = {w}"
+                );
                 weights.push(w);
                 total += w;
             }
@@ -149,7 +163,10 @@ fn punctual_emission_matches_the_path_tracer() {
         let (_, d, li) = crate::cpu::path::punctual_incident(&light, p);
         let w = (p - Vec3::from(light.position)) / d;
         let mine = punctual_intensity(&light, w) * punctual_window(&light, d) / (d * d);
-        assert!((mine - li).abs().max_element() <= 1e-6 * li.max_element().max(1.0), "{p}");
+        assert!(
+            (mine - li).abs().max_element() <= 1e-6 * li.max_element().max(1.0),
+            "{p}"
+        );
     }
     assert!((spot_cos_outer(&light) - 0.8).abs() < 1e-5);
 }
