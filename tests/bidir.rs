@@ -171,6 +171,18 @@ fn the_comparison_sees_a_missing_bounce() {
     assert!(result.is_err(), "depth 2 and 3 were not told apart");
 }
 
+/// The caustic scene (a delta glass sphere under a small light): BDPT and light tracing agree on
+/// the paths light tracing can make — the caustic LS+DE among them — where the path tracer's
+/// estimate of the caustic is too heavy-tailed for a test at this budget.
+#[test]
+fn bdpt_and_light_tracing_agree_on_the_caustic() {
+    let scene = prepared("caustic.gltf");
+    let expr = "LE|L(D|S)*DE";
+    let light = with_paths(&settings(Integrator::Light, 8, 5), expr);
+    let bdpt = with_paths(&settings(Integrator::Bdpt, 4, 5), expr);
+    same_expectation(&scene, &light, &bdpt, 0.01).unwrap();
+}
+
 /// Light tracing cannot make paths whose last scattering before the eye is a delta bounce
 /// (L…SE): on the Cornell box with a mirror and glass, it matches the path tracer restricted
 /// to the paths it can make, `LE|L(D|S)*DE`.
