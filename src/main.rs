@@ -231,15 +231,8 @@ fn prepare(
         .with_context(|| format!("{}", path.display()))?;
     wavetrace::cpu::bidir::check(&prepared, &settings)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    if settings.integrator != wavetrace::cpu::Integrator::Path && device == DeviceKind::Gpu {
-        bail!(
-            "--integrator {} runs on the CPU only so far: add --device cpu",
-            if settings.integrator == wavetrace::cpu::Integrator::Light {
-                "light"
-            } else {
-                "bdpt"
-            }
-        );
+    if settings.integrator == wavetrace::cpu::Integrator::Bdpt && device == DeviceKind::Gpu {
+        bail!("--integrator bdpt runs on the CPU only so far: add --device cpu");
     }
     if settings.paths.is_some() && device == DeviceKind::Gpu {
         bail!("--paths runs on the CPU only so far: add --device cpu");
@@ -306,10 +299,16 @@ fn render(args: &RenderArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
     // The light and bidirectional integrators and path expressions run on the CPU so far.
-    let cpu_only =
-        args.opts.integrator != crate::cli::IntegratorArg::Path || args.opts.paths.is_some();
+    let cpu_only = args.opts.integrator == crate::cli::IntegratorArg::Bdpt
+        || args.opts.paths.is_some()
+        || args.bdpt_strategies.is_some();
+    if cpu_only && args.device == DeviceKind::Gpu {
+        bail!("--integrator bdpt, --paths and --bdpt-strategies run on the CPU only so far: add --device cpu");
+    }
     let device = if cpu_only && args.device == DeviceKind::Auto {
-        eprintln!("device auto: cpu (--integrator light|bdpt and --paths run on the CPU)");
+        eprintln!(
+            "device auto: cpu (--integrator bdpt, --paths and --bdpt-strategies run on the CPU)"
+        );
         DeviceKind::Cpu
     } else {
         resolve_device(args.device, args.opts.gpu_index)

@@ -40,6 +40,10 @@ layout(std430, set = 0, binding = 23) readonly buffer LightTrails { uint light_t
 // Renders that stop at a target error, --adaptive: the band-local indices of the pixels still
 // sampled in this pass (frame.active_pixel_count of them; scene.glsl, path_pixel_sample).
 layout(std430, set = 0, binding = 24) readonly buffer ActivePixels { uint active_pixels[]; };
+// Light tracing's splat image: per pixel and channel, a 64-bit fixed-point sum (2^-24 units)
+// as two words, low then high (light_tracing.glsl, splat_add), added with integer atomics so
+// the sum does not depend on the order of the additions.
+layout(std430, set = 0, binding = 25) buffer Splats { uint splats[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -9,6 +9,9 @@
 #define CAMERA_BLOCK 0u  // pixel jitter (x, y), point on the lens (z, w)
 #define BLOCKS_PER_BOUNCE 2u
 uint bounce_block(uint depth) { return 1u + depth * BLOCKS_PER_BOUNCE; }
+// Light subpaths (--integrator light): blocks of their own above every camera bounce's.
+#define LIGHT_BLOCK_BASE (1u << 24)
+uint light_block(uint vertex) { return LIGHT_BLOCK_BASE + 2u * vertex; }
 
 // Flattened BVH node, depth-first; interior: left child = next node. Total: 32 bytes.
 struct BvhNode {

@@ -97,4 +97,18 @@ vec3 offset_ray_origin(vec3 p, vec3 n) {
                 abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
 }
 
+// Uniform direction in the cone of half-angle theta_max around +Z (cos theta uniform on
+// [cos theta_max, 1]); cos_max = -1 gives the whole sphere (src/sampling.rs).
+vec3 sample_uniform_cone(vec2 u, float cos_max) {
+    float z = 1.0 - u.x * (1.0 - cos_max);
+    float r = sqrt(max(1.0 - z * z, 0.0));
+    float phi = 2.0 * PI * u.y;
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
+// Pdf of sample_uniform_cone with respect to solid angle: 1 / (2 pi (1 - cos theta_max)).
+float uniform_cone_pdf(float cos_max) {
+    return 1.0 / (2.0 * PI * (1.0 - cos_max));
+}
+
 #endif

@@ -116,7 +116,24 @@ impl GpuRenderer {
         wavefront: Option<u32>,
         progress: &ProgressBar,
     ) -> Result<RenderOutput> {
+        let light = settings.integrator == crate::cpu::Integrator::Light;
+        if settings.integrator == crate::cpu::Integrator::Bdpt || settings.paths.is_some() {
+            bail!("--integrator bdpt and --paths run on the CPU only so far: add --device cpu");
+        }
+        if light {
+            crate::cpu::bidir::check(scene, settings).map_err(|e| anyhow::anyhow!(e))?;
+        }
         let setup = self.setup(scene, settings, wavefront, false)?;
+        if light && setup.band_rows < settings.height {
+            setup.destroy(&self.ctx);
+            bail!(
+                "--integrator light splats anywhere on the image, so the whole film must fit one \
+                 storage binding of {}: render {}×{} with --device cpu",
+                self.ctx.info.name,
+                settings.width,
+                settings.height
+            );
+        }
         let result = self.render_bands(settings, &setup, progress);
         setup.destroy(&self.ctx);
         let (pixels, mut stats) = result?;
@@ -190,6 +207,11 @@ impl GpuRenderer {
             capacity as u64,
             band_pixels as u64,
             if active_list { band_pixels as u64 } else { 0 },
+            if settings.integrator == crate::cpu::Integrator::Light {
+                band_pixels as u64
+            } else {
+                0
+            },
         )?;
         let query_pool = if self.timing {
             let info = vk::QueryPoolCreateInfo::default()
@@ -198,6 +220,13 @@ impl GpuRenderer {
             Some(unsafe { ctx.device.create_query_pool(&info, None) }?)
         } else {
             None
+        };
+        // A light-tracing batch never straddles two passes: the splats of one sample index
+        // make one film sample.
+        let capacity = if settings.integrator == crate::cpu::Integrator::Light {
+            capacity.min(band_pixels)
+        } else {
+            capacity
         };
         Ok(Setup {
             capacity,
@@ -243,8 +272,20 @@ impl GpuRenderer {
             let film_bytes = frame.band_pixel_count as u64 * size_of::<FilmPixel>() as u64;
             self.commands.begin()?;
             unsafe {
-                ctx.device
-                    .cmd_fill_buffer(self.commands.cmd, buffers.film.buffer, 0, film_bytes, 0)
+                ctx.device.cmd_fill_buffer(
+                    self.commands.cmd,
+                    buffers.film.buffer,
+                    0,
+                    film_bytes,
+                    0,
+                );
+                ctx.device.cmd_fill_buffer(
+                    self.commands.cmd,
+                    buffers.splats.buffer,
+                    0,
+                    vk::WHOLE_SIZE,
+                    0,
+                );
             };
             self.commands
                 .submit_and_wait(ctx, "clearing the film", SUBMIT_TIMEOUT_S)?;
@@ -385,7 +426,12 @@ impl GpuRenderer {
                     &[],
                 );
             }
-            recorder.record_batch(batch, settings.max_depth);
+            if settings.integrator == crate::cpu::Integrator::Light {
+                let pass_done = batch.first_pixel + batch.size == pixel_count;
+                recorder.record_light_batch(batch, settings.max_depth, pass_done);
+            } else {
+                recorder.record_batch(batch, settings.max_depth);
+            }
             let timed = std::mem::take(&mut recorder.timed);
             memory::barrier(
                 &ctx.device,

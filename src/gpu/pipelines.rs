@@ -39,10 +39,13 @@ pub enum Binding {
     /// Band-local indices of the pixels a pass of an adaptive render samples
     /// (`FrameParams::active_pixel_count`).
     ActivePixels = 24,
+    /// Light tracing's splat sums: per pixel and channel a 64-bit fixed-point integer as two
+    /// words (`light_tracing.glsl`, `splat_add`).
+    Splats = 25,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 25] = [
+    pub const ALL: [Binding; 26] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -68,6 +71,7 @@ impl Binding {
         Binding::LightNodes,
         Binding::LightTrails,
         Binding::ActivePixels,
+        Binding::Splats,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

@@ -27,6 +27,8 @@ pub struct RenderBuffers {
     /// The active-pixel list of adaptive passes (`Binding::ActivePixels`) and its host upload.
     pub active_pixels: Buffer,
     pub active_upload: Buffer,
+    /// Light tracing's splat sums over the whole image (`Binding::Splats`), 24 bytes a pixel.
+    pub splats: Buffer,
     /// Scene and queue buffers: only the descriptor set refers to them.
     _bound: Vec<Buffer>,
 }
@@ -46,6 +48,7 @@ impl RenderBuffers {
         capacity: u64,
         band_pixels: u64,
         active_pixels: u64,
+        splat_pixels: u64,
     ) -> Result<RenderBuffers> {
         use vk::BufferUsageFlags as U;
         let storage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
@@ -125,6 +128,7 @@ impl RenderBuffers {
             U::TRANSFER_DST | U::TRANSFER_SRC,
             Location::Host,
         )?;
+        let splats = device("splats", (splat_pixels * 24) as usize)?;
         let active_bytes = active_pixels * size_of::<u32>() as u64;
         let active = device("active_pixels", active_bytes as usize)?;
         let active_upload = Buffer::new(
@@ -160,6 +164,7 @@ impl RenderBuffers {
             (Binding::LightNodes, light_nodes.buffer),
             (Binding::LightTrails, light_trails.buffer),
             (Binding::ActivePixels, active.buffer),
+            (Binding::Splats, splats.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -209,6 +214,7 @@ impl RenderBuffers {
             args,
             active_pixels: active,
             active_upload,
+            splats,
             _bound: vec![
                 nodes,
                 triangles,

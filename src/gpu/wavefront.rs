@@ -75,7 +75,50 @@ pub struct Recorder<'a> {
 impl Recorder<'_> {
     /// One batch: the whole wavefront loop up to `max_depth` bounces.
     pub fn record_batch(&mut self, batch: Batch, max_depth: u32) {
-        self.reset_counters(batch);
+        self.reset_counters(batch.size);
+        self.start_timing(max_depth);
+        self.generate(batch);
+        for depth in 0..=max_depth {
+            self.extend(batch, depth);
+            self.shade(batch, depth);
+            if depth < max_depth {
+                self.connect(batch, depth);
+            }
+        }
+        self.accumulate(batch);
+    }
+
+    /// One batch of light tracing (`--integrator light`): generate_light → connect_light, then
+    /// (extend → shade_light → connect_light) per scattering vertex; at the end of a pass
+    /// (`pass_done`) the splat sums become one film sample per pixel (accumulate_splats).
+    /// Light rays' alpha keys are ALPHA_LIGHT_WALK + d: `extend` reads params.depth, whose low
+    /// bit still picks the queue.
+    pub fn record_light_batch(&mut self, batch: Batch, max_depth: u32, pass_done: bool) {
+        const ALPHA_LIGHT_WALK: u32 = 1 << 20;
+        // Queue 0 fills as generate_light finds emitters.
+        self.reset_counters(0);
+        self.start_timing(max_depth);
+        self.dispatch(
+            "generate_light",
+            params(batch, 0),
+            batch.size.div_ceil(WORKGROUP_SIZE),
+        );
+        self.connect_kernel("connect_light", batch, 0);
+        for depth in 0..max_depth {
+            self.extend(batch, ALPHA_LIGHT_WALK | depth);
+            self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
+            self.connect_kernel("connect_light", batch, depth + 1);
+        }
+        if pass_done {
+            self.dispatch(
+                "accumulate_splats",
+                params(batch, 0),
+                self.pixel_count.div_ceil(WORKGROUP_SIZE),
+            );
+        }
+    }
+
+    fn start_timing(&mut self, max_depth: u32) {
         if let Some(pool) = self.timestamps {
             unsafe {
                 self.device
@@ -88,28 +131,21 @@ impl Recorder<'_> {
                 );
             }
         }
-        self.generate(batch);
-        for depth in 0..=max_depth {
-            self.extend(batch, depth);
-            self.shade(batch, depth);
-            if depth < max_depth {
-                self.connect(batch, depth);
-            }
-        }
-        self.accumulate(batch);
     }
 
-    fn reset_counters(&self, batch: Batch) {
+    /// Sets queue 0's counter to `first_queue` and zeroes every other counter.
+    fn reset_counters(&self, first_queue: u32) {
         let device = self.device;
         unsafe {
-            // Queue 0 starts full (generate writes every slot); every other counter starts at 0.
+            // Queue 0 starts full (generate writes every slot) or empty (generate_light appends);
+            // every other counter starts at 0.
             // The two fills touch disjoint bytes, so they need no barrier between them.
             device.cmd_fill_buffer(
                 self.cmd,
                 self.counters.buffer,
                 4 * counter::RAYS_0 as u64,
                 4,
-                batch.size,
+                first_queue,
             );
             device.cmd_fill_buffer(
                 self.cmd,
@@ -166,13 +202,18 @@ impl Recorder<'_> {
 
     /// Any-hit tests of the shadow queue.
     fn connect(&mut self, batch: Batch, depth: u32) {
+        self.connect_kernel("connect", batch, depth);
+    }
+
+    /// The shadow queue's dispatch size, then `kernel` over it.
+    fn connect_kernel(&mut self, kernel: &'static str, batch: Batch, depth: u32) {
         let mut p = params(batch, depth);
         p.counter = counter::SHADOW;
         p.args_slot = args::SHADOW;
         p.total_counter = counter::TOTAL_SHADOW_RAYS;
         p.clear_mask = 0;
         self.dispatch("dispatch_args", p, 1);
-        self.dispatch_indirect("connect", params(batch, depth), args::SHADOW);
+        self.dispatch_indirect(kernel, params(batch, depth), args::SHADOW);
     }
 
     /// Path radiance into the film, one thread per pixel of the batch.

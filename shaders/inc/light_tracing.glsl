@@ -1,0 +1,117 @@
+// Light tracing ("next event estimation for light tracing"): the GPU twin of the light-subpath
+// half of src/cpu/bidir.rs, same names. Paths start on an emitter chosen by power and every
+// vertex is joined to the pinhole; the contribution splats onto the pixel it lands in.
+#ifndef LIGHT_TRACING_GLSL
+#define LIGHT_TRACING_GLSL
+
+// Alpha-test keys of light subpaths and of their connections (src/cpu/bidir.rs).
+#define ALPHA_LIGHT_WALK (1u << 20)
+#define ALPHA_CONNECT (1u << 21)
+
+// The pixel a direction from the pinhole lands in, the film-wide importance W_e = 1/(A cos^4)
+// (area measure) and the direction pdf 1/(A cos^3), A = 4 tan^2(fov/2) aspect; false outside
+// the film (src/cpu/bidir.rs, camera_importance).
+bool camera_importance(vec3 dir, out uint pixel, out float we, out float pdf) {
+    pixel = 0u;
+    we = 0.0;
+    pdf = 0.0;
+    float c = dot(dir, frame.cam_forward);
+    if (!(c > 0.0)) return false;
+    float t = frame.tan_half_fov_y;
+    float sx = dot(dir, frame.cam_right) / (c * t * frame.aspect);
+    float sy = dot(dir, frame.cam_up) / (c * t);
+    float px = (sx + 1.0) * 0.5 * float(frame.width);
+    float py = (1.0 - sy) * 0.5 * float(frame.height);
+    if (!(px >= 0.0 && px < float(frame.width) && py >= 0.0 && py < float(frame.height))) return false;
+    pixel = min(uint(py), frame.height - 1u) * frame.width + min(uint(px), frame.width - 1u);
+    float film_area = 4.0 * t * t * frame.aspect;
+    pdf = 1.0 / (film_area * c * c * c);
+    we = pdf / c;
+    return true;
+}
+
+// Radiant intensity of a point or spot light along w: I times the spot's smooth falloff.
+vec3 punctual_intensity(GpuPunctualLight l, vec3 w) {
+    vec3 i = l.intensity;
+    if (l.kind == LIGHT_SPOT) {
+        float a = clamp(dot(l.direction, w) * l.spot_scale + l.spot_offset, 0.0, 1.0);
+        i *= a * a;
+    }
+    return i;
+}
+
+// The range window clamp(1 - (d/range)^4, 0, 1) at distance d (1 without a range).
+float punctual_window(GpuPunctualLight l, float d) {
+    if (l.range > 0.0) {
+        float x = d / l.range;
+        return clamp(1.0 - x * x * x * x, 0.0, 1.0);
+    }
+    return 1.0;
+}
+
+// cos of a spot light's outer cone angle, from its falloff constants.
+float spot_cos_outer(GpuPunctualLight l) {
+    return clamp(-l.spot_offset / l.spot_scale, -1.0, 1.0);
+}
+
+// phi(w_cam, w_light) of a scattering vertex: f |n_s . w_light| / |n_g . w_light|, f the path
+// tracer's BSDF seen from the camera side (src/cpu/bidir.rs, phi).
+vec3 phi(GpuMaterial mat, vec3 ng, vec3 ns, vec3 w_cam, vec3 w_light) {
+    float cos_g = abs(dot(ng, w_light));
+    BsdfFrame f;
+    if (!(cos_g > 0.0) || !bsdf_frame_new_shading(mat, ng, ns, w_cam, f)) return vec3(0.0);
+    return bsdf_frame_eval(f, w_light, TRANSPORT_RADIANCE) * (bsdf_frame_cos(f, w_light) / cos_g);
+}
+
+// A surface vertex can be joined to the camera if its material has a non-delta lobe.
+bool connectible(GpuMaterial m) {
+    float alpha = m.roughness * m.roughness;
+    return (1.0 - m.metallic) * (1.0 - m.transmission) > 0.0 || alpha >= ALPHA_DELTA;
+}
+
+// Queues the join of vertex p (geometric normal ng, or a punctual light: on_surface false) to
+// the pinhole, carrying beta * value * G * W_e, value the vertex's phi or emission towards the
+// camera given by value_towards(w). The shadow ray's `pad` names the pixel it lands in.
+bool camera_connection(vec3 p, vec3 ng, bool on_surface, out vec3 w, out float dist,
+                       out uint pixel, out float g_we, out ShadowRay shadow) {
+    vec3 cam = frame.cam_position;
+    vec3 d = cam - p;
+    dist = length(d);
+    w = d / dist;
+    g_we = 0.0;
+    float we, pdf;
+    if (!camera_importance(-w, pixel, we, pdf)) return false;
+    float cos_cam = dot(-w, frame.cam_forward);
+    // Camera rays start on the near plane.
+    if (cos_cam * dist <= frame.cam_znear) return false;
+    float cos_here = on_surface ? abs(dot(ng, w)) : 1.0;
+    g_we = cos_here * cos_cam / (dist * dist) * we;
+    shadow.origin = on_surface ? offset_ray_origin(p, dot(ng, w) > 0.0 ? ng : -ng) : p;
+    vec3 target = cam - w * (frame.cam_znear / cos_cam);
+    vec3 seg = target - shadow.origin;
+    shadow.t_max = length(seg);
+    shadow.dir = seg / shadow.t_max;
+    shadow.pad = pixel;
+    return true;
+}
+
+// Adds c to pixel's splat sums: each channel in units of 2^-24 as a 64-bit integer split into
+// a low and a high word; the low word's carry is detected from atomicAdd's old value, so the
+// total is exact and independent of the order of the additions. Non-finite, negative and
+// absurd (>= 2^39) values are not added.
+void splat_add(uint pixel, vec3 c) {
+    for (uint ch = 0u; ch < 3u; ch++) {
+        float v = c[ch];
+        if (!(v > 0.0) || !(v < 549755813888.0)) continue;
+        float hi_f = floor(v * (1.0 / 256.0));
+        float lo_f = (v - hi_f * 256.0) * 16777216.0;
+        uint hi = uint(hi_f);
+        uint lo = uint(lo_f < 16777216.0 ? lo_f + 0.5 : lo_f);
+        uint word = 6u * pixel + 2u * ch;
+        uint old = atomicAdd(splats[word], lo);
+        uint carry = old > 0xffffffffu - lo ? 1u : 0u;
+        if (hi + carry != 0u) atomicAdd(splats[word + 1u], hi + carry);
+    }
+}
+
+#endif

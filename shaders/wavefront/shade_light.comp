@@ -1,0 +1,96 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Light tracing, stage 3: at each hit of a light subpath, queue the vertex's join to the camera
+// (a shadow ray that splats if unoccluded), then sample the adjoint BSDF for the next ray and
+// apply Russian roulette (src/cpu/bidir.rs, walk in importance mode). params.depth = d: the
+// hits are vertex d + 1 of their subpaths.
+#include "layout.glsl"
+#include "bindings.glsl"
+#include "rng.glsl"
+#include "sampling.glsl"
+#include "bsdf.glsl"
+#include "scene.glsl"
+#include "texture.glsl"
+#include "surface.glsl"
+#include "light_tracing.glsl"
+
+layout(local_size_x = WORKGROUP_SIZE) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint depth = params.depth;
+    uint queue = depth & 1u;
+    if (i >= counters[queue]) return;
+    QueuedRay ray = rays[queue * params.batch_size + i];
+    HitRecord hit = hits[i];
+    if (hit.triangle == NO_HIT) return;
+    PathState state = paths[ray.path];
+    uint pixel, sample_index;
+    path_pixel_sample(ray.path, pixel, sample_index);
+    vec3 beta = state.throughput;
+    if (depth == 0u && state.pad0 != 0u) {
+        // A punctual light's range window, now that the distance is known.
+        beta *= punctual_window(punctual_lights[state.pad0 - 1u], hit.t);
+    }
+    GpuTriangle tri = triangles[hit.triangle];
+    SurfacePoint sp = surface_point(tri, triangle_vertices[hit.triangle], hit.u, hit.v);
+    surface_to_world(sp, tri, instances[hit.instance]);
+    vec3 p = sp.p;
+    vec3 ng = sp.ng;
+    vec3 wo = -ray.dir;
+    GpuMaterial raw = materials[triangle_material(tri)];
+    GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
+    vec3 ns = surface_normal(raw, sp, LOD_MAGNIFY);
+
+    // The join to the camera (s = d + 2 light vertices, t = 1).
+    if (connectible(mat)) {
+        ShadowRay shadow;
+        vec3 w;
+        float dist;
+        uint target;
+        float g_we;
+        if (camera_connection(p, ng, true, w, dist, target, g_we, shadow)) {
+            shadow.contribution = beta * phi(mat, ng, ns, w, wo) * g_we;
+            shadow.path = ray.path;
+            if (max_component(shadow.contribution) > 0.0) {
+                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+            }
+        }
+    }
+    if (depth + 1u >= frame.max_depth) return;
+
+    // The adjoint BSDF with the shading-normal correction (src/cpu/bidir.rs, module docs).
+    BsdfFrame f;
+    if (!bsdf_frame_new_shading(mat, ng, ns, wo, f)) return;
+    uint block = light_block(depth + 1u);
+    vec4 u = rng_uniform4(frame.seed, pixel, sample_index, block);
+    vec2 u_dir = sample_pair(pixel, sample_index, 4u * block, u.xy);
+    vec3 wi;
+    vec3 weight;
+    float pdf;
+    bool delta;
+    if (!bsdf_frame_sample(f, vec3(u_dir, u.z), TRANSPORT_IMPORTANCE, wi, weight, pdf, delta)) return;
+    float cos_gi = abs(dot(ng, wi));
+    float cos_go = abs(dot(ng, wo));
+    if (delta) {
+        beta *= weight * bsdf_frame_cos(f, wo) * cos_gi / (cos_go * bsdf_frame_cos(f, wi));
+    } else {
+        beta *= phi(mat, ng, ns, wi, wo) * cos_gi / pdf;
+    }
+    if (!(max_component(beta) > 0.0) || any(isinf(beta)) || any(isnan(beta))) return;
+    if (depth + 1u >= frame.rr_start_depth && frame.rr_mode != RR_OFF) {
+        float survive = min(max_component(beta) / state.prev_bsdf_pdf, 1.0);
+        float w;
+        if (!roulette(u.w, survive, w)) return;
+        beta *= w;
+    }
+    state.throughput = beta;
+    paths[ray.path] = state;
+    QueuedRay next;
+    next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
+    next.path = ray.path;
+    next.dir = wi;
+    next.pad = 0u;
+    uint next_queue = queue ^ 1u;
+    rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+}
