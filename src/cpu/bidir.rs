@@ -1070,6 +1070,7 @@ pub fn render_samples(
     let mut counts = RayCounts::default();
     let mut dropped = 0u64;
     let mut image = vec![Vec3::ZERO; film.len()];
+    let mut splat_sums = vec![[0u64; 3]; film.len()];
     let mut per_strategy: std::collections::BTreeMap<(usize, usize), (Vec<Vec3>, Vec<Vec3>)> =
         Default::default();
     let first_sample = samples.start;
@@ -1104,10 +1105,12 @@ pub fn render_samples(
         }
         for (_, splats, _, _) in &results {
             for &(p, c) in splats {
-                if c.is_finite() {
-                    image[p as usize] += c;
-                }
+                splat_add(&mut splat_sums[p as usize], c);
             }
+        }
+        for (l, sums) in image.iter_mut().zip(&mut splat_sums) {
+            *l += splat_value(sums);
+            *sums = [0; 3];
         }
         for (acc, &l) in film.pixels.iter_mut().zip(&image) {
             if !accumulate(acc, l) {
@@ -1151,6 +1154,29 @@ pub fn render_samples(
         }
     }
     (counts, dropped)
+}
+
+/// Adds `c` to a pixel's splat sums, each channel a 64-bit fixed-point integer in units of
+/// 2⁻²⁴ (light_tracing.glsl, `splat_add`, which adds the same integers with 32-bit atomics):
+/// integer sums do not depend on the order of the additions. Non-finite, negative and absurd
+/// (≥ 2³⁹) values are not added.
+pub fn splat_add(sums: &mut [u64; 3], c: Vec3) {
+    for (sum, v) in sums.iter_mut().zip(c.to_array()) {
+        if !(v > 0.0) || !(v < 549_755_813_888.0) {
+            continue;
+        }
+        let hi = (v * (1.0 / 256.0)).floor();
+        let lo = (v - hi * 256.0) * 16_777_216.0;
+        let lo = if lo < 16_777_216.0 { lo + 0.5 } else { lo } as u32;
+        *sum = sum.wrapping_add(((hi as u64) << 32) + lo as u64);
+    }
+}
+
+/// The value of a pixel's splat sums (accumulate_splats.comp).
+pub fn splat_value(sums: &[u64; 3]) -> Vec3 {
+    Vec3::from(
+        sums.map(|s| (s >> 32) as u32 as f32 * 256.0 + s as u32 as f32 * (1.0 / 16_777_216.0)),
+    )
 }
 
 /// One strategy's contribution: (s, t, weighted, unweighted, pixel).

@@ -170,3 +170,32 @@ fn punctual_emission_matches_the_path_tracer() {
     }
     assert!((spot_cos_outer(&light) - 0.8).abs() < 1e-5);
 }
+
+/// The fixed-point splat sum: exact for sums of values on its 2⁻²⁴ grid in any order, within
+/// half a unit per value otherwise, and the value it reports within f32 rounding.
+#[test]
+fn splat_sums_do_not_depend_on_order() {
+    let values: Vec<f32> = (0..1000)
+        .map(|i| ((i * 7919) % 1000) as f32 * 0.37 + 1e-4 * i as f32)
+        .chain([3.0e6, 1.0e-7, 255.99998, 256.0])
+        .collect();
+    let mut a = [0u64; 3];
+    let mut b = [0u64; 3];
+    for &v in &values {
+        splat_add(&mut a, Vec3::splat(v));
+    }
+    for &v in values.iter().rev() {
+        splat_add(&mut b, Vec3::splat(v));
+    }
+    assert_eq!(a, b);
+    let exact: f64 = values.iter().map(|&v| v as f64).sum();
+    let got = splat_value(&a).x as f64;
+    let half_units = values.len() as f64 * 0.5 / 16_777_216.0;
+    assert!(
+        (got - exact).abs() <= half_units + exact * 2.0 * f32::EPSILON as f64,
+        "{got} vs {exact}"
+    );
+    // Non-finite, negative and absurd values are left out.
+    splat_add(&mut a, Vec3::new(f32::NAN, -1.0, 1e12));
+    assert_eq!(a, b);
+}
