@@ -24,6 +24,13 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             args.scenes.len()
         );
     }
+    if args.opts.integrator != crate::cli::IntegratorArg::Path || args.opts.paths.is_some() {
+        bail!(
+            "verify compares the path tracer (--integrator path, all paths): its per-tile test \
+             takes a tile's pixels as independent, which light tracing's splats are not \
+             (tests/bidir.rs compares the light and bidirectional integrators over independent batches)"
+        );
+    }
     if args.detect.is_some() && !args.against.is_empty() {
         bail!("--detect chooses the sample count of the GPU and CPU renders; it does not apply with --against");
     }
