@@ -234,9 +234,6 @@ fn prepare(
     if settings.integrator == wavetrace::cpu::Integrator::Bdpt && device == DeviceKind::Gpu {
         bail!("--integrator bdpt runs on the CPU only so far: add --device cpu");
     }
-    if settings.paths.is_some() && device == DeviceKind::Gpu {
-        bail!("--paths runs on the CPU only so far: add --device cpu");
-    }
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());
     }
@@ -298,17 +295,16 @@ fn render(args: &RenderArgs) -> Result<()> {
         .scene
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
-    // The light and bidirectional integrators and path expressions run on the CPU so far.
-    let cpu_only = args.opts.integrator == crate::cli::IntegratorArg::Bdpt
-        || args.opts.paths.is_some()
-        || args.bdpt_strategies.is_some();
+    // The bidirectional integrator and its strategy images run on the CPU so far.
+    let cpu_only =
+        args.opts.integrator == crate::cli::IntegratorArg::Bdpt || args.bdpt_strategies.is_some();
     if cpu_only && args.device == DeviceKind::Gpu {
-        bail!("--integrator bdpt, --paths and --bdpt-strategies run on the CPU only so far: add --device cpu");
+        bail!(
+            "--integrator bdpt and --bdpt-strategies run on the CPU only so far: add --device cpu"
+        );
     }
     let device = if cpu_only && args.device == DeviceKind::Auto {
-        eprintln!(
-            "device auto: cpu (--integrator bdpt, --paths and --bdpt-strategies run on the CPU)"
-        );
+        eprintln!("device auto: cpu (--integrator bdpt and --bdpt-strategies run on the CPU)");
         DeviceKind::Cpu
     } else {
         resolve_device(args.device, args.opts.gpu_index)

@@ -340,7 +340,21 @@ impl PathExpr {
     pub fn matches(&self, word: &str) -> bool {
         self.forward.matches(word)
     }
+
+    /// The GPU's table (`Binding::PathDfa`, `shaders/inc/paths.glsl`): word 0 = 1, word 1 = the
+    /// forward automaton's accepting states, word 2 = the reversed one's, word 3 = where the
+    /// reversed table starts; the forward table from word 4, `[state · 4 + symbol]`.
+    pub fn gpu_table(&self) -> Vec<u32> {
+        let reversed_at = 4 + 4 * self.forward.next.len() as u32;
+        let mut t = vec![1, self.forward.accept, self.reversed.accept, reversed_at];
+        t.extend(self.forward.next.iter().flatten());
+        t.extend(self.reversed.next.iter().flatten());
+        t
+    }
 }
+
+/// The GPU table of renders without `--paths`: word 0 = 0, every path counts.
+pub const GPU_TABLE_NONE: [u32; 4] = [0; 4];
 
 #[cfg(test)]
 mod tests {

@@ -365,3 +365,56 @@ fn gpu_light_tracing_is_deterministic() {
     assert!(first.film.pixels.iter().any(|p| p.sum[0] > 0.0));
     assert_eq!(first.film.pixels[0].count, 6);
 }
+
+/// Path expressions on the GPU: for the path tracer and light tracing, the images of a
+/// partition add up to the unrestricted image (same random numbers, so up to f32 rounding of
+/// the sums), and an expression's image matches the CPU's per tile.
+#[test]
+fn gpu_path_expressions() {
+    let scene = prepared("cornell-materials.gltf");
+    if common::gpu().is_none() {
+        return;
+    }
+    for integrator in [Integrator::Path, Integrator::Light] {
+        let s = RenderSettings {
+            width: 24,
+            height: 24,
+            ..settings(integrator, 4, 5)
+        };
+        let gpu_mean = |s: &RenderSettings| -> Vec<[f64; 3]> {
+            let film = common::render_gpu(&scene, s, None).unwrap().film;
+            film.pixels
+                .iter()
+                .map(|p| {
+                    let n = p.count.max(1) as f64;
+                    [
+                        p.sum[0] as f64 / n,
+                        p.sum[1] as f64 / n,
+                        p.sum[2] as f64 / n,
+                    ]
+                })
+                .collect()
+        };
+        let full = gpu_mean(&s);
+        let parts: Vec<_> = ["LE", "L(D|S)*DE", "L(D|S)*SE"]
+            .iter()
+            .map(|e| gpu_mean(&with_paths(&s, e)))
+            .collect();
+        for (i, f) in full.iter().enumerate() {
+            for c in 0..3 {
+                let sum: f64 = parts.iter().map(|p| p[i][c]).sum();
+                assert!(
+                    (sum - f[c]).abs() <= 1e-5 * f[c].abs().max(1.0),
+                    "{integrator:?} on the GPU, pixel {i} channel {c}: parts {sum}, image {}",
+                    f[c]
+                );
+            }
+        }
+    }
+    let caustic_like = with_paths(&settings(Integrator::Path, 8, 5), "L(D|S)*SE");
+    let gpu = batch_tiles_of(&caustic_like, 7, |b| {
+        common::render_gpu(&scene, b, None).unwrap().film
+    });
+    let cpu = batch_tiles(&scene, &caustic_like, 8);
+    welch_tiles(&gpu, &cpu, 0.01).unwrap_or_else(|e| panic!("--paths: GPU ≠ CPU:\n{e}"));
+}

@@ -445,14 +445,14 @@ def caustic():
     """A glass sphere on a diffuse floor under a small light: the caustic scene of the
     bidirectional tests. The sphere (radius 1, icosphere subdivision 4 with smooth normals
     absent, so facets refract; KHR_materials_transmission 1, ior 1.5, roughness 0: a delta
-    dielectric) rests on a 12 x 12 white floor with a white back wall; a 0.3 x 0.3 light faces
+    dielectric) rests on a 12 x 12 white floor with a white back wall; a 0.1 x 0.1 light faces
     down at y = 5, 1.5 to the side of the sphere, so the focused LS+DE caustic lands on the floor
     beside the sphere's shadow. Path tracing finds it only by BSDF-sampled rays hitting the
     small light through the sphere; light tracing and BDPT connect it to the eye directly.
     """
     g = Gltf()
     white = g.lambertian("white", (0.75, 0.75, 0.75))
-    light = g.lambertian("light", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 400.0)
+    light = g.lambertian("light", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 3600.0)
     glass = g.material("glass", (1.0, 1.0, 1.0), metallic=0.0, roughness=0.0, extensions={
         "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}})
     rect = g.geometry(*rectangle())
@@ -461,10 +461,10 @@ def caustic():
     g.node({"name": "back wall", "mesh": g.mesh("back wall", rect, white),
             "matrix": column_major([[6, 0, 0, 0], [0, 6, 0, 6], [0, 0, 1, -4]])})
     g.node({"name": "light", "mesh": g.mesh("light", rect, light),
-            "matrix": column_major([[0.15, 0, 0, -1.5], [0, 0, -0.15, 5], [0, 0.15, 0, 0]])})
+            "matrix": column_major([[0.05, 0, 0, -1.5], [0, 0, -0.05, 5], [0, 0.05, 0, 0]])})
     g.node({"name": "glass sphere", "mesh": g.mesh("glass sphere", g.geometry(*icosphere(4)), glass),
             "matrix": column_major([[1, 0, 0, 0.4], [0, 1, 0, 1], [0, 0, 1, 0]])})
-    g.camera("camera", math.radians(40.0), (0.0, 4.0, 8.5), aspect_ratio=1.0, pitch=math.radians(-24.0))
+    g.camera("camera", math.radians(36.0), (0.6, 3.2, 6.0), aspect_ratio=1.0, pitch=math.radians(-28.0))
     return g
 
 

@@ -44,6 +44,8 @@ layout(std430, set = 0, binding = 24) readonly buffer ActivePixels { uint active
 // as two words, low then high (light_tracing.glsl, splat_add), added with integer atomics so
 // the sum does not depend on the order of the additions.
 layout(std430, set = 0, binding = 25) buffer Splats { uint splats[]; };
+// --paths: the path-expression automata (paths.glsl); word 0 = 0 without an expression.
+layout(std430, set = 0, binding = 26) readonly buffer PathDfa { uint path_dfa[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -13,6 +13,7 @@
 #include "texture.glsl"
 #include "surface.glsl"
 #include "light_tracing.glsl"
+#include "paths.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -25,7 +26,8 @@ void main() {
     state.throughput = vec3(0.0);
     state.prev_bsdf_pdf = 0.0;
     state.radiance = vec3(0.0);
-    state.prev_specular = 0u;
+    // --paths: the emitter-first automaton's state after L.
+    state.prev_specular = paths_enabled() ? dfa_step_forward(0u, SYM_L) : 0u;
     state.cone_width = 0.0;
     state.prev_position = vec3(0.0);
     state.prev_normal = vec3(0.0);
@@ -58,7 +60,7 @@ void main() {
         if (camera_connection(l.position, l.direction, false, w, dist, target, g_we, shadow)) {
             shadow.contribution = beta0 * punctual_intensity(l, w) * punctual_window(l, dist) * g_we;
             shadow.path = i;
-            if (max_component(shadow.contribution) > 0.0) {
+            if (max_component(shadow.contribution) > 0.0 && light_path_ends_here(state.prev_specular, 4u)) {
                 shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
             }
         }
@@ -89,7 +91,7 @@ void main() {
         if (camera_connection(y, n, true, w, dist, target, g_we, shadow)) {
             shadow.contribution = beta0 * emitted_radiance(mat, dot(n, w)) * g_we;
             shadow.path = i;
-            if (max_component(shadow.contribution) > 0.0) {
+            if (max_component(shadow.contribution) > 0.0 && light_path_ends_here(state.prev_specular, 4u)) {
                 shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
             }
         }

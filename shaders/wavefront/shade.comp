@@ -13,6 +13,7 @@
 #include "surface.glsl"
 #include "environment.glsl"
 #include "light_bvh.glsl"
+#include "paths.glsl"
 
 // The probability that NEE at the path's previous vertex picks emitting triangle `index` from
 // the table (the environment's share left out): through the light BVH at that vertex, or its
@@ -126,7 +127,7 @@ void main() {
     // Escaped: the environment's radiance, weighted against sampling the environment from the
     // previous vertex.
     if (hit.triangle == NO_HIT) {
-        if (frame.aov == AOV_RADIANCE && frame.env_width > 0u) {
+        if (frame.aov == AOV_RADIANCE && frame.env_width > 0u && path_ends_here(state.pad0, 4u)) {
             vec3 le = env_radiance(ray.dir);
             float w = 1.0;
             if (state.prev_specular == 0u) {
@@ -163,7 +164,7 @@ void main() {
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
     vec3 le = emitted_radiance(mat, cos_out);
-    if (max_component(le) > 0.0) {
+    if (max_component(le) > 0.0 && path_ends_here(state.pad0, 4u)) {
         float w = 1.0;
         if (state.prev_specular == 0u) {
             float pmf = triangle_light_pmf(tri, hit.triangle, state);
@@ -185,7 +186,8 @@ void main() {
     // chosen by power (one point on its triangle, or a punctual light). Delta lobes have no
     // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
     vec4 u_light = rng_uniform4(frame.seed, pixel, sample_index, bounce_block(depth));
-    if ((frame.light_count > 0u || frame.env_pmf > 0.0) && (frame.debug_flags & DEBUG_NO_NEE) == 0u
+    if ((frame.light_count > 0u || frame.env_pmf > 0.0) && path_ends_here(state.pad0, SYM_D)
+        && (frame.debug_flags & DEBUG_NO_NEE) == 0u
         && frame.mis_heuristic != MIS_BSDF_ONLY) {
         vec2 u_point = sample_pair(pixel, sample_index, 4u * bounce_block(depth) + 1u, u_light.yz);
         LightSample ls;
@@ -228,6 +230,7 @@ void main() {
         return;
     }
     state.throughput *= weight;
+    if (paths_enabled()) state.pad0 = dfa_step_reversed(state.pad0, delta ? SYM_S : SYM_D);
     state.prev_bsdf_pdf = pdf;
     state.prev_specular = delta ? 1u : 0u;
     state.prev_position = p;

@@ -13,6 +13,7 @@
 #include "texture.glsl"
 #include "surface.glsl"
 #include "light_tracing.glsl"
+#include "paths.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -52,7 +53,7 @@ void main() {
         if (camera_connection(p, ng, true, w, dist, target, g_we, shadow)) {
             shadow.contribution = beta * phi(mat, ng, ns, w, wo) * g_we;
             shadow.path = ray.path;
-            if (max_component(shadow.contribution) > 0.0) {
+            if (max_component(shadow.contribution) > 0.0 && light_path_ends_here(state.prev_specular, SYM_D)) {
                 shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
             }
         }
@@ -85,6 +86,7 @@ void main() {
         beta *= w;
     }
     state.throughput = beta;
+    if (paths_enabled()) state.prev_specular = dfa_step_forward(state.prev_specular, delta ? SYM_S : SYM_D);
     paths[ray.path] = state;
     QueuedRay next;
     next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);

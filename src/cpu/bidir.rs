@@ -927,12 +927,13 @@ impl<'a> Bidir<'a> {
             camera.clear();
             camera.push(self.camera_vertex());
             for s in 1..=light.len() {
+                if !self.path_matches(light, camera, s, 1) {
+                    continue;
+                }
                 if let Some((c, Some(p), _)) = self.connect(key, light, camera, s, 1, counts) {
-                    if self.path_matches(light, camera, s, 1) {
-                        out.splats.push((p, c));
-                        if let Some(list) = strategies.as_deref_mut() {
-                            list.push((s, 1, c, c, p));
-                        }
+                    out.splats.push((p, c));
+                    if let Some(list) = strategies.as_deref_mut() {
+                        list.push((s, 1, c, c, p));
                     }
                 }
             }
@@ -954,11 +955,14 @@ impl<'a> Bidir<'a> {
                 {
                     continue;
                 }
+                if !self.path_matches(light, camera, s, t) {
+                    continue;
+                }
                 let Some((c, splat, sampled)) = self.connect(key, light, camera, s, t, counts)
                 else {
                     continue;
                 };
-                if !(c.max_element() > 0.0) || !self.path_matches(light, camera, s, t) {
+                if !(c.max_element() > 0.0) {
                     continue;
                 }
                 let w = self.mis_weight(light, camera, sampled.as_ref(), s, t);

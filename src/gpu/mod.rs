@@ -117,8 +117,8 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<RenderOutput> {
         let light = settings.integrator == crate::cpu::Integrator::Light;
-        if settings.integrator == crate::cpu::Integrator::Bdpt || settings.paths.is_some() {
-            bail!("--integrator bdpt and --paths run on the CPU only so far: add --device cpu");
+        if settings.integrator == crate::cpu::Integrator::Bdpt {
+            bail!("--integrator bdpt runs on the CPU only so far: add --device cpu");
         }
         if light {
             crate::cpu::bidir::check(scene, settings).map_err(|e| anyhow::anyhow!(e))?;
@@ -212,6 +212,7 @@ impl GpuRenderer {
             } else {
                 0
             },
+            settings.paths.as_deref(),
         )?;
         let query_pool = if self.timing {
             let info = vk::QueryPoolCreateInfo::default()

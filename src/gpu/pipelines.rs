@@ -42,10 +42,12 @@ pub enum Binding {
     /// Light tracing's splat sums: per pixel and channel a 64-bit fixed-point integer as two
     /// words (`light_tracing.glsl`, `splat_add`).
     Splats = 25,
+    /// The `--paths` automata (`PathExpr::gpu_table`).
+    PathDfa = 26,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 26] = [
+    pub const ALL: [Binding; 27] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -72,6 +74,7 @@ impl Binding {
         Binding::LightTrails,
         Binding::ActivePixels,
         Binding::Splats,
+        Binding::PathDfa,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

@@ -29,6 +29,7 @@ pub struct RenderBuffers {
     pub active_upload: Buffer,
     /// Light tracing's splat sums over the whole image (`Binding::Splats`), 24 bytes a pixel.
     pub splats: Buffer,
+    pub path_dfa: Buffer,
     /// Scene and queue buffers: only the descriptor set refers to them.
     _bound: Vec<Buffer>,
 }
@@ -49,6 +50,7 @@ impl RenderBuffers {
         band_pixels: u64,
         active_pixels: u64,
         splat_pixels: u64,
+        path_expr: Option<&crate::paths::PathExpr>,
     ) -> Result<RenderBuffers> {
         use vk::BufferUsageFlags as U;
         let storage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
@@ -129,6 +131,9 @@ impl RenderBuffers {
             Location::Host,
         )?;
         let splats = device("splats", (splat_pixels * 24) as usize)?;
+        let dfa_table =
+            path_expr.map_or_else(|| crate::paths::GPU_TABLE_NONE.to_vec(), |p| p.gpu_table());
+        let path_dfa = device("path_dfa", 4 * dfa_table.len())?;
         let active_bytes = active_pixels * size_of::<u32>() as u64;
         let active = device("active_pixels", active_bytes as usize)?;
         let active_upload = Buffer::new(
@@ -165,6 +170,7 @@ impl RenderBuffers {
             (Binding::LightTrails, light_trails.buffer),
             (Binding::ActivePixels, active.buffer),
             (Binding::Splats, splats.buffer),
+            (Binding::PathDfa, path_dfa.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -188,6 +194,7 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&env.marginal), &env_marginal),
             (bytemuck::cast_slice(&scene.light_nodes), &light_nodes),
             (bytemuck::cast_slice(&scene.light_trails), &light_trails),
+            (bytemuck::cast_slice(&dfa_table), &path_dfa),
         ]
         .into_iter()
         .filter(|(data, _)| !data.is_empty())
@@ -215,6 +222,7 @@ impl RenderBuffers {
             active_pixels: active,
             active_upload,
             splats,
+            path_dfa,
             _bound: vec![
                 nodes,
                 triangles,
