@@ -51,6 +51,47 @@ pub fn render_with_progress(
     RenderOutput { film, stats }
 }
 
+/// Renders samples `samples` of the `settings.spp` of every pixel (the samplers stratify over
+/// all `settings.spp`, so a range renders exactly those samples of the whole render), in
+/// chunks of whole sample passes; after each chunk stops early if `stop` is set. Returns the
+/// film and the end of the samples rendered: every pixel holds samples
+/// [samples.start, end), each pixel's in sample order, so the film equals, bit for bit, that of
+/// a render of [samples.start, end) (and of [`render`] for 0..spp).
+pub fn render_range(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    samples: std::ops::Range<u32>,
+    progress: &ProgressBar,
+    stop: &std::sync::atomic::AtomicBool,
+) -> (RenderOutput, u32) {
+    let frame = scene.frame_params(settings);
+    let environment = settings.environment_map();
+    let env = crate::environment::map_or_none(&environment);
+    let mut film = Film::new(settings.width, settings.height);
+    let start = Instant::now();
+    // Chunks of about 2^16 paths: short enough to stop soon, long enough for rayon.
+    let chunk = (65536 / settings.pixel_count().max(1)).clamp(1, u32::MAX as u64) as u32;
+    let (mut counts, mut dropped) = (RayCounts::default(), 0);
+    let mut end = samples.start;
+    while end < samples.end && !stop.load(std::sync::atomic::Ordering::Relaxed) {
+        let next = end.saturating_add(chunk).min(samples.end);
+        let (c, d) = render_samples(scene, &frame, env, &mut film, end..next, None, progress);
+        counts = counts.merged(&c);
+        dropped += d;
+        end = next;
+    }
+    film.dropped = dropped;
+    let stats = RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        samples: settings.pixel_count() * (end - samples.start) as u64,
+        extension_rays: counts.extension,
+        shadow_rays: counts.shadow,
+        dropped,
+        kernel_seconds: Vec::new(),
+    };
+    (RenderOutput { film, stats }, end)
+}
+
 /// Adds samples `samples` of every pixel (or of the pixels `active` marks) to `film`, rows in
 /// parallel, each pixel's samples in order; returns the rays traced and the samples dropped.
 fn render_samples(
