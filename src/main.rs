@@ -308,7 +308,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         Some(n) => plan.todo.start..plan.todo.end.min(plan.todo.start.saturating_add(n)),
         None => plan.todo.as_range(),
     };
-    let stop = shard_cmd::interrupt_flag();
+    let stop = shard_cmd::stop_flag(progressive.is_some());
     let mut end = todo.end;
     match output.extension().and_then(|e| e.to_str()) {
         Some("exr") | Some("png") => {}

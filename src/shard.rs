@@ -169,10 +169,18 @@ impl Record {
                 continue;
             };
             any = true;
+            // A file may hold no samples (a render stopped before its first pass): START..START.
             let range = |v: &str| {
-                v.parse::<SampleRange>()
-                    .map_err(anyhow::Error::msg)
-                    .with_context(|| format!("{}: attribute {name}", path.display()))
+                v.split_once("..")
+                    .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
+                    .filter(|(a, b)| a <= b)
+                    .map(|(a, b)| SampleRange::new(a, b))
+                    .with_context(|| {
+                        format!(
+                            "{}: attribute {name} = '{v}' is no range START..END",
+                            path.display()
+                        )
+                    })
             };
             match key {
                 "samples" => samples = Some(range(value)?),
@@ -453,7 +461,7 @@ mod tests {
         let record = Record {
             settings: vec![("seed".into(), "3".into()), ("spp".into(), "16".into())],
             scene: "scenes/a.gltf".into(),
-            samples: Some(SampleRange::new(0, 5)),
+            samples: Some(SampleRange::new(0, 0)),
             target: Some(SampleRange::new(0, 8)),
             dropped: 2,
         };

@@ -14,6 +14,17 @@ use wavetrace::shard::{scene_hash, Hasher64, Record, SampleRange, Shard};
 /// shells report an interrupted command).
 pub const INTERRUPTED_EXIT: i32 = 130;
 
+/// The stop flag of a render: the signal handler's ([`interrupt_flag`]) for renders of a fixed
+/// sample count; renders in passes keep the default signal handling (they end at once).
+pub fn stop_flag(progressive: bool) -> &'static AtomicBool {
+    static NEVER: AtomicBool = AtomicBool::new(false);
+    if progressive {
+        &NEVER
+    } else {
+        interrupt_flag()
+    }
+}
+
 /// The flag the signal handler sets on the first SIGINT or SIGTERM (SIGHUP too: `ctrlc`'s
 /// `termination` feature); the renderers stop at the next whole sample pass. A second signal
 /// ends the process at once.

@@ -334,6 +334,17 @@ fn cpu_resume_completes_a_partial_render() {
         Some(SampleRange::new(4, 12))
     );
     assert_same_samples(&partial, &shard);
+    // Stopped before its first sample (a signal during loading): an empty partial resumes too.
+    let (full, empty) = (temp("empty-full.exr"), temp("empty-partial.exr"));
+    render("cpu", 16, 4, &[], &full);
+    let o = run_render("cpu", 16, 4, &["--stop-after", "0"], &empty);
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let e = read_exr_file(&empty);
+    assert_eq!(e.record.samples, Some(SampleRange::new(0, 0)));
+    assert!(e.film.pixels.iter().all(|p| p.count == 0));
+    let o = run_render("cpu", 16, 4, &["--resume", empty.to_str().unwrap()], &empty);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_bitwise_equal(&empty, &full);
 }
 
 #[test]
