@@ -38,27 +38,15 @@ fn job_states(id: &str) -> Vec<String> {
         .collect()
 }
 
-#[test]
-fn slurm_array_shards_merge_into_the_single_render() {
-    if !cluster_up() {
-        eprintln!(
-            "skipping the Slurm end-to-end test: no Slurm cluster answers sinfo (start one with tools/slurm/local-cluster.sh start)"
-        );
-        return;
-    }
+/// Submits the recipe (tools/slurm/submit.sh) for the Cornell box with `options`, CPU-only;
+/// returns the array and merge job ids.
+fn submit(out_dir: &Path, spp: u32, shards: u32, options: &str) -> (String, String) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out_dir = common::temp("slurm", "run");
-    let _ = std::fs::remove_dir_all(&out_dir);
-    std::fs::create_dir_all(&out_dir).unwrap();
-    let scene = root.join("scenes/cornell-box.gltf");
-    let options = "--width 32 --height 32 --max-depth 4";
-    let (spp, shards) = (16, 4);
-    let start = Instant::now();
     let o = Command::new(root.join("tools/slurm/submit.sh"))
-        .env("SCENE", &scene)
+        .env("SCENE", root.join("scenes/cornell-box.gltf"))
         .env("SPP", spp.to_string())
         .env("SHARDS", shards.to_string())
-        .env("OUT_DIR", &out_dir)
+        .env("OUT_DIR", out_dir)
         .env("DEVICE", "cpu")
         .env("WAVETRACE_GRES", "")
         .env("RENDER_OPTIONS", options)
@@ -76,28 +64,39 @@ fn slurm_array_shards_merge_into_the_single_render() {
         panic!("submit.sh printed {ids:?}, not two job ids");
     };
     println!("submitted array job {array} and merge job {merge}");
-    // Wait for the merge job (a guard against a hang, not a measurement).
+    (array.to_owned(), merge.to_owned())
+}
+
+/// The logs of a run (shard-*.log, merge.log).
+fn logs(out_dir: &Path) -> String {
+    let mut files: Vec<_> = std::fs::read_dir(out_dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "log"))
+        .collect();
+    files.sort();
+    files
+        .iter()
+        .map(|p| {
+            format!(
+                "--- {}\n{}",
+                p.display(),
+                std::fs::read_to_string(p).unwrap_or_default()
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Waits for the merge job to complete (15 minutes at most: a guard against a hang, not a
+/// measurement) and checks that every array task completed.
+fn wait_for(out_dir: &Path, array: &str, merge: &str, shards: usize) {
     let deadline = Instant::now() + Duration::from_secs(900);
     loop {
         let states = job_states(merge);
         if states.iter().any(|s| s == "COMPLETED") {
             break;
         }
-        let logs = || {
-            std::fs::read_dir(&out_dir)
-                .unwrap()
-                .filter_map(|e| e.ok())
-                .filter(|e| e.path().extension().is_some_and(|x| x == "log"))
-                .map(|e| {
-                    format!(
-                        "--- {}\n{}",
-                        e.path().display(),
-                        std::fs::read_to_string(e.path()).unwrap_or_default()
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join("\n")
-        };
         if states.iter().any(|s| {
             [
                 "FAILED",
@@ -112,43 +111,132 @@ fn slurm_array_shards_merge_into_the_single_render() {
             panic!(
                 "merge job {merge}: {states:?}; array {array}: {:?}\n{}",
                 job_states(array),
-                logs()
+                logs(out_dir)
             );
         }
         assert!(
             Instant::now() < deadline,
             "the jobs did not finish in 15 minutes: merge {states:?}, array {:?}\n{}",
             job_states(array),
-            logs()
+            logs(out_dir)
         );
         std::thread::sleep(Duration::from_millis(500));
     }
-    let elapsed = start.elapsed();
     let tasks = job_states(array);
     assert_eq!(tasks.len(), shards, "array tasks: {tasks:?}");
     assert!(tasks.iter().all(|s| s == "COMPLETED"), "{tasks:?}");
-    println!(
-        "Slurm: {shards} shards and the merge finished {:.1} s after submission",
-        elapsed.as_secs_f64()
-    );
-    // One render of every sample, here.
+}
+
+/// Renders every sample here, once, and checks that the merge holds the same samples: equal
+/// counts, sums within the f32 summation-order bound (common::assert_same_samples).
+fn assert_merge_is_the_single_render(out_dir: &Path, spp: u32, options: &str) {
     let single = out_dir.join("single.exr");
+    let spp = spp.to_string();
     let mut args = vec![
-        "render".to_string(),
-        scene.display().to_string(),
-        "--device".into(),
-        "cpu".into(),
-        "--spp".into(),
-        spp.to_string(),
-        "-o".into(),
-        single.display().to_string(),
+        "render",
+        "scenes/cornell-box.gltf",
+        "--device",
+        "cpu",
+        "--spp",
+        &spp,
+        "-o",
+        single.to_str().unwrap(),
     ];
-    args.extend(options.split(' ').map(str::to_owned));
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    args.extend(options.split(' '));
     let o = common::wavetrace(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let merged = out_dir.join("merged.exr");
-    // The merge holds the same samples as the single render: equal counts, sums within the
-    // f32 summation-order bound (common::assert_same_samples).
-    common::assert_same_samples(&merged, &single);
+    common::assert_same_samples(&out_dir.join("merged.exr"), &single);
+}
+
+fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = common::temp("slurm", name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn slurm_array_shards_merge_into_the_single_render() {
+    if !cluster_up() {
+        eprintln!(
+            "skipping the Slurm end-to-end test: no Slurm cluster answers sinfo (start one with tools/slurm/local-cluster.sh start)"
+        );
+        return;
+    }
+    let out_dir = fresh_dir("run");
+    let options = "--width 32 --height 32 --max-depth 4";
+    let (spp, shards) = (16, 4);
+    let start = Instant::now();
+    let (array, merge) = submit(&out_dir, spp, shards, options);
+    wait_for(&out_dir, &array, &merge, shards as usize);
+    println!(
+        "Slurm: {shards} shards and the merge finished {:.1} s after submission",
+        start.elapsed().as_secs_f64()
+    );
+    assert_merge_is_the_single_render(&out_dir, spp, options);
+}
+
+/// Pre-emption as Slurm does it: `scontrol requeue` of a running shard sends it SIGTERM; it
+/// writes its partial shard and exits, runs again, continues the partial with --resume, and
+/// the merge job (afterok on the array) waits for it.
+#[test]
+fn a_requeued_shard_resumes_and_the_merge_waits_for_it() {
+    if !cluster_up() {
+        eprintln!("skipping the Slurm requeue test: no Slurm cluster answers sinfo");
+        return;
+    }
+    let out_dir = fresh_dir("requeue");
+    let options = "--width 8 --height 8 --max-depth 4";
+    // Far more samples than a shard renders in the moment before the requeue reaches it.
+    let (spp, shards) = (40000, 2);
+    let (array, merge) = submit(&out_dir, spp, shards, options);
+    let task = format!("{array}_1");
+    let log = out_dir.join("shard-1.log");
+    let deadline = Instant::now() + Duration::from_secs(300);
+    while !std::fs::read_to_string(&log).is_ok_and(|l| l.contains("rendering")) {
+        assert!(
+            Instant::now() < deadline,
+            "shard 1 did not start\n{}",
+            logs(&out_dir)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let o = Command::new("scontrol")
+        .args(["requeue", &task])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "scontrol requeue {task}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // A requeued job waits (about 2 minutes) before it is eligible again; once it is pending,
+    // let it go now.
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while job_states(&task) != ["PENDING"] {
+        assert!(
+            Instant::now() < deadline,
+            "{task} is {:?}, not pending again after the requeue\n{}",
+            job_states(&task),
+            logs(&out_dir)
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let o = Command::new("scontrol")
+        .args(["update", &format!("JobId={task}"), "StartTime=now"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    wait_for(&out_dir, &array, &merge, shards as usize);
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains("stopped early"),
+        "shard 1 was not stopped:\n{text}"
+    );
+    assert!(
+        text.contains("continuing"),
+        "shard 1 did not resume:\n{text}"
+    );
+    assert_merge_is_the_single_render(&out_dir, spp, options);
 }
