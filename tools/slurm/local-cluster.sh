@@ -17,7 +17,7 @@ state=/var/spool/wavetrace-slurm
 run=/run/wavetrace-slurm
 
 stop() {
-    for pidfile in "$run/slurmd.pid" "$run/slurmctld.pid" /run/munge/wavetrace-munged.pid; do
+    for pidfile in "$run/slurmd.pid" "$run/slurmctld.pid" /run/munge/munged.pid; do
         if [ -f "$pidfile" ]; then
             $sudo kill "$(cat "$pidfile")" 2>/dev/null || true
             $sudo rm -f "$pidfile"
@@ -61,12 +61,15 @@ $sudo chown -R "$munge_user" /etc/munge /var/lib/munge /var/log/munge /run/munge
 $sudo chmod 0700 /etc/munge /var/lib/munge /var/log/munge
 $sudo chmod 0400 /etc/munge/munge.key
 $sudo chmod 0755 /run/munge
-if [ "$munge_user" = root ]; then
-    $sudo munged --force --pid-file=/run/munge/wavetrace-munged.pid
-elif [ -z "$sudo" ]; then
-    runuser -u munge -- munged --pid-file=/run/munge/wavetrace-munged.pid
-else
-    sudo -u munge munged --pid-file=/run/munge/wavetrace-munged.pid
+# munged writes /run/munge/munged.pid; one already running (and answering) is kept.
+if ! munge -n 2>/dev/null | unmunge >/dev/null 2>&1; then
+    if [ "$munge_user" = root ]; then
+        $sudo munged --force
+    elif [ -z "$sudo" ]; then
+        runuser -u munge -- munged
+    else
+        sudo -u munge munged
+    fi
 fi
 for _ in $(seq 50); do munge -n >/dev/null 2>&1 && break; sleep 0.1; done
 if ! munge -n | unmunge >/dev/null 2>&1; then
