@@ -32,6 +32,10 @@ pub enum Command {
     /// Test whether two EXR renders by wavetrace have the same expectation (per-tile Welch
     /// tests); exit status 0 if they agree, 1 if they differ, 2 on errors, like diff(1).
     Compare(CompareArgs),
+    /// Merge shards of one render (EXRs written with --sample-range or --shard, in any order)
+    /// into the EXR one render of all their samples gives; refuses shards of different
+    /// settings, overlapping ranges or missing samples, naming the files.
+    Merge(MergeArgs),
     /// The lecture's Monte Carlo estimators on 1-D integrals with known values: each one's mean,
     /// measured variance and the variance the lecture's formulas predict; exit status 1 if a
     /// check fails.
@@ -236,8 +240,43 @@ pub struct RenderArgs {
     /// DIR/strategies.png.
     #[arg(long, value_name = "DIR")]
     pub bdpt_strategies: Option<PathBuf>,
+    /// Render only samples START..END (END excluded) of the --spp samples, with the random
+    /// numbers the whole render would draw for them: a shard for `wavetrace merge` (.exr only).
+    #[arg(long, value_name = "START..END", value_parser = parse_sample_range, conflicts_with = "shard")]
+    pub sample_range: Option<wavetrace::shard::SampleRange>,
+    /// Render shard I of N (counting from 0): samples ⌊I·spp/N⌋..⌊(I+1)·spp/N⌋, e.g.
+    /// `--shard $SLURM_ARRAY_TASK_ID/8` (.exr only).
+    #[arg(long, value_name = "I/N", value_parser = wavetrace::shard::parse_shard)]
+    pub shard: Option<(u32, u32)>,
+    /// Continue the render that wrote PARTIAL.exr (stopped by a signal): give the same scene
+    /// and options; renders the samples it lacks and writes the whole (to -o, default
+    /// PARTIAL.exr itself).
+    #[arg(long, value_name = "PARTIAL.exr")]
+    pub resume: Option<PathBuf>,
+    /// Test-only: stop as a signal would once N samples per pixel are rendered.
+    #[arg(long, value_name = "N", hide = true)]
+    pub stop_after: Option<u32>,
     #[command(flatten)]
     pub opts: RenderOptions,
+}
+
+/// "START..END".
+fn parse_sample_range(text: &str) -> Result<wavetrace::shard::SampleRange, String> {
+    text.parse()
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// Shards: EXRs written by `wavetrace render --sample-range` or `--shard` (any order).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// The merged EXR.
+    #[arg(short = 'o', long = "output", required = true)]
+    pub output: PathBuf,
+    /// Write the merge of shards that cover only part of [0, spp) (one run of samples without
+    /// gaps) as a larger shard, instead of refusing.
+    #[arg(long)]
+    pub partial: bool,
 }
 
 /// A relative error: finite and above 0.

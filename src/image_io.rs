@@ -1,8 +1,11 @@
 //! Writing a film to disk and reading EXR images back.
 //!
 //! - `.exr`: one unnamed layer, f32 channels `R`, `G`, `B` (linear mean radiance),
-//!   `variance.R`, `variance.G`, `variance.B` (variance of the pixel mean) and u32 `count`
-//!   (finite samples), ZIP compressed (lossless).
+//!   `variance.R`, `variance.G`, `variance.B` (variance of the pixel mean), u32 `count`
+//!   (finite samples) and the film's own f32 accumulators `sum.R/G/B` and `sum_sq.R/G/B` (so
+//!   that shards merge exactly, `shard.rs`), ZIP compressed (lossless); text attributes carry
+//!   the render's settings (`shard::Record`). Written to a temporary file in the same folder
+//!   and renamed, so that an interrupted write never leaves a truncated image.
 //! - `.png`: 8-bit sRGB, linear mean × 2^exposure clamped to [0, 1], then the sRGB transfer
 //!   function of IEC 61966-2-1, rounded to nearest.
 //!
@@ -22,12 +25,22 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &["exr", "png"];
 /// `.png` → 8-bit sRGB of the mean × 2^exposure (`exposure` is ignored for EXR).
 /// Other extensions are an error naming the path and the supported ones.
 pub fn write_image(film: &Film, path: &Path, exposure: f32) -> anyhow::Result<()> {
+    write_image_with(film, path, exposure, &[])
+}
+
+/// [`write_image`] with text attributes (name, value) in the EXR's header (ignored for PNG).
+pub fn write_image_with(
+    film: &Film,
+    path: &Path,
+    exposure: f32,
+    attributes: &[(String, String)],
+) -> anyhow::Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
-        Some("exr") => write_exr(film, path)
+        Some("exr") => write_exr(film, path, attributes)
             .with_context(|| format!("writing OpenEXR image {}", path.display())),
         Some("png") => write_png(film, path, exposure)
             .with_context(|| format!("writing PNG image {}", path.display())),
@@ -94,7 +107,61 @@ pub fn read_film(path: &Path) -> anyhow::Result<Film> {
     Ok(Film::from_pixels(image.width, image.height, pixels, 0))
 }
 
-fn write_exr(film: &Film, path: &Path) -> anyhow::Result<()> {
+/// A film with its exact accumulators from the `sum.*`, `sum_sq.*` and `count` channels when
+/// the file has them (written by wavetrace since shards), else rebuilt as [`read_film`] does;
+/// and the file's text attributes (name, value).
+pub fn read_film_exact(path: &Path) -> anyhow::Result<(Film, Vec<(String, String)>)> {
+    read_film_exact_inner(path).with_context(|| format!("reading OpenEXR image {}", path.display()))
+}
+
+fn read_film_exact_inner(path: &Path) -> anyhow::Result<(Film, Vec<(String, String)>)> {
+    let image = read_first_flat_layer_from_file(path)?;
+    let layer = &image.layer_data;
+    let attributes: Vec<(String, String)> = layer
+        .attributes
+        .other
+        .iter()
+        .chain(&image.attributes.other)
+        .filter_map(|(k, v)| match v {
+            exr::meta::attribute::AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    let channel = |name: &str| {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name == *name)
+            .map(|c| &c.sample_data)
+    };
+    let f32s = |name: &str| match channel(name) {
+        Some(FlatSamples::F32(v)) => Some(v),
+        _ => None,
+    };
+    let sums: Option<Vec<&Vec<f32>>> = [
+        "sum.R", "sum.G", "sum.B", "sum_sq.R", "sum_sq.G", "sum_sq.B",
+    ]
+    .iter()
+    .map(|n| f32s(n))
+    .collect();
+    let (Some(sums), Some(FlatSamples::U32(count))) = (sums, channel("count")) else {
+        drop(image);
+        return Ok((read_film(path)?, attributes));
+    };
+    let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
+    let pixels = (0..count.len())
+        .map(|i| FilmPixel {
+            sum: [sums[0][i], sums[1][i], sums[2][i]],
+            sum_sq: [sums[3][i], sums[4][i], sums[5][i]],
+            count: count[i],
+            ..Default::default()
+        })
+        .collect();
+    Ok((Film::from_pixels(width, height, pixels, 0), attributes))
+}
+
+fn write_exr(film: &Film, path: &Path, attributes: &[(String, String)]) -> anyhow::Result<()> {
     let n = film.len();
     let mut mean = [
         Vec::with_capacity(n),
@@ -114,6 +181,7 @@ fn write_exr(film: &Film, path: &Path) -> anyhow::Result<()> {
         }
     }
     let count: Vec<u32> = film.pixels.iter().map(|p| p.count).collect();
+    let plane = |f: fn(&FilmPixel) -> f32| -> Vec<f32> { film.pixels.iter().map(f).collect() };
     let [r, g, b] = mean;
     let [vr, vg, vb] = var;
     let channels = AnyChannels::sort(SmallVec::from_vec(vec![
@@ -124,15 +192,40 @@ fn write_exr(film: &Film, path: &Path) -> anyhow::Result<()> {
         AnyChannel::new("variance.G", FlatSamples::F32(vg)),
         AnyChannel::new("variance.B", FlatSamples::F32(vb)),
         AnyChannel::new("count", FlatSamples::U32(count)),
+        AnyChannel::new("sum.R", FlatSamples::F32(plane(|p| p.sum[0]))),
+        AnyChannel::new("sum.G", FlatSamples::F32(plane(|p| p.sum[1]))),
+        AnyChannel::new("sum.B", FlatSamples::F32(plane(|p| p.sum[2]))),
+        AnyChannel::new("sum_sq.R", FlatSamples::F32(plane(|p| p.sum_sq[0]))),
+        AnyChannel::new("sum_sq.G", FlatSamples::F32(plane(|p| p.sum_sq[1]))),
+        AnyChannel::new("sum_sq.B", FlatSamples::F32(plane(|p| p.sum_sq[2]))),
     ]));
     let size = (film.width as usize, film.height as usize);
-    let layer = Layer::new(
-        size,
-        LayerAttributes::default(),
-        Encoding::SMALL_LOSSLESS,
-        channels,
-    );
-    Image::from_layer(layer).write().to_file(path)?;
+    let mut layer_attributes = LayerAttributes::default();
+    for (name, value) in attributes {
+        let Some(name) = Text::new_or_none(name) else {
+            bail!("the attribute name {name} is not Latin-1 text");
+        };
+        // Values are informative text (e.g. the scene's path): characters outside Latin-1 become '?'.
+        let value: String = value
+            .chars()
+            .map(|c| if (c as u32) < 256 { c } else { '?' })
+            .collect();
+        let value = Text::new_or_panic(value);
+        layer_attributes
+            .other
+            .insert(name, exr::meta::attribute::AttributeValue::Text(value));
+    }
+    let layer = Layer::new(size, layer_attributes, Encoding::SMALL_LOSSLESS, channels);
+    // Write beside the target and rename: a reader (or a second signal) never sees half a file.
+    let mut temporary = path.as_os_str().to_owned();
+    temporary.push(format!(".{}.partial", std::process::id()));
+    let temporary = std::path::PathBuf::from(temporary);
+    let written = Image::from_layer(layer).write().to_file(&temporary);
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&temporary);
+        return Err(e.into());
+    }
+    std::fs::rename(&temporary, path)?;
     Ok(())
 }
 

@@ -18,6 +18,7 @@ pub mod progressive;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod shard;
 pub mod sobol;
 pub mod stats;
 pub mod surface;

@@ -1,6 +1,7 @@
 //! `wavetrace`: render glTF scenes on a Vulkan device or the CPU, list devices, benchmark.
 
 mod cli;
+mod shard_cmd;
 mod verify_cmd;
 
 use anyhow::{bail, Context as _, Result};
@@ -54,6 +55,7 @@ fn main() -> ExitCode {
         Command::Estimators(args) => return exit_like_diff(estimators(&args)),
         Command::Verify(args) => return exit_like_diff(verify_cmd::verify(&args)),
         Command::Compare(args) => return exit_like_diff(compare(&args)),
+        Command::Merge(args) => shard_cmd::merge(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -311,14 +313,34 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let (_scene, prepared, settings) = prepare(&path, &args.opts, device)?;
     let (width, height) = (settings.width, settings.height);
-    let output = args.output.clone().unwrap_or_else(|| {
-        PathBuf::from(format!(
-            "{}.png",
-            path.file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("render")
-        ))
-    });
+    let default_output = PathBuf::from(format!(
+        "{}.png",
+        path.file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("render")
+    ));
+    let mut record = shard_cmd::record(args, &path, &prepared, &settings, device)?;
+    let progressive = progressive_options(args, &settings)?;
+    if settings.integrator != wavetrace::cpu::Integrator::Path && progressive.is_some() {
+        bail!("--target-error and --time-limit render in passes with --integrator path only");
+    }
+    if args.bdpt_strategies.is_some() {
+        if settings.integrator == wavetrace::cpu::Integrator::Path {
+            bail!("--bdpt-strategies needs --integrator bdpt (or light)");
+        }
+        if args.sample_range.is_some() || args.shard.is_some() || args.resume.is_some() {
+            bail!("--bdpt-strategies renders every sample: it does not combine with --sample-range, --shard or --resume");
+        }
+    }
+    let plan = shard_cmd::plan(args, &record, progressive.is_some(), default_output)?;
+    let output = plan.output.clone();
+    // Samples to render now (a test may stop them early, as a signal would).
+    let todo = match args.stop_after {
+        Some(n) => plan.todo.start..plan.todo.end.min(plan.todo.start.saturating_add(n)),
+        None => plan.todo.as_range(),
+    };
+    let stop = shard_cmd::stop_flag(progressive.is_some());
+    let mut end = todo.end;
     match output.extension().and_then(|e| e.to_str()) {
         Some("exr") | Some("png") => {}
         _ => bail!("{}: the output must end in .exr or .png", output.display()),
@@ -338,15 +360,25 @@ fn render(args: &RenderArgs) -> Result<()> {
         b.sah_cost,
         b.build_time.as_secs_f64() * 1e3
     );
-    let progressive = progressive_options(args, &settings)?;
-    if settings.integrator != wavetrace::cpu::Integrator::Path && progressive.is_some() {
-        bail!("--target-error and --time-limit render in passes with --integrator path only");
-    }
-    if args.bdpt_strategies.is_some() && settings.integrator == wavetrace::cpu::Integrator::Path {
-        bail!("--bdpt-strategies needs --integrator bdpt (or light)");
-    }
     let how = match &progressive {
-        None => format!("at {} spp", args.opts.spp),
+        None if plan.target.len() == settings.spp && plan.partial.is_none() => {
+            format!("at {} spp", args.opts.spp)
+        }
+        None => format!(
+            "samples {}..{} of {} spp{}",
+            plan.todo.start,
+            plan.todo.end,
+            args.opts.spp,
+            match &plan.partial {
+                Some(p) => format!(
+                    " (continuing {}, which holds {}..{})",
+                    p.path.display(),
+                    plan.target.start,
+                    plan.todo.start
+                ),
+                None => String::new(),
+            }
+        ),
         Some(p) => format!(
             "in passes of {} spp (at most {}){}{}{}",
             args.opts.spp,
@@ -375,11 +407,21 @@ fn render(args: &RenderArgs) -> Result<()> {
                 gpu.device().api_version,
                 gpu.device().driver
             );
-            let progress = progress_bar(settings.total_samples());
+            let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
             let out = match &progressive {
-                None => {
-                    gpu.render_with_progress(&prepared, &settings, args.opts.wavefront, &progress)
-                }
+                None => gpu
+                    .render_range_with_progress(
+                        &prepared,
+                        &settings,
+                        args.opts.wavefront,
+                        todo.clone(),
+                        &progress,
+                        stop,
+                    )
+                    .map(|(out, e)| {
+                        end = e;
+                        out
+                    }),
                 Some(p) => gpu
                     .render_progressive(&prepared, &settings, args.opts.wavefront, p, &progress)
                     .map(|(out, r)| {
@@ -397,7 +439,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 args.opts.max_depth,
                 rayon::current_num_threads()
             );
-            let progress = progress_bar(settings.total_samples());
+            let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
             let out = match &progressive {
                 None if args.bdpt_strategies.is_some() => {
                     let dir = args.bdpt_strategies.as_ref().unwrap();
@@ -411,7 +453,17 @@ fn render(args: &RenderArgs) -> Result<()> {
                     );
                     out
                 }
-                None => wavetrace::cpu::render_with_progress(&prepared, &settings, &progress),
+                None => {
+                    let (out, e) = wavetrace::cpu::render_range(
+                        &prepared,
+                        &settings,
+                        todo.clone(),
+                        &progress,
+                        stop,
+                    );
+                    end = e;
+                    out
+                }
                 Some(p) => {
                     let (out, r) =
                         wavetrace::cpu::render_progressive(&prepared, &settings, p, &progress);
@@ -427,8 +479,40 @@ fn render(args: &RenderArgs) -> Result<()> {
     if let Some(r) = &report {
         println!("{r}");
     }
-    wavetrace::image_io::write_image(&film, &output, args.exposure)?;
+    let (film, interrupted) = if progressive.is_some() {
+        // Renders in passes hold different samples per pixel: no range to merge or resume.
+        record.samples = None;
+        record.target = None;
+        record.dropped = film.dropped;
+        (film, false)
+    } else {
+        let target = plan.target;
+        let (film, r) = shard_cmd::finish(plan, film, end, record);
+        record = r;
+        (film, end < target.end)
+    };
+    wavetrace::image_io::write_image_with(&film, &output, args.exposure, &record.attributes())?;
     println!("wrote {}", output.display());
+    if interrupted {
+        let held = record.samples.expect("fixed-range renders have a range");
+        eprintln!(
+            "stopped early: {} holds samples {held} of the {} asked for{}",
+            output.display(),
+            record.target.expect("fixed-range renders have a target"),
+            if output
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+            {
+                format!(
+                    "; continue with the same command and --resume {}",
+                    output.display()
+                )
+            } else {
+                " (write .exr to be able to continue it with --resume)".into()
+            }
+        );
+        std::process::exit(shard_cmd::INTERRUPTED_EXIT);
+    }
     Ok(())
 }
 

@@ -34,27 +34,15 @@ pub fn render_with_progress(
     let env = crate::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
-    let (counts, dropped) = if settings.integrator == Integrator::Path {
-        render_samples(
-            scene,
-            &frame,
-            env,
-            settings.paths.as_deref().map(|p| &p.reversed),
-            &mut film,
-            0..settings.spp,
-            None,
-            progress,
-        )
-    } else {
-        let bidir = bidir::Bidir::new(
-            scene,
-            &frame,
-            settings.integrator,
-            settings.mis,
-            settings.paths.as_deref(),
-        );
-        bidir::render_samples(&bidir, &mut film, 0..settings.spp, progress, None)
-    };
+    let (counts, dropped) = add_samples(
+        scene,
+        settings,
+        &frame,
+        env,
+        &mut film,
+        0..settings.spp,
+        progress,
+    );
     film.dropped = dropped;
     let stats = RenderStats {
         seconds: start.elapsed().as_secs_f64(),
@@ -65,6 +53,73 @@ pub fn render_with_progress(
         kernel_seconds: Vec::new(),
     };
     RenderOutput { film, stats }
+}
+
+/// Renders samples `samples` of the `settings.spp` of every pixel (the samplers stratify over
+/// all `settings.spp`, so a range renders exactly those samples of the whole render), in
+/// chunks of whole sample passes; after each chunk stops early if `stop` is set. Returns the
+/// film and the end of the samples rendered: every pixel holds samples
+/// [samples.start, end), each pixel's in sample order, so the film equals, bit for bit, that of
+/// a render of [samples.start, end) (and of [`render`] for 0..spp).
+pub fn render_range(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    samples: std::ops::Range<u32>,
+    progress: &ProgressBar,
+    stop: &std::sync::atomic::AtomicBool,
+) -> (RenderOutput, u32) {
+    let frame = scene.frame_params(settings);
+    let environment = settings.environment_map();
+    let env = crate::environment::map_or_none(&environment);
+    let mut film = Film::new(settings.width, settings.height);
+    let start = Instant::now();
+    // Chunks of about 2^16 paths: short enough to stop soon, long enough for rayon.
+    let chunk = (65536 / settings.pixel_count().max(1)).clamp(1, u32::MAX as u64) as u32;
+    let (mut counts, mut dropped) = (RayCounts::default(), 0);
+    let mut end = samples.start;
+    while end < samples.end && !stop.load(std::sync::atomic::Ordering::Relaxed) {
+        let next = end.saturating_add(chunk).min(samples.end);
+        let (c, d) = add_samples(scene, settings, &frame, env, &mut film, end..next, progress);
+        counts = counts.merged(&c);
+        dropped += d;
+        end = next;
+    }
+    film.dropped = dropped;
+    let stats = RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        samples: settings.pixel_count() * (end - samples.start) as u64,
+        extension_rays: counts.extension,
+        shadow_rays: counts.shadow,
+        dropped,
+        kernel_seconds: Vec::new(),
+    };
+    (RenderOutput { film, stats }, end)
+}
+
+/// Adds samples `samples` of every pixel to `film` with the settings' integrator (and
+/// `--paths`); returns the rays traced and the samples dropped.
+fn add_samples(
+    scene: &PreparedScene,
+    settings: &RenderSettings,
+    frame: &crate::layout::FrameParams,
+    env: &crate::environment::EnvironmentMap,
+    film: &mut Film,
+    samples: std::ops::Range<u32>,
+    progress: &ProgressBar,
+) -> (RayCounts, u64) {
+    if settings.integrator == Integrator::Path {
+        let paths = settings.paths.as_deref().map(|p| &p.reversed);
+        render_samples(scene, frame, env, paths, film, samples, None, progress)
+    } else {
+        let bidir = bidir::Bidir::new(
+            scene,
+            frame,
+            settings.integrator,
+            settings.mis,
+            settings.paths.as_deref(),
+        );
+        bidir::render_samples(&bidir, film, samples, progress, None)
+    }
 }
 
 /// Adds samples `samples` of every pixel (or of the pixels `active` marks) to `film`, rows in

@@ -116,6 +116,31 @@ impl GpuRenderer {
         wavefront: Option<u32>,
         progress: &ProgressBar,
     ) -> Result<RenderOutput> {
+        let never = std::sync::atomic::AtomicBool::new(false);
+        let (out, _) = self.render_range_with_progress(
+            scene,
+            settings,
+            wavefront,
+            0..settings.spp,
+            progress,
+            &never,
+        )?;
+        Ok(out)
+    }
+
+    /// Renders samples `samples` of the `settings.spp` of every pixel (the samplers stratify
+    /// over all `settings.spp`). When `stop` is set it stops at the next whole sample pass of an
+    /// image of one band (an image of several bands renders to the end); returns the output
+    /// and the end of the samples rendered: every pixel holds samples [samples.start, end).
+    pub fn render_range_with_progress(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        wavefront: Option<u32>,
+        samples: std::ops::Range<u32>,
+        progress: &ProgressBar,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(RenderOutput, u32)> {
         let light = settings.integrator == crate::cpu::Integrator::Light;
         if settings.integrator == crate::cpu::Integrator::Bdpt {
             bail!("--integrator bdpt runs on the CPU only so far: add --device cpu");
@@ -134,13 +159,13 @@ impl GpuRenderer {
                 settings.height
             );
         }
-        let result = self.render_bands(settings, &setup, progress);
+        let result = self.render_bands(settings, &setup, samples.clone(), progress, stop);
         setup.destroy(&self.ctx);
-        let (pixels, mut stats) = result?;
+        let (pixels, mut stats, end) = result?;
         self.ctx.check_validation()?;
-        stats.samples = settings.total_samples();
+        stats.samples = settings.pixel_count() * (end - samples.start) as u64;
         let film = Film::from_pixels(settings.width, settings.height, pixels, stats.dropped);
-        Ok(RenderOutput { film, stats })
+        Ok((RenderOutput { film, stats }, end))
     }
 
     /// Renders in passes of `settings.spp` samples per pixel until `options` say stop
@@ -256,18 +281,26 @@ impl GpuRenderer {
     }
 
     /// Renders the image band by band: clear the band's film, run its batches, read it back.
+    /// Stops early (see `run_batches`) only when the image is one band; returns the end of the
+    /// samples rendered.
     fn render_bands(
         &self,
         settings: &RenderSettings,
         setup: &Setup,
+        samples: std::ops::Range<u32>,
         progress: &ProgressBar,
-    ) -> Result<(Vec<FilmPixel>, RenderStats)> {
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(Vec<FilmPixel>, RenderStats, u32)> {
         let ctx = &self.ctx;
         let buffers = &setup.buffers;
         let mut pixels = Vec::with_capacity(settings.pixel_count() as usize);
         let mut stats = RenderStats::default();
         let start = Instant::now();
-        for band in Self::bands(settings, setup.band_rows) {
+        let bands = Self::bands(settings, setup.band_rows);
+        let never = std::sync::atomic::AtomicBool::new(false);
+        let stop = if bands.len() == 1 { stop } else { &never };
+        let mut end = samples.end;
+        for band in bands {
             let frame = Self::band_frame(setup, settings.width, band);
             buffers.frame.write(bytemuck::bytes_of(&frame));
             let film_bytes = frame.band_pixel_count as u64 * size_of::<FilmPixel>() as u64;
@@ -291,18 +324,19 @@ impl GpuRenderer {
             self.commands
                 .submit_and_wait(ctx, "clearing the film", SUBMIT_TIMEOUT_S)?;
 
-            self.run_batches(
+            end = self.run_batches(
                 settings,
                 setup,
-                0,
+                samples.clone(),
                 frame.band_pixel_count,
                 progress,
                 &mut stats,
+                stop,
             )?;
             pixels.extend(self.read_film(buffers, film_bytes)?);
         }
         stats.seconds = start.elapsed().as_secs_f64();
-        Ok((pixels, stats))
+        Ok((pixels, stats, end))
     }
 
     /// The first `film_bytes` of the GPU film.
@@ -380,7 +414,9 @@ impl GpuRenderer {
                 "the film and active-pixel upload",
                 SUBMIT_TIMEOUT_S,
             )?;
-            self.run_batches(settings, setup, pass.first_sample, slots, progress, stats)?;
+            let never = std::sync::atomic::AtomicBool::new(false);
+            let samples = pass.first_sample..pass.first_sample + settings.spp;
+            self.run_batches(settings, setup, samples, slots, progress, stats, &never)?;
             film.pixels[first..first + count]
                 .copy_from_slice(&self.read_film(buffers, film_bytes)?);
         }
@@ -388,22 +424,30 @@ impl GpuRenderer {
     }
 
     /// Every batch of one band (or of the band's `pixel_count` active pixels), samples
-    /// [first_sample, first_sample + spp), each batch recorded into one command buffer and
-    /// submitted.
+    /// `samples`, each batch recorded into one command buffer and submitted. After a batch that
+    /// ends a whole sample pass, stops if `stop` is set; returns the end of the samples
+    /// rendered.
+    #[allow(clippy::too_many_arguments)]
     fn run_batches(
         &self,
         settings: &RenderSettings,
         setup: &Setup,
-        first_sample: u32,
+        samples: std::ops::Range<u32>,
         pixel_count: u32,
         progress: &ProgressBar,
         stats: &mut RenderStats,
-    ) -> Result<()> {
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<u32> {
+        let first_sample = samples.start;
         let ctx = &self.ctx;
         let (capacity, buffers, query_pool) = (setup.capacity, &setup.buffers, setup.query_pool);
         let (counters, counters_back, args) =
             (&buffers.counters, &buffers.counters_back, &buffers.args);
-        for mut batch in batches(pixel_count, settings.spp, capacity) {
+        for mut batch in batches(pixel_count, samples.len() as u32, capacity) {
+            // A batch that starts at pixel 0 starts a sample pass: every pixel has the same samples.
+            if batch.first_pixel == 0 && stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return Ok(batch.first_sample + first_sample);
+            }
             batch.first_sample += first_sample;
             self.commands.begin()?;
             let mut recorder = Recorder {
@@ -475,7 +519,7 @@ impl GpuRenderer {
                 }
             }
         }
-        Ok(())
+        Ok(samples.end)
     }
 }
 

@@ -131,3 +131,119 @@ pub fn temp(group: &str, name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }
+
+/// The film (exact sums), the mean and variance layers and the record of an EXR written by
+/// wavetrace.
+pub struct ExrFile {
+    pub film: Film,
+    pub image: wavetrace::image_io::ImageData,
+    pub record: wavetrace::shard::Record,
+}
+
+pub fn read_exr_file(path: &Path) -> ExrFile {
+    let (film, attributes) = wavetrace::image_io::read_film_exact(path)
+        .unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
+    let image = wavetrace::image_io::read_exr(path).unwrap();
+    let record = wavetrace::shard::Record::from_attributes(path, &attributes)
+        .unwrap()
+        .unwrap_or_else(|| panic!("{}: no wavetrace.* attributes", path.display()));
+    ExrFile {
+        film,
+        image,
+        record,
+    }
+}
+
+/// Checks that two EXRs hold the same samples of the same render, summed in different orders:
+/// equal settings, ranges and counts, and sums, means and variances within what f32
+/// summation order allows. For n non-negative terms every order of recursive summation is
+/// within (n−1)·u·Σx of the exact sum (Higham, Accuracy and Stability of Numerical Algorithms,
+/// 2nd ed., eq. 4.4; u = 2⁻²⁴), so two orders differ by at most 2(n−1)·u·Σx; the mean and
+/// variance layers add their own rounding to f32 (u each) to what the sums' difference
+/// propagates through mean = s/n and variance of the mean = (q − s²/n)/(n(n−1)).
+/// Radiance is non-negative, so the bound holds for the sums and sums of squares alike.
+pub fn assert_same_samples(a: &Path, b: &Path) {
+    let (fa, fb) = (read_exr_file(a), read_exr_file(b));
+    let what = format!("{} vs {}", a.display(), b.display());
+    assert_eq!(fa.record.settings, fb.record.settings, "{what}: settings");
+    assert_eq!(
+        fa.record.samples, fb.record.samples,
+        "{what}: sample ranges"
+    );
+    assert_eq!(fa.record.dropped, 0, "{what}: dropped samples");
+    assert_eq!(fb.record.dropped, 0, "{what}: dropped samples");
+    let u = 2f64.powi(-24);
+    let (va, vb) = (fa.image.variance.unwrap(), fb.image.variance.unwrap());
+    let mut largest_relative = 0f64;
+    for (i, (p, q)) in fa.film.pixels.iter().zip(&fb.film.pixels).enumerate() {
+        assert_eq!(p.count, q.count, "{what}: pixel {i} count");
+        let n = p.count as f64;
+        let gamma = 2.0 * (n - 1.0).max(0.0) * u;
+        for c in 0..3 {
+            let (s1, s2) = (p.sum[c] as f64, q.sum[c] as f64);
+            let (q1, q2) = (p.sum_sq[c] as f64, q.sum_sq[c] as f64);
+            let ds = gamma * s1.max(s2);
+            let dq = gamma * q1.max(q2);
+            assert!(
+                s1 >= 0.0 && s2 >= 0.0,
+                "{what}: pixel {i}: negative radiance sum"
+            );
+            assert!(
+                (s1 - s2).abs() <= ds,
+                "{what}: pixel {i} channel {c}: sums {s1} vs {s2} (bound {ds})"
+            );
+            assert!(
+                (q1 - q2).abs() <= dq,
+                "{what}: pixel {i} channel {c}: sums of squares {q1} vs {q2} (bound {dq})"
+            );
+            if s1.max(s2) > 0.0 {
+                largest_relative = largest_relative.max((s1 - s2).abs() / s1.max(s2));
+            }
+            if n == 0.0 {
+                continue;
+            }
+            let (m1, m2) = (fa.image.mean[i][c] as f64, fb.image.mean[i][c] as f64);
+            let dm = ds / n + u * (m1.abs() + m2.abs());
+            assert!(
+                (m1 - m2).abs() <= dm,
+                "{what}: pixel {i} channel {c}: means {m1} vs {m2} (bound {dm})"
+            );
+            if n >= 2.0 {
+                let (v1, v2) = (va[i][c] as f64, vb[i][c] as f64);
+                let s = s1.max(s2);
+                let dv = (dq + (2.0 * s * ds + ds * ds) / n) / (n * (n - 1.0)) + u * (v1 + v2);
+                assert!(
+                    (v1 - v2).abs() <= dv,
+                    "{what}: pixel {i} channel {c}: variances {v1} vs {v2} (bound {dv})"
+                );
+            }
+        }
+    }
+    println!("{what}: same samples; largest relative difference of a sum {largest_relative:.3e}");
+}
+
+/// Checks that two EXRs are the same bits: accumulators, layers and record.
+pub fn assert_bitwise_equal(a: &Path, b: &Path) {
+    let (fa, fb) = (read_exr_file(a), read_exr_file(b));
+    let what = format!("{} vs {}", a.display(), b.display());
+    assert_eq!(fa.record.settings, fb.record.settings, "{what}: settings");
+    assert_eq!(fa.record.samples, fb.record.samples, "{what}: ranges");
+    let bits = |f: &Film| -> Vec<u32> {
+        f.pixels
+            .iter()
+            .flat_map(|p| {
+                p.sum
+                    .iter()
+                    .chain(&p.sum_sq)
+                    .map(|v| v.to_bits())
+                    .chain([p.count])
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    assert!(
+        bits(&fa.film) == bits(&fb.film),
+        "{what}: accumulators differ"
+    );
+    assert!(fa.image == fb.image, "{what}: layers differ");
+}
