@@ -750,6 +750,7 @@ fn committed_scenes_match_their_generator() {
     assert_eq!(
         generated_names,
         [
+            "caustic.gltf",
             "cornell-box.gltf",
             "cornell-materials.gltf",
             "furnace.gltf",
