@@ -472,6 +472,9 @@ pub struct BenchArgs {
     /// Skip the CPU integrator.
     #[arg(long)]
     pub gpu_only: bool,
+    /// The estimator to measure (bdpt runs on the CPU only).
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
+    pub integrator: IntegratorArg,
     /// Radiance of rays that leave the scene (for scenes lit by their surroundings).
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,

@@ -592,6 +592,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
             )?)),
             None => None,
         },
+        integrator: args.integrator.integrator(),
         ..RenderSettings::default()
     };
     let gpu = GpuRenderer::new(&GpuOptions {
@@ -602,6 +603,10 @@ fn bench(args: &BenchArgs) -> Result<()> {
     // Warm-up: the first dispatches of a pipeline include the driver's lazy work.
     if let (Ok(g), Some(first)) = (&gpu, scenes.first()) {
         let (_, prepared) = load(first)?;
+        let settings = &RenderSettings {
+            integrator: wavetrace::cpu::Integrator::Path,
+            ..settings.clone()
+        };
         let tiny = RenderSettings {
             width: 16,
             height: 16,
@@ -614,8 +619,10 @@ fn bench(args: &BenchArgs) -> Result<()> {
         Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
         Err(e) => format!("unavailable: {e:#}"),
     };
+    let bdpt = settings.integrator == wavetrace::cpu::Integrator::Bdpt;
     println!(
-        "wavetrace bench: {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
+        "wavetrace bench ({:?} integrator): {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
+        settings.integrator,
         args.width,
         args.height,
         args.spp,
@@ -674,7 +681,11 @@ fn bench(args: &BenchArgs) -> Result<()> {
             .unwrap_or("?")
             .to_owned();
         let mut rows: Vec<(&str, RenderStats)> = Vec::new();
-        if let Ok(g) = &gpu {
+        if let Err(why) = wavetrace::cpu::bidir::check(&prepared, &settings) {
+            println!("{name:<20} skipped: {why}");
+            continue;
+        }
+        if let (Ok(g), false) = (&gpu, bdpt) {
             rows.push(("gpu", g.render(&prepared, &settings, args.wavefront)?.stats));
         }
         if !args.gpu_only {
@@ -683,6 +694,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
         for (device, s) in rows {
             let ratio = baseline
                 .get(&(name.clone(), device.to_owned()))
+                .filter(|_| settings.integrator == wavetrace::cpu::Integrator::Path)
                 .map_or(String::new(), |b| {
                     format!("  {:>10.3}", s.samples_per_second() / b)
                 });
@@ -696,6 +708,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
             json_rows.push(serde_json::json!({
                 "scene": name,
                 "device": device,
+                "integrator": format!("{:?}", settings.integrator).to_lowercase(),
                 "device_name": if device == "gpu" { gpu_name.clone() } else { format!("CPU reference, {} threads", rayon::current_num_threads()) },
                 "seconds": s.seconds,
                 "samples_per_second": s.samples_per_second(),
