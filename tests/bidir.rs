@@ -52,8 +52,8 @@ fn batch_tiles_of(
             for x in 0..w {
                 let p = &film.pixels[(x + y * w) as usize];
                 let t = ((x / TILE) + (y / TILE) * tx) as usize;
-                for c in 0..3 {
-                    tile_sum[t][c] += p.sum[c] as f64 / p.count.max(1) as f64;
+                for (c, sum) in tile_sum[t].iter_mut().enumerate() {
+                    *sum += p.sum[c] as f64 / p.count.max(1) as f64;
                 }
                 tile_n[t] += 1;
             }

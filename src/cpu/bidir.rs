@@ -31,6 +31,9 @@
 //! Splats are gathered per image row in parallel and added in row order, so the image is the
 //! same bit for bit on every run whatever the thread count.
 
+// `!(x > 0.0)` rejects NaN along with the non-positive, on purpose, as the GLSL twin does.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::cpu::path::{sample_pair, RayCounts};
