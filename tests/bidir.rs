@@ -418,3 +418,25 @@ fn gpu_path_expressions() {
     let cpu = batch_tiles(&scene, &caustic_like, 8);
     welch_tiles(&gpu, &cpu, 0.01).unwrap_or_else(|e| panic!("--paths: GPU ≠ CPU:\n{e}"));
 }
+
+/// Every `--mis` weighting of BDPT's strategies gives the path tracer's expectation (the
+/// weights of each path sum to 1 under each), on the box with a rough copper box and smooth
+/// glass, where delta vertices break the ratio chains.
+#[test]
+fn every_bdpt_weighting_is_unbiased() {
+    use wavetrace::mis::Heuristic;
+    let scene = prepared("cornell-materials.gltf");
+    let weightings = [Heuristic::Balance, Heuristic::Maximum, Heuristic::Average];
+    let alpha = sidak(0.01, weightings.len());
+    let path = settings(Integrator::Path, 4, 4);
+    let reference = batch_tiles(&scene, &path, 9);
+    for mis in weightings {
+        let s = RenderSettings {
+            mis,
+            ..settings(Integrator::Bdpt, 4, 4)
+        };
+        print!("{mis:?}: ");
+        welch_tiles(&batch_tiles(&scene, &s, 10), &reference, alpha)
+            .unwrap_or_else(|e| panic!("BDPT with {mis:?} ≠ path:\n{e}"));
+    }
+}

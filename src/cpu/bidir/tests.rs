@@ -9,22 +9,22 @@ fn cornell(name: &str) -> PreparedScene {
     PreparedScene::new(&scene)
 }
 
-/// A camera subpath of at least `min_vertices` that ends on an emitter, and its key.
-fn emitter_path(b: &Bidir, min_vertices: usize) -> Vec<Vertex> {
+/// A camera subpath of at least `min_vertices` that ends on an emitter, with (`with_delta`) or
+/// without a delta bounce.
+fn emitter_path(b: &Bidir, min_vertices: usize, with_delta: bool) -> Vec<Vertex> {
     let mut counts = RayCounts::default();
     let mut path = Vec::new();
-    for pixel in 0..b.frame.width * b.frame.height {
-        b.camera_subpath((pixel, 7), 9, &mut path, &mut counts);
-        if path.len() >= min_vertices
-            && emitted_radiance(
-                &path[path.len() - 1].mat,
-                path[path.len() - 1].ng.dot(path[path.len() - 1].wo),
-            )
-            .max_element()
-                > 0.0
-            && path.iter().all(|v| !v.delta)
-        {
-            return path;
+    for sample in 0..64 {
+        for pixel in 0..b.frame.width * b.frame.height {
+            b.camera_subpath((pixel, sample), 9, &mut path, &mut counts);
+            let last = &path[path.len() - 1];
+            if path.len() >= min_vertices
+                && emitted_radiance(&last.mat, last.ng.dot(last.wo)).max_element() > 0.0
+                && path.iter().any(|v| v.delta) == with_delta
+                && !last.delta
+            {
+                return path;
+            }
         }
     }
     panic!("no camera subpath of {min_vertices} vertices reaches the light");
@@ -40,10 +40,17 @@ fn from_positions(b: &Bidir, path: &[Vertex]) -> Vec<Vertex> {
         z[i].wo = (z[i - 1].p - z[i].p).normalize();
     }
     for i in 1..n {
-        z[i].pdf_fwd = b.pdf(&z[i - 1], (i >= 2).then(|| &z[i - 2]), &z[i]);
+        // After a delta bounce both densities are the sentinel 1 (`walk`).
+        z[i].pdf_fwd = if z[i - 1].delta {
+            1.0
+        } else {
+            b.pdf(&z[i - 1], (i >= 2).then(|| &z[i - 2]), &z[i])
+        };
     }
     for i in 0..n - 1 {
-        z[i].pdf_rev = if i + 2 < n {
+        z[i].pdf_rev = if z[i + 1].delta {
+            1.0
+        } else if i + 2 < n {
             b.pdf(&z[i + 1], Some(&z[i + 2]), &z[i])
         } else {
             let light = Vertex {
@@ -84,6 +91,9 @@ fn split(b: &Bidir, full: &[Vertex], s: usize) -> (Vec<Vertex>, Vec<Vertex>) {
                     prev.p,
                     &y,
                 )
+            } else if prev.delta {
+                // After a delta bounce: the sentinel 1, as `walk` stores it.
+                1.0
             } else {
                 b.pdf(&prev, Some(&light[j - 2]), &y)
             };
@@ -99,7 +109,18 @@ fn split(b: &Bidir, full: &[Vertex], s: usize) -> (Vec<Vertex>, Vec<Vertex>) {
 /// path, the weights sum to 1 — for each heuristic, on paths of 3 to 7 vertices.
 #[test]
 fn mis_weights_of_all_strategies_sum_to_one() {
-    let scene = cornell("cornell-box.gltf");
+    for (name, with_delta) in [
+        ("cornell-box.gltf", false),
+        ("cornell-materials.gltf", true),
+    ] {
+        weights_sum_to_one(name, with_delta);
+    }
+}
+
+/// [`mis_weights_of_all_strategies_sum_to_one`] on paths of `name`, with or without a delta
+/// bounce (strategies joining at a delta vertex cannot make the path and weigh 0).
+fn weights_sum_to_one(name: &str, with_delta: bool) {
+    let scene = cornell(name);
     let settings = RenderSettings {
         width: 16,
         height: 16,
@@ -116,7 +137,7 @@ fn mis_weights_of_all_strategies_sum_to_one() {
     ] {
         let b = Bidir::new(&scene, &frame, Integrator::Bdpt, heuristic, None);
         for min in 3..=7 {
-            let full = from_positions(&b, &emitter_path(&b, min));
+            let full = from_positions(&b, &emitter_path(&b, min, with_delta));
             let n = full.len();
             let mut total = 0.0;
             let mut weights = Vec::new();
@@ -124,7 +145,13 @@ fn mis_weights_of_all_strategies_sum_to_one() {
                 let t = n - s;
                 let (light, camera) = split(&b, &full, s);
                 let sampled = (s == 1).then(|| light[0]);
-                let w = b.mis_weight(&light, &camera, sampled.as_ref(), s, t);
+                // A strategy that would join at a delta vertex cannot make the path.
+                let joins_delta = (s > 0 && light[s - 1].delta) || camera[t - 1].delta;
+                let w = if joins_delta {
+                    0.0
+                } else {
+                    b.mis_weight(&light, &camera, sampled.as_ref(), s, t)
+                };
                 assert!(
                     (0.0..=1.0).contains(&w),
                     "{heuristic:?} s={s} t={t}: w = {w}"
@@ -135,7 +162,7 @@ fn mis_weights_of_all_strategies_sum_to_one() {
             // f32 arithmetic over at most nine pdf ratios per weight.
             assert!(
                 (total - 1.0).abs() < 1e-5,
-                "{heuristic:?}, {n} vertices: weights {weights:?} sum to {total}"
+                "{name} {heuristic:?}, {n} vertices: weights {weights:?} sum to {total}"
             );
         }
     }
