@@ -440,3 +440,87 @@ fn every_bdpt_weighting_is_unbiased() {
             .unwrap_or_else(|e| panic!("BDPT with {mis:?} ≠ path:\n{e}"));
     }
 }
+
+/// What the light and bidirectional integrators cannot do yet is refused with one message
+/// naming the option, and a non-zero exit; a malformed path expression names itself.
+#[test]
+fn unsupported_combinations_are_refused_clearly() {
+    let out = common::temp("bidir", "refused.exr");
+    let out = out.to_str().unwrap();
+    for (args, expect) in [
+        (
+            vec!["--integrator", "bdpt", "--device", "gpu"],
+            "--integrator bdpt and --bdpt-strategies run on the CPU only",
+        ),
+        (
+            vec![
+                "--integrator",
+                "light",
+                "--device",
+                "cpu",
+                "--environment",
+                "1",
+            ],
+            "does not start light paths at the environment",
+        ),
+        (
+            vec![
+                "--integrator",
+                "bdpt",
+                "--device",
+                "cpu",
+                "--aperture",
+                "0.2",
+            ],
+            "--aperture must be 0",
+        ),
+        (
+            vec![
+                "--integrator",
+                "bdpt",
+                "--device",
+                "cpu",
+                "--mis",
+                "light-only",
+            ],
+            "--mis must be power, balance, maximum or average",
+        ),
+        (
+            vec!["--device", "cpu", "--paths", "L(DE"],
+            "path expression 'L(DE': missing ')'",
+        ),
+        (
+            vec!["--device", "cpu", "--bdpt-strategies", "/tmp"],
+            "--bdpt-strategies needs --integrator bdpt",
+        ),
+    ] {
+        let mut all = vec![
+            "render",
+            "scenes/cornell-box.gltf",
+            "--width",
+            "8",
+            "--spp",
+            "1",
+            "-o",
+            out,
+        ];
+        all.extend(args.iter().copied());
+        let o = common::wavetrace(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err.contains(expect), "{args:?}: stderr was\n{err}");
+        assert!(!err.contains("panicked"), "{args:?} panicked:\n{err}");
+    }
+    let o = common::wavetrace(&[
+        "verify",
+        "scenes/cornell-box.gltf",
+        "--integrator",
+        "light",
+        "--width",
+        "8",
+        "--spp",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("verify compares the path tracer"));
+}
