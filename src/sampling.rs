@@ -8,7 +8,10 @@ use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
 /// PCG-based 4-D hash (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020, §3).
 pub fn pcg4d(v: UVec4) -> UVec4 {
-    let mut v = v * 1664525 + UVec4::splat(1013904223);
+    // u32 arithmetic wraps, as GLSL's does (`inc/rng.glsl`).
+    let mut v = v
+        .wrapping_mul(UVec4::splat(1664525))
+        .wrapping_add(UVec4::splat(1013904223));
     v.x = v.x.wrapping_add(v.y.wrapping_mul(v.w));
     v.y = v.y.wrapping_add(v.z.wrapping_mul(v.x));
     v.z = v.z.wrapping_add(v.x.wrapping_mul(v.y));

@@ -65,18 +65,46 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
 const JSON_BYTES_PER_TOKEN: u64 = 96;
 
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    guarded(path, options, || {
+        let bytes = read_scene_file(path, &options.budget)?;
+        load_bytes(path, bytes, options)
+    })
+}
+
+/// [`load`] of a file's bytes already in memory; `source` names it in messages and its folder is
+/// where relative URIs resolve.
+pub(super) fn load_from_bytes(
+    source: &Path,
+    bytes: Vec<u8>,
+    options: &LoadOptions,
+) -> Result<Scene> {
+    guarded(source, options, || {
+        let size = bytes.len() as u64;
+        options
+            .budget
+            .reserve(&format!("the file ({})", format_bytes(size)), size)?;
+        load_bytes(source, bytes, options)
+    })
+}
+
+/// Runs a load, turning a panic into an error, giving back what a failed load reserved, and
+/// naming the file in the error.
+fn guarded(
+    path: &Path,
+    options: &LoadOptions,
+    load: impl FnOnce() -> Result<Scene>,
+) -> Result<Scene> {
     // The last guard: a panic inside the `gltf` crate that the checks below did not foresee
     // becomes an error (the release profile keeps panic = "unwind" for this).
     let reserved_before = options.budget.used();
-    let result =
-        catch_unwind(AssertUnwindSafe(|| load_file(path, options))).unwrap_or_else(|panic| {
-            let message = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_default();
-            Err(anyhow!("the glTF library failed on this file: {message}"))
-        });
+    let result = catch_unwind(AssertUnwindSafe(load)).unwrap_or_else(|panic| {
+        let message = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        Err(anyhow!("the glTF library failed on this file: {message}"))
+    });
     // Transient reservations of a failed load are given back; a loaded scene keeps its own.
     if result.is_err() {
         let now = options.budget.used();
@@ -96,8 +124,8 @@ fn read_scene_file(path: &Path, budget: &Budget) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
-    let bytes = read_scene_file(path, &options.budget)?;
+/// Loads the scene held in `bytes` (the file `path`, already read and reserved in the budget).
+fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scene> {
     if bytes.is_empty() {
         bail!("the top level: the file is empty, expected glTF JSON or binary glTF");
     }

@@ -247,6 +247,18 @@ impl Scene {
         load::load(path, options)
     }
 
+    /// [`load_with`](Scene::load_with) of a scene file's bytes already in memory (`.gltf` JSON
+    /// or `.glb`, told apart by the GLB magic). `source` names the file in messages, and its
+    /// folder is where relative buffer and image URIs resolve, under the same rules as for a
+    /// file read from disk; the bytes are accounted in the budget like a file's.
+    pub fn load_from_bytes(
+        source: &Path,
+        bytes: Vec<u8>,
+        options: &LoadOptions,
+    ) -> anyhow::Result<Scene> {
+        load::load_from_bytes(source, bytes, options)
+    }
+
     /// Makes the camera instance `which` the one renders use (`--camera`): a number N picks the
     /// first instance of glTF camera `cameras[N]`, anything else the first instance whose
     /// camera or node has that name. An unknown camera is an error that lists the file's.
