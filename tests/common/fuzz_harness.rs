@@ -147,6 +147,9 @@ pub struct Variant {
     pub sampler: u32,
     pub light_sampler: u32,
     pub aov: u32,
+    /// Mostly the path tracer; light tracing and BDPT a quarter of the time each, with no sky,
+    /// no lens and radiance (what they accept).
+    pub integrator: wavetrace::cpu::Integrator,
 }
 
 impl Variant {
@@ -175,12 +178,17 @@ impl Variant {
                 4 => AOV_EMISSION,
                 _ => AOV_RADIANCE,
             },
+            integrator: match (h >> 12) & 3 {
+                1 => wavetrace::cpu::Integrator::Light,
+                2 => wavetrace::cpu::Integrator::Bdpt,
+                _ => wavetrace::cpu::Integrator::Path,
+            },
         }
     }
 
     /// The film of every render: tiny, so that an execution's time goes to the loader and BVH.
     pub fn settings(&self) -> RenderSettings {
-        RenderSettings {
+        let mut settings = RenderSettings {
             width: 4,
             height: 4,
             spp: 1,
@@ -191,8 +199,15 @@ impl Variant {
             sampler: self.sampler,
             light_sampler: self.light_sampler,
             aov: self.aov,
+            integrator: self.integrator,
             ..RenderSettings::default()
+        };
+        if self.integrator != wavetrace::cpu::Integrator::Path {
+            settings.environment = glam::Vec3::ZERO;
+            settings.aperture = 0.0;
+            settings.aov = wavetrace::layout::AOV_RADIANCE;
         }
+        settings
     }
 }
 
@@ -219,6 +234,9 @@ pub fn run(source: &Path, bytes: &[u8]) -> Outcome {
     let settings = variant.settings();
     if let Err(e) = prepared.thin_lens(&settings) {
         return Outcome::Refused(format!("{}: {e:#}", source.display()));
+    }
+    if let Err(e) = wavetrace::cpu::bidir::check(&prepared, &settings) {
+        return Outcome::Refused(format!("{}: {e}", source.display()));
     }
     let output = wavetrace::cpu::render(&prepared, &settings);
     Outcome::Rendered {
