@@ -199,16 +199,16 @@ fn light_tracing_matches_the_paths_it_can_make() {
 }
 
 fn mean_image(scene: &PreparedScene, s: &RenderSettings) -> Vec<[f64; 3]> {
-    let film = wavetrace::cpu::render(scene, s).film;
+    pixel_means(&wavetrace::cpu::render(scene, s).film)
+}
+
+/// Each pixel's mean, in f64.
+fn pixel_means(film: &wavetrace::film::Film) -> Vec<[f64; 3]> {
     film.pixels
         .iter()
         .map(|p| {
             let n = p.count.max(1) as f64;
-            [
-                p.sum[0] as f64 / n,
-                p.sum[1] as f64 / n,
-                p.sum[2] as f64 / n,
-            ]
+            p.sum.map(|v| v as f64 / n)
         })
         .collect()
 }
@@ -382,18 +382,7 @@ fn gpu_path_expressions() {
             ..settings(integrator, 4, 5)
         };
         let gpu_mean = |s: &RenderSettings| -> Vec<[f64; 3]> {
-            let film = common::render_gpu(&scene, s, None).unwrap().film;
-            film.pixels
-                .iter()
-                .map(|p| {
-                    let n = p.count.max(1) as f64;
-                    [
-                        p.sum[0] as f64 / n,
-                        p.sum[1] as f64 / n,
-                        p.sum[2] as f64 / n,
-                    ]
-                })
-                .collect()
+            pixel_means(&common::render_gpu(&scene, s, None).unwrap().film)
         };
         let full = gpu_mean(&s);
         let parts: Vec<_> = ["LE", "L(D|S)*DE", "L(D|S)*SE"]

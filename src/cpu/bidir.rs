@@ -527,18 +527,7 @@ impl<'a> Bidir<'a> {
         path: &mut Vec<Vertex>,
         counts: &mut RayCounts,
     ) {
-        let f = self.frame;
-        let (pixel, sample) = key;
-        let u = rng_uniform4(f.seed, pixel, sample, dim::CAMERA_BLOCK);
-        let jitter = sample_pair(f, pixel, sample, 4 * dim::CAMERA_BLOCK, Vec2::new(u.x, u.y));
-        let lens = sample_pair(
-            f,
-            pixel,
-            sample,
-            4 * dim::CAMERA_BLOCK + 2,
-            Vec2::new(u.z, u.w),
-        );
-        let ray = crate::scene::camera_ray(f, pixel, jitter, lens);
+        let ray = crate::cpu::path::primary_ray(self.frame, key.0, key.1);
         path.clear();
         path.push(self.camera_vertex());
         let pdf_dir = self.camera_importance(ray.dir).map_or(0.0, |(_, _, p)| p);
@@ -1001,6 +990,9 @@ pub fn check(
     if settings.aperture > 0.0 {
         return refuse("joins light paths to a pinhole: --aperture must be 0 (use --integrator path for depth of field)");
     }
+    // Light from infinity reaches the back faces of open single-sided surfaces, which glTF's
+    // culling (applied to every ray, `TRIANGLE_TEST_CULL`) lets it pass one way only: light
+    // paths there would see another scene than camera paths.
     if settings.environment_map().is_some() {
         return refuse("does not start light paths at the environment yet: drop --env/--environment or use --integrator path");
     }

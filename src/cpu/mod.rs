@@ -44,14 +44,7 @@ pub fn render_with_progress(
         progress,
     );
     film.dropped = dropped;
-    let stats = RenderStats {
-        seconds: start.elapsed().as_secs_f64(),
-        samples: settings.total_samples(),
-        extension_rays: counts.extension,
-        shadow_rays: counts.shadow,
-        dropped,
-        kernel_seconds: Vec::new(),
-    };
+    let stats = cpu_stats(start, settings.total_samples(), &counts, dropped);
     RenderOutput { film, stats }
 }
 
@@ -85,14 +78,12 @@ pub fn render_range(
         end = next;
     }
     film.dropped = dropped;
-    let stats = RenderStats {
-        seconds: start.elapsed().as_secs_f64(),
-        samples: settings.pixel_count() * (end - samples.start) as u64,
-        extension_rays: counts.extension,
-        shadow_rays: counts.shadow,
+    let stats = cpu_stats(
+        start,
+        settings.pixel_count() * (end - samples.start) as u64,
+        &counts,
         dropped,
-        kernel_seconds: Vec::new(),
-    };
+    );
     (RenderOutput { film, stats }, end)
 }
 
@@ -192,14 +183,7 @@ pub fn render_strategies(
         Some(&mut strategies),
     );
     film.dropped = dropped;
-    let stats = RenderStats {
-        seconds: start.elapsed().as_secs_f64(),
-        samples: settings.total_samples(),
-        extension_rays: counts.extension,
-        shadow_rays: counts.shadow,
-        dropped,
-        kernel_seconds: Vec::new(),
-    };
+    let stats = cpu_stats(start, settings.total_samples(), &counts, dropped);
     (RenderOutput { film, stats }, strategies)
 }
 
@@ -246,15 +230,20 @@ pub fn render_progressive(
     })
     .expect("CPU passes do not fail");
     film.dropped = dropped;
-    let stats = RenderStats {
+    let stats = cpu_stats(start, report.total_samples(), &counts, dropped);
+    (RenderOutput { film, stats }, report)
+}
+
+/// The statistics of a CPU render that started at `start`.
+fn cpu_stats(start: Instant, samples: u64, counts: &RayCounts, dropped: u64) -> RenderStats {
+    RenderStats {
         seconds: start.elapsed().as_secs_f64(),
-        samples: report.total_samples(),
+        samples,
         extension_rays: counts.extension,
         shadow_rays: counts.shadow,
         dropped,
         kernel_seconds: Vec::new(),
-    };
-    (RenderOutput { film, stats }, report)
+    }
 }
 
 /// Adds one path's radiance to its pixel, as `accumulate.comp` does; false if it was dropped

@@ -156,6 +156,27 @@ struct ShadowRay {
     contribution: Vec3,
 }
 
+/// The camera ray of path (pixel, sample): the pixel jitter and lens point from the camera block
+/// (generate.comp).
+pub fn primary_ray(frame: &FrameParams, pixel: u32, sample: u32) -> Ray {
+    let u = rng_uniform4(frame.seed, pixel, sample, dim::CAMERA_BLOCK);
+    let jitter = sample_pair(
+        frame,
+        pixel,
+        sample,
+        4 * dim::CAMERA_BLOCK,
+        Vec2::new(u.x, u.y),
+    );
+    let lens_u = sample_pair(
+        frame,
+        pixel,
+        sample,
+        4 * dim::CAMERA_BLOCK + 2,
+        Vec2::new(u.z, u.w),
+    );
+    camera_ray(frame, pixel, jitter, lens_u)
+}
+
 /// The radiance estimate of one path (pixel, sample): generate, then extend → shade → connect
 /// until the path ends.
 pub fn trace_path(
@@ -182,22 +203,7 @@ pub fn trace_path_matching(
     paths: Option<&Dfa>,
 ) -> Vec3 {
     // generate
-    let u = rng_uniform4(frame.seed, pixel, sample, dim::CAMERA_BLOCK);
-    let jitter = sample_pair(
-        frame,
-        pixel,
-        sample,
-        4 * dim::CAMERA_BLOCK,
-        Vec2::new(u.x, u.y),
-    );
-    let lens_u = sample_pair(
-        frame,
-        pixel,
-        sample,
-        4 * dim::CAMERA_BLOCK + 2,
-        Vec2::new(u.z, u.w),
-    );
-    let mut ray = camera_ray(frame, pixel, jitter, lens_u);
+    let mut ray = primary_ray(frame, pixel, sample);
     let mut state = PathState {
         throughput: [1.0; 3],
         prev_specular: 1,
