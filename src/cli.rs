@@ -93,6 +93,39 @@ impl LightSamplerArg {
     }
 }
 
+/// `--gpu-index`: one device, a list, or every usable one.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GpuIndex {
+    One(usize),
+    List(Vec<usize>),
+    All,
+}
+
+impl GpuIndex {
+    /// The device of a one-device command (`verify`, renders in passes): a list names none.
+    pub fn one(&self) -> Option<usize> {
+        match self {
+            GpuIndex::One(i) => Some(*i),
+            _ => None,
+        }
+    }
+}
+
+fn parse_gpu_index(text: &str) -> Result<GpuIndex, String> {
+    if text == "all" {
+        return Ok(GpuIndex::All);
+    }
+    let list = text
+        .split(',')
+        .map(|t| t.trim().parse::<usize>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| format!("'{text}' is not a device index, a list like 0,1 or all"))?;
+    Ok(match list.as_slice() {
+        [one] => GpuIndex::One(*one),
+        _ => GpuIndex::List(list),
+    })
+}
+
 /// Which estimator renders (`--integrator`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum IntegratorArg {
@@ -330,9 +363,11 @@ pub struct RenderOptions {
     /// bounding box).
     #[arg(long, value_parser = parse_focus_distance, value_name = "F", allow_negative_numbers = true)]
     pub focus_distance: Option<f32>,
-    /// Vulkan device index, as `wavetrace devices` lists them.
-    #[arg(long)]
-    pub gpu_index: Option<usize>,
+    /// Vulkan device index, as `wavetrace devices` lists them; for `render`, also a list
+    /// (`0,1,3`) or `all`: the samples are split into one contiguous range per device, rendered
+    /// side by side and merged.
+    #[arg(long, value_parser = parse_gpu_index, value_name = "N|N,M,…|all")]
+    pub gpu_index: Option<GpuIndex>,
     /// Paths in flight per GPU batch (default: 2^20 on GPUs, 2^17 on CPU Vulkan devices).
     #[arg(long)]
     pub wavefront: Option<u32>,

@@ -309,7 +309,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         eprintln!("device auto: cpu (--integrator bdpt and --bdpt-strategies run on the CPU)");
         DeviceKind::Cpu
     } else {
-        resolve_device(args.device, args.opts.gpu_index)
+        resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
     };
     let (_scene, prepared, settings) = prepare(&path, &args.opts, device)?;
     let (width, height) = (settings.width, settings.height);
@@ -394,9 +394,29 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let mut report = None;
     let RenderOutput { film, stats } = match device {
+        DeviceKind::Gpu if progressive.is_none() && multi_gpu(&args.opts.gpu_index).is_some() => {
+            let devices = multi_gpu(&args.opts.gpu_index).unwrap()?;
+            let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
+            let out = render_on_devices(
+                args,
+                &prepared,
+                &settings,
+                &devices,
+                todo.clone(),
+                &how,
+                &progress,
+            );
+            progress.finish_and_clear();
+            out?
+        }
         DeviceKind::Gpu => {
             let gpu = GpuRenderer::new(&GpuOptions {
-                device_index: args.opts.gpu_index,
+                device_index: match &args.opts.gpu_index {
+                    None => None,
+                    Some(g) => Some(g.one().ok_or_else(|| {
+                        anyhow::anyhow!("renders in passes run on one device: give --gpu-index N")
+                    })?),
+                },
                 validation: args.opts.validate,
                 timing: true,
             })?;
@@ -514,6 +534,111 @@ fn render(args: &RenderArgs) -> Result<()> {
         std::process::exit(shard_cmd::INTERRUPTED_EXIT);
     }
     Ok(())
+}
+
+/// The devices of `--gpu-index LIST|all`, or None for one device.
+fn multi_gpu(index: &Option<crate::cli::GpuIndex>) -> Option<Result<Vec<usize>>> {
+    match index {
+        Some(crate::cli::GpuIndex::List(list)) => Some(Ok(list.clone())),
+        Some(crate::cli::GpuIndex::All) => {
+            Some(wavetrace::gpu::list_devices().and_then(|devices| {
+                let usable: Vec<usize> = devices
+                    .iter()
+                    .filter(|d| d.usable)
+                    .map(|d| d.index)
+                    .collect();
+                if usable.is_empty() {
+                    bail!(
+                        "--gpu-index all: no usable Vulkan device ({})",
+                        wavetrace::gpu::INSTALL_HINT
+                    );
+                }
+                Ok(usable)
+            }))
+        }
+        _ => None,
+    }
+}
+
+/// Renders samples `todo` split into one contiguous range per device of `devices`, side by side
+/// (a thread and a Vulkan device each), and merges the films: what one render of all samples
+/// gives, to float rounding of the sums (`Film::merge`). Reports each device's share and speed.
+fn render_on_devices(
+    args: &RenderArgs,
+    prepared: &wavetrace::render::PreparedScene,
+    settings: &RenderSettings,
+    devices: &[usize],
+    todo: std::ops::Range<u32>,
+    how: &str,
+    progress: &indicatif::ProgressBar,
+) -> Result<RenderOutput> {
+    let n = devices.len() as u32;
+    let len = todo.end - todo.start;
+    println!(
+        "rendering {}×{} {how}, max depth {}, on {} Vulkan devices {:?}",
+        settings.width, settings.height, args.opts.max_depth, n, devices
+    );
+    let never = std::sync::atomic::AtomicBool::new(false);
+    let start = std::time::Instant::now();
+    let results: Vec<Result<(String, std::ops::Range<u32>, RenderOutput)>> =
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = devices
+                .iter()
+                .enumerate()
+                .map(|(k, &device)| {
+                    let k = k as u32;
+                    let range = todo.start + (k as u64 * len as u64 / n as u64) as u32
+                        ..todo.start + ((k as u64 + 1) * len as u64 / n as u64) as u32;
+                    let never = &never;
+                    scope.spawn(move || -> Result<_> {
+                        let gpu = GpuRenderer::new(&GpuOptions {
+                            device_index: Some(device),
+                            validation: args.opts.validate,
+                            timing: false,
+                        })?;
+                        let name = format!("{device}: {}", gpu.device().name);
+                        let (out, _) = gpu.render_range_with_progress(
+                            prepared,
+                            settings,
+                            args.opts.wavefront,
+                            range.clone(),
+                            progress,
+                            never,
+                        )?;
+                        Ok((name, range, out))
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| {
+                    h.join()
+                        .unwrap_or_else(|_| Err(anyhow::anyhow!("a device's thread panicked")))
+                })
+                .collect()
+        });
+    let mut film = wavetrace::film::Film::new(settings.width, settings.height);
+    let mut stats = RenderStats::default();
+    for result in results {
+        let (name, range, out) = result?;
+        progress.suspend(|| {
+            println!(
+                "  device {name}: samples {}..{}, {:.3} s, {:.3} M samples/s",
+                range.start,
+                range.end,
+                out.stats.seconds,
+                out.stats.samples_per_second() * 1e-6
+            )
+        });
+        film.merge(&out.film);
+        stats.samples += out.stats.samples;
+        stats.extension_rays += out.stats.extension_rays;
+        stats.shadow_rays += out.stats.shadow_rays;
+        stats.dropped += out.stats.dropped;
+    }
+    film.dropped = stats.dropped;
+    stats.seconds = start.elapsed().as_secs_f64();
+    Ok(RenderOutput { film, stats })
 }
 
 /// The pass options of `render` (`--target-error`, `--adaptive`, `--max-spp`,

@@ -37,12 +37,17 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     let side = if args.against.is_empty() {
         DeviceKind::Gpu
     } else {
-        crate::resolve_device(args.device, args.opts.gpu_index)
+        crate::resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
     };
     let needs_gpu = args.against.is_empty() || side == DeviceKind::Gpu;
     let gpu = if needs_gpu {
         Some(GpuRenderer::new(&GpuOptions {
-            device_index: args.opts.gpu_index,
+            device_index: match &args.opts.gpu_index {
+                None => None,
+                Some(g) => Some(g.one().ok_or_else(|| {
+                    anyhow::anyhow!("verify renders on one device: give --gpu-index N")
+                })?),
+            },
             validation: args.opts.validate,
             timing: false,
         })?)

@@ -443,3 +443,20 @@ fn sigint_during_a_gpu_render_writes_a_resumable_partial() {
     }
     a_signal_writes_a_resumable_partial("gpu", libc::SIGINT);
 }
+
+/// `--gpu-index 0,0` (issue 14, item 3): the samples split over two Vulkan devices — here the
+/// same lavapipe twice, in two threads — merge into the single render, to f32 summation order,
+/// and each device's share is reported.
+#[test]
+fn a_render_split_over_devices_is_the_single_render() {
+    if skip_gpu() {
+        return;
+    }
+    let (one, two) = (temp("devices-one.exr"), temp("devices-two.exr"));
+    render("gpu", 16, 6, &[], &one);
+    let o = run_render("gpu", 16, 6, &["--gpu-index", "0,0"], &two);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("samples 0..3") && said.contains("samples 3..6"), "{said}");
+    assert_same_samples(&two, &one);
+}
