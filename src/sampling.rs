@@ -92,6 +92,11 @@ pub fn stratify2(
     dimension: u32,
     jitter: Vec2,
 ) -> Vec2 {
+    // Samples past the strata (sample ≥ spp) have none: `permute` is defined on [0, spp) only
+    // (outside it its cycle walk need not end). They keep the independent pair.
+    if sample >= spp {
+        return jitter;
+    }
     let keys = pcg4d(UVec4::new(pixel, dimension, seed, 0x5354_5241));
     let sx = permute(sample, spp, keys.x) as f32;
     let sy = permute(sample, spp, keys.y) as f32;
@@ -445,6 +450,16 @@ mod tests {
             p > 0.01,
             "stratified sample 5 is not uniform over pixels: p = {p}"
         );
+    }
+
+    /// A sample index past the strata returns (it used to cycle-walk forever in `permute`)
+    /// with the independent pair.
+    #[test]
+    fn samples_past_the_strata_keep_their_pair() {
+        let j = Vec2::new(0.25, 0.75);
+        assert_eq!(stratify2(9, 3, 16, 16, 3, j), j);
+        assert_eq!(stratify2(9, 3, 1000, 4, 3, j), j);
+        assert_ne!(stratify2(9, 3, 15, 16, 3, j), j);
     }
 
     #[test]

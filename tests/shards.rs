@@ -457,6 +457,9 @@ fn a_render_split_over_devices_is_the_single_render() {
     let o = run_render("gpu", 16, 6, &["--gpu-index", "0,0"], &two);
     assert!(o.status.success(), "{}", stderr(&o));
     let said = String::from_utf8_lossy(&o.stdout);
-    assert!(said.contains("samples 0..3") && said.contains("samples 3..6"), "{said}");
+    assert!(
+        said.contains("samples 0..3") && said.contains("samples 3..6"),
+        "{said}"
+    );
     assert_same_samples(&two, &one);
 }

@@ -60,6 +60,8 @@ uint permute(uint i, uint n, uint key) {
 
 // Stratified (N-rooks) version of a pair of uniforms: twin of sampling::stratify2.
 vec2 stratify2(uint seed, uint pixel, uint sample_index, uint spp, uint dimension, vec2 jitter) {
+    // Samples past the strata keep the independent pair (src/sampling.rs).
+    if (sample_index >= spp) return jitter;
     uvec4 keys = pcg4d(uvec4(pixel, dimension, seed, 0x53545241u));
     float sx = float(permute(sample_index, spp, keys.x));
     float sy = float(permute(sample_index, spp, keys.y));
