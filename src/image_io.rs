@@ -127,14 +127,7 @@ fn read_film_exact_inner(path: &Path) -> anyhow::Result<(Film, Vec<(String, Stri
             _ => None,
         })
         .collect();
-    let channel = |name: &str| {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name == *name)
-            .map(|c| &c.sample_data)
-    };
+    let channel = |name: &str| find_channel(layer, name);
     let f32s = |name: &str| match channel(name) {
         Some(FlatSamples::F32(v)) => Some(v),
         _ => None,
@@ -229,18 +222,24 @@ fn write_exr(film: &Film, path: &Path, attributes: &[(String, String)]) -> anyho
     Ok(())
 }
 
+/// The samples of channel `name` of a flat layer, if it has one.
+fn find_channel<'a>(
+    layer: &'a Layer<AnyChannels<FlatSamples>>,
+    name: &str,
+) -> Option<&'a FlatSamples> {
+    layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name == *name)
+        .map(|c| &c.sample_data)
+}
+
 fn read_exr_inner(path: &Path) -> anyhow::Result<ImageData> {
     let image = read_first_flat_layer_from_file(path)?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
-    let channel = |name: &str| {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name == *name)
-            .map(|c| &c.sample_data)
-    };
+    let channel = |name: &str| find_channel(layer, name);
     let rgb = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
         let planes: Vec<Vec<f32>> = names
             .iter()

@@ -540,6 +540,25 @@ impl PreparedScene {
         )
     }
 
+    /// The world-space attributes of `hit` on placement `instance`, with its triangle
+    /// (shade.comp and shade_light.comp: `surface_point`, then `surface_to_world`).
+    pub fn hit_surface(
+        &self,
+        hit: &Hit,
+        instance: u32,
+    ) -> (crate::surface::SurfacePoint, &GpuTriangle) {
+        let tri = &self.triangles[hit.triangle as usize];
+        let mut sp = surface_point(
+            tri,
+            self.triangle_vertices[hit.triangle as usize],
+            &self.vertices,
+            hit.u,
+            hit.v,
+        );
+        crate::surface::surface_to_world(&mut sp, tri, &self.instances[instance as usize]);
+        (sp, tri)
+    }
+
     /// The thin lens `settings` ask of this scene's camera (`Camera::thin_lens`); errors name
     /// the option at fault.
     pub fn thin_lens(&self, settings: &RenderSettings) -> anyhow::Result<ThinLens> {

@@ -95,6 +95,15 @@ bool camera_connection(vec3 p, vec3 ng, bool on_surface, out vec3 w, out float d
     return true;
 }
 
+// Queues a join to the camera that camera_connection made, carrying `contribution`, unless it
+// is zero or the path expression (`accepted`) leaves the path out.
+void queue_camera_join(ShadowRay shadow, vec3 contribution, uint path, bool accepted) {
+    if (!(max_component(contribution) > 0.0) || !accepted) return;
+    shadow.contribution = contribution;
+    shadow.path = path;
+    shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+}
+
 // Adds c to pixel's splat sums: each channel in units of 2^-24 as a 64-bit integer split into
 // a low and a high word; the low word's carry is detected from atomicAdd's old value, so the
 // total is exact and independent of the order of the additions. Non-finite, negative and

@@ -58,11 +58,7 @@ void main() {
         if (l.kind == LIGHT_DIRECTIONAL) return;
         float beta0 = 1.0 / pmf;
         if (camera_connection(l.position, l.direction, false, w, dist, target, g_we, shadow)) {
-            shadow.contribution = beta0 * punctual_intensity(l, w) * punctual_window(l, dist) * g_we;
-            shadow.path = i;
-            if (max_component(shadow.contribution) > 0.0 && light_path_ends_here(state.prev_specular, 4u)) {
-                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
-            }
+            queue_camera_join(shadow, beta0 * punctual_intensity(l, w) * punctual_window(l, dist) * g_we, i, light_path_ends_here(state.prev_specular, 4u));
         }
         float cos_max = l.kind == LIGHT_SPOT ? spot_cos_outer(l) : -1.0;
         vec3 local = sample_uniform_cone(u_dir, cos_max);
@@ -89,11 +85,7 @@ void main() {
         mat.emission = surface_emission(mat, sp, LOD_MAGNIFY);
         float beta0 = tri.area / pmf;
         if (camera_connection(y, n, true, w, dist, target, g_we, shadow)) {
-            shadow.contribution = beta0 * emitted_radiance(mat, dot(n, w)) * g_we;
-            shadow.path = i;
-            if (max_component(shadow.contribution) > 0.0 && light_path_ends_here(state.prev_specular, 4u)) {
-                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
-            }
+            queue_camera_join(shadow, beta0 * emitted_radiance(mat, dot(n, w)) * g_we, i, light_path_ends_here(state.prev_specular, 4u));
         }
         bool both = (mat.flags & MATERIAL_DOUBLE_SIDED) != 0u;
         vec3 side = both && u.w < 0.5 ? -n : n;

@@ -51,11 +51,7 @@ void main() {
         uint target;
         float g_we;
         if (camera_connection(p, ng, true, w, dist, target, g_we, shadow)) {
-            shadow.contribution = beta * phi(mat, ng, ns, w, wo) * g_we;
-            shadow.path = ray.path;
-            if (max_component(shadow.contribution) > 0.0 && light_path_ends_here(state.prev_specular, SYM_D)) {
-                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
-            }
+            queue_camera_join(shadow, beta * phi(mat, ng, ns, w, wo) * g_we, ray.path, light_path_ends_here(state.prev_specular, SYM_D));
         }
     }
     if (depth + 1u >= frame.max_depth) return;

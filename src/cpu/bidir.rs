@@ -52,7 +52,7 @@ use crate::sampling::{
     sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
 use crate::surface::{
-    alpha_key, surface_emission, surface_material, surface_normal, surface_point, surface_to_world,
+    alpha_key, surface_emission, surface_material, surface_normal, surface_point,
     LOD_MAGNIFY,
 };
 use crate::texture::TextureData;
@@ -162,6 +162,21 @@ pub struct Contributions {
 }
 
 impl<'a> Bidir<'a> {
+    /// The integrator, weighting and path expression `settings` ask for.
+    pub fn from_settings(
+        scene: &'a PreparedScene,
+        frame: &'a FrameParams,
+        settings: &'a crate::render::RenderSettings,
+    ) -> Bidir<'a> {
+        Bidir::new(
+            scene,
+            frame,
+            settings.integrator,
+            settings.mis,
+            settings.paths.as_deref(),
+        )
+    }
+
     pub fn new(
         scene: &'a PreparedScene,
         frame: &'a FrameParams,
@@ -382,17 +397,8 @@ impl<'a> Bidir<'a> {
 
     /// The surface the subpath's ray hits: its vertex with textures at level 0.
     fn surface_vertex(&self, hit: crate::bvh::Hit, instance: u32, ray: &Ray, beta: Vec3) -> Vertex {
-        let scene = self.scene;
-        let tri = &scene.triangles[hit.triangle as usize];
-        let mut sp = surface_point(
-            tri,
-            scene.triangle_vertices[hit.triangle as usize],
-            &scene.vertices,
-            hit.u,
-            hit.v,
-        );
-        surface_to_world(&mut sp, tri, &scene.instances[instance as usize]);
-        let raw = &scene.materials[tri.material_index() as usize];
+        let (sp, tri) = self.scene.hit_surface(&hit, instance);
+        let raw = &self.scene.materials[tri.material_index() as usize];
         Vertex {
             kind: Kind::Surface,
             p: sp.p,
@@ -941,10 +947,7 @@ impl<'a> Bidir<'a> {
                 if depth < 2 || depth - 2 > max_depth || (s == 0 && t < 2) || (s == 1 && t == 1) {
                     continue;
                 }
-                if s == 0
-                    && emitted_radiance(&camera[t - 1].mat, 1.0).max_element() <= 0.0
-                    && emitted_radiance(&camera[t - 1].mat, -1.0).max_element() <= 0.0
-                {
+                if s == 0 && Vec3::from(camera[t - 1].mat.emission).max_element() <= 0.0 {
                     continue;
                 }
                 if !self.path_matches(light, camera, s, t) {

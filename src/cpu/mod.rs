@@ -102,13 +102,7 @@ fn add_samples(
         let paths = settings.paths.as_deref().map(|p| &p.reversed);
         render_samples(scene, frame, env, paths, film, samples, None, progress)
     } else {
-        let bidir = bidir::Bidir::new(
-            scene,
-            frame,
-            settings.integrator,
-            settings.mis,
-            settings.paths.as_deref(),
-        );
+        let bidir = bidir::Bidir::from_settings(scene, frame, settings);
         bidir::render_samples(&bidir, film, samples, progress, None)
     }
 }
@@ -168,13 +162,7 @@ pub fn render_strategies(
     let mut film = Film::new(settings.width, settings.height);
     let mut strategies = bidir::StrategyFilms::default();
     let start = Instant::now();
-    let b = bidir::Bidir::new(
-        scene,
-        &frame,
-        settings.integrator,
-        settings.mis,
-        settings.paths.as_deref(),
-    );
+    let b = bidir::Bidir::from_settings(scene, &frame, settings);
     let (counts, dropped) = bidir::render_samples(
         &b,
         &mut film,

@@ -23,7 +23,7 @@ use crate::sampling::{
 use crate::scene::camera_ray;
 use crate::surface::{
     alpha_key, surface_emission, surface_lod_base, surface_material, surface_normal, surface_point,
-    surface_to_world, LOD_MAGNIFY,
+    LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
 
@@ -278,16 +278,8 @@ fn shade(
         }
         return (None, None);
     };
-    let tri = &scene.triangles[hit.triangle as usize];
+    let (sp, tri) = scene.hit_surface(&hit, instance);
     let textures = scene.texture_data();
-    let mut sp = surface_point(
-        tri,
-        scene.triangle_vertices[hit.triangle as usize],
-        &scene.vertices,
-        hit.u,
-        hit.v,
-    );
-    surface_to_world(&mut sp, tri, &scene.instances[instance as usize]);
     let (p, ng) = (sp.p, sp.ng);
     let cos_out = ng.dot(wo);
     // The ray cone's width at the hit sets the textures' level of detail.
