@@ -372,7 +372,7 @@ pub struct RenderOptions {
     #[arg(long)]
     pub wavefront: Option<u32>,
     /// The estimator: paths from the camera (path), from the emitters joined to the camera
-    /// (light), or both joined in every way (bdpt). light and bdpt run on the CPU.
+    /// (light), or both joined in every way (bdpt), on the CPU or the GPU alike.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
     pub integrator: IntegratorArg,
     /// Keep only the paths whose vertices match EXPR, a regular expression over L (emitter),
@@ -507,7 +507,7 @@ pub struct BenchArgs {
     /// Skip the CPU integrator.
     #[arg(long)]
     pub gpu_only: bool,
-    /// The estimator to measure (bdpt runs on the CPU only).
+    /// The estimator to measure.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
     pub integrator: IntegratorArg,
     /// Radiance of rays that leave the scene (for scenes lit by their surroundings).

@@ -327,7 +327,19 @@ pub struct FrameParams {
     /// go round the first n entries of the active-pixel list (band-local pixel indices, the
     /// `ActivePixels` binding), the pixels that have not yet reached the target.
     pub active_pixel_count: u32, // 4 bytes
+    /// `INTEGRATOR_*`: which estimator the kernels run (`--integrator`).
+    pub integrator: u32, // 4 bytes
+    pub pad0: u32,              // 4 bytes
+    pub pad1: u32,              // 4 bytes
+    pub pad2: u32,              // 4 bytes
 }
+
+/// `FrameParams::integrator`: paths from the camera (the wavefront's `shade`).
+pub const INTEGRATOR_PATH: u32 = 0;
+/// `FrameParams::integrator`: light subpaths joined to the camera (`shade_light`).
+pub const INTEGRATOR_LIGHT: u32 = 1;
+/// `FrameParams::integrator`: both subpaths kept as `BdptVertex`es, joined by `connect_bdpt`.
+pub const INTEGRATOR_BDPT: u32 = 2;
 
 /// `FrameParams::light_sampler`: emitters chosen by power alone (the table's CDF).
 pub const LIGHT_SAMPLER_POWER: u32 = 0;
@@ -471,6 +483,36 @@ pub struct ShadowRay {
     pub contribution: [f32; 3], // 12 bytes
     pub pad: u32,               // 4 bytes
 }
+
+/// One vertex of a BDPT subpath on the GPU (`src/cpu/bidir.rs`, `Vertex`): where it is, what
+/// MIS needs (the area densities of generating it from either side) and what rebuilds its
+/// material (triangle, instance, barycentrics). Total: 96 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BdptVertex {
+    pub p: [f32; 3], // 12 bytes
+    /// `BDPT_VERTEX_*` kind, | `BDPT_VERTEX_DELTA` once the subpath left it along a delta lobe.
+    pub kind: u32, // 4 bytes
+    pub ng: [f32; 3], // 12 bytes: geometric normal (camera: view axis; spot: its axis)
+    pub pdf_fwd: f32, // 4 bytes
+    pub ns: [f32; 3], // 12 bytes: shading normal
+    pub pdf_rev: f32, // 4 bytes
+    pub wo: [f32; 3], // 12 bytes: towards the previous vertex of its subpath
+    pub index: u32,  // 4 bytes: triangle (BVH order) or punctual light
+    pub beta: [f32; 3], // 12 bytes: the subpath's throughput up to the vertex
+    pub instance: u32, // 4 bytes: the hit's instance; NO_HIT at an emitter's own point
+    pub bary: [f32; 2], // 8 bytes
+    pub pad0: u32,   // 4 bytes
+    pub pad1: u32,   // 4 bytes
+}
+
+/// `BdptVertex::kind`, the twins of `bidir::Kind`.
+pub const BDPT_VERTEX_CAMERA: u32 = 0;
+pub const BDPT_VERTEX_AREA_LIGHT: u32 = 1;
+pub const BDPT_VERTEX_POINT_LIGHT: u32 = 2;
+pub const BDPT_VERTEX_SURFACE: u32 = 3;
+/// `BdptVertex::kind` bit: the subpath left the vertex along a delta lobe.
+pub const BDPT_VERTEX_DELTA: u32 = 16;
 
 /// Per-pixel accumulator: sum, sum of squares and count of finite samples. Total: 32 bytes.
 #[repr(C)]
@@ -631,7 +673,11 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         env_pmf,
         light_sampler,
         light_bounded_cdf,
-        active_pixel_count
+        active_pixel_count,
+        integrator,
+        pad0,
+        pad1,
+        pad2
     }),
     struct_layout!(DispatchParams {
         first_sample,
@@ -684,6 +730,21 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         t_max,
         contribution,
         pad
+    }),
+    struct_layout!(BdptVertex {
+        p,
+        kind,
+        ng,
+        pdf_fwd,
+        ns,
+        pdf_rev,
+        wo,
+        index,
+        beta,
+        instance,
+        bary,
+        pad0,
+        pad1
     }),
     struct_layout!(FilmPixel {
         sum,

@@ -233,9 +233,6 @@ fn prepare(
         .with_context(|| format!("{}", path.display()))?;
     wavetrace::cpu::bidir::check(&prepared, &settings)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    if settings.integrator == wavetrace::cpu::Integrator::Bdpt && device == DeviceKind::Gpu {
-        bail!("--integrator bdpt runs on the CPU only so far: add --device cpu");
-    }
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());
     }
@@ -297,16 +294,15 @@ fn render(args: &RenderArgs) -> Result<()> {
         .scene
         .clone()
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
-    // The bidirectional integrator and its strategy images run on the CPU so far.
-    let cpu_only =
-        args.opts.integrator == crate::cli::IntegratorArg::Bdpt || args.bdpt_strategies.is_some();
+    // The strategy images are written by the CPU twin.
+    let cpu_only = args.bdpt_strategies.is_some();
     if cpu_only && args.device == DeviceKind::Gpu {
-        bail!(
-            "--integrator bdpt and --bdpt-strategies run on the CPU only so far: add --device cpu"
-        );
+        bail!("--bdpt-strategies writes the CPU integrator's strategy images: add --device cpu");
     }
     let device = if cpu_only && args.device == DeviceKind::Auto {
-        eprintln!("device auto: cpu (--integrator bdpt and --bdpt-strategies run on the CPU)");
+        eprintln!(
+            "device auto: cpu (--bdpt-strategies writes the CPU integrator's strategy images)"
+        );
         DeviceKind::Cpu
     } else {
         resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
@@ -744,7 +740,6 @@ fn bench(args: &BenchArgs) -> Result<()> {
         Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
         Err(e) => format!("unavailable: {e:#}"),
     };
-    let bdpt = settings.integrator == wavetrace::cpu::Integrator::Bdpt;
     println!(
         "wavetrace bench ({:?} integrator): {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
         settings.integrator,
@@ -810,7 +805,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
             println!("{name:<20} skipped: {why}");
             continue;
         }
-        if let (Ok(g), false) = (&gpu, bdpt) {
+        if let Ok(g) = &gpu {
             rows.push(("gpu", g.render(&prepared, &settings, args.wavefront)?.stats));
         }
         if !args.gpu_only {

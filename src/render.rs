@@ -595,6 +595,11 @@ impl PreparedScene {
                 settings.light_sampler
             },
             light_bounded_cdf: self.light_bounded_cdf,
+            integrator: match settings.integrator {
+                crate::cpu::Integrator::Path => crate::layout::INTEGRATOR_PATH,
+                crate::cpu::Integrator::Light => crate::layout::INTEGRATOR_LIGHT,
+                crate::cpu::Integrator::Bdpt => crate::layout::INTEGRATOR_BDPT,
+            },
             // The camera's fields: written below.
             ..FrameParams::default()
         };

@@ -324,49 +324,55 @@ fn sized(s: RenderSettings, edge: u32) -> RenderSettings {
     }
 }
 
-/// Light tracing on the GPU (lavapipe in CI) against its CPU twin, per tile over independent
-/// batches, on the Cornell box and the caustic scene.
+/// Light tracing and BDPT on the GPU (lavapipe in CI) against their CPU twins, per tile over
+/// independent batches, on the Cornell box and the caustic scene.
 #[test]
-fn gpu_light_tracing_matches_the_cpu() {
+fn gpu_light_tracing_and_bdpt_match_the_cpu() {
     if common::gpu().is_none() {
         return;
     }
-    let alpha = sidak(0.01, 2);
-    for name in ["cornell-box.gltf", "caustic.gltf"] {
-        let scene = prepared(name);
-        let s = settings(Integrator::Light, 8, 5);
-        let gpu = batch_tiles_of(&s, 5, |b| common::render_gpu(&scene, b, None).unwrap().film);
-        let cpu = batch_tiles(&scene, &s, 6);
-        print!("{name}: ");
-        welch_tiles(&gpu, &cpu, alpha).unwrap_or_else(|e| panic!("{name}: GPU ≠ CPU:\n{e}"));
+    let alpha = sidak(0.01, 4);
+    for integrator in [Integrator::Light, Integrator::Bdpt] {
+        for name in ["cornell-box.gltf", "caustic.gltf"] {
+            let scene = prepared(name);
+            let s = settings(integrator, 8, 5);
+            let gpu = batch_tiles_of(&s, 5, |b| common::render_gpu(&scene, b, None).unwrap().film);
+            let cpu = batch_tiles(&scene, &s, 6);
+            print!("{integrator:?} on {name}: ");
+            welch_tiles(&gpu, &cpu, alpha)
+                .unwrap_or_else(|e| panic!("{integrator:?} on {name}: GPU ≠ CPU:\n{e}"));
+        }
     }
 }
 
-/// Splats are summed with integer atomics: the GPU image is the same bit for bit on every run
-/// and for every wavefront size (batches of different sizes finish in different orders).
+/// Splats are summed with integer atomics: the GPU image of light tracing and of BDPT is the
+/// same bit for bit on every run and for every wavefront size (batches of different sizes
+/// finish in different orders).
 #[test]
-fn gpu_light_tracing_is_deterministic() {
+fn gpu_splatting_is_deterministic() {
     let scene = prepared("cornell-materials.gltf");
-    let s = RenderSettings {
-        width: 40,
-        height: 24,
-        ..settings(Integrator::Light, 6, 6)
-    };
-    let Some(first) = common::render_gpu(&scene, &s, None) else {
-        return;
-    };
-    for wavefront in [None, Some(97), Some(1000)] {
-        let again = common::render_gpu(&scene, &s, wavefront).unwrap();
-        assert!(
-            again.film.pixels == first.film.pixels,
-            "a second run (wavefront {wavefront:?}) gave another image"
-        );
+    for integrator in [Integrator::Light, Integrator::Bdpt] {
+        let s = RenderSettings {
+            width: 40,
+            height: 24,
+            ..settings(integrator, 6, 6)
+        };
+        let Some(first) = common::render_gpu(&scene, &s, None) else {
+            return;
+        };
+        for wavefront in [None, Some(97), Some(1000)] {
+            let again = common::render_gpu(&scene, &s, wavefront).unwrap();
+            assert!(
+                again.film.pixels == first.film.pixels,
+                "{integrator:?}: a second run (wavefront {wavefront:?}) gave another image"
+            );
+        }
+        assert!(first.film.pixels.iter().any(|p| p.sum[0] > 0.0));
+        assert_eq!(first.film.pixels[0].count, 6);
     }
-    assert!(first.film.pixels.iter().any(|p| p.sum[0] > 0.0));
-    assert_eq!(first.film.pixels[0].count, 6);
 }
 
-/// Path expressions on the GPU: for the path tracer and light tracing, the images of a
+/// Path expressions on the GPU: for the path tracer, light tracing and BDPT, the images of a
 /// partition add up to the unrestricted image (same random numbers, so up to f32 rounding of
 /// the sums), and an expression's image matches the CPU's per tile.
 #[test]
@@ -375,7 +381,7 @@ fn gpu_path_expressions() {
     if common::gpu().is_none() {
         return;
     }
-    for integrator in [Integrator::Path, Integrator::Light] {
+    for integrator in [Integrator::Path, Integrator::Light, Integrator::Bdpt] {
         let s = RenderSettings {
             width: 24,
             height: 24,
@@ -438,8 +444,15 @@ fn unsupported_combinations_are_refused_clearly() {
     let out = out.to_str().unwrap();
     for (args, expect) in [
         (
-            vec!["--integrator", "bdpt", "--device", "gpu"],
-            "--integrator bdpt and --bdpt-strategies run on the CPU only",
+            vec![
+                "--integrator",
+                "bdpt",
+                "--device",
+                "gpu",
+                "--bdpt-strategies",
+                "/tmp",
+            ],
+            "--bdpt-strategies writes the CPU integrator's strategy images: add --device cpu",
         ),
         (
             vec![

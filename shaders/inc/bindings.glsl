@@ -46,6 +46,8 @@ layout(std430, set = 0, binding = 24) readonly buffer ActivePixels { uint active
 layout(std430, set = 0, binding = 25) buffer Splats { uint splats[]; };
 // --paths: the path-expression automata (paths.glsl); word 0 = 0 without an expression.
 layout(std430, set = 0, binding = 26) readonly buffer PathDfa { uint path_dfa[]; };
+// --integrator bdpt: both subpaths of every path of the batch (bdpt.glsl).
+layout(std430, set = 0, binding = 27) buffer BdptVertices { BdptVertex bdpt_vertices[]; };
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

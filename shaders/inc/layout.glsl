@@ -175,7 +175,14 @@ struct FrameParams {
     float light_bounded_cdf;  // 4 bytes: the table's CDF at its last bounded light
     uint active_pixel_count;  // 4 bytes: 0 = the band's pixels in order; n > 0 = the first n
                               //   entries of active_pixels (bindings.glsl, scene.glsl)
+    uint integrator;        // 4 bytes: INTEGRATOR_*
+    uint pad0;              // 4 bytes
+    uint pad1;              // 4 bytes
+    uint pad2;              // 4 bytes
 };
+#define INTEGRATOR_PATH 0u
+#define INTEGRATOR_LIGHT 1u
+#define INTEGRATOR_BDPT 2u
 #define LIGHT_SAMPLER_POWER 0u
 #define LIGHT_SAMPLER_BVH 1u
 #define AOV_RADIANCE 0u
@@ -259,6 +266,28 @@ struct ShadowRay {
     vec3 contribution;  // 12 bytes
     uint pad;           // 4 bytes
 };
+
+// One vertex of a BDPT subpath (src/cpu/bidir.rs, Vertex; bdpt.glsl). Total: 96 bytes.
+struct BdptVertex {
+    vec3 p;          // 12 bytes
+    uint kind;       // 4 bytes: BDPT_VERTEX_*, | BDPT_VERTEX_DELTA
+    vec3 ng;         // 12 bytes
+    float pdf_fwd;   // 4 bytes
+    vec3 ns;         // 12 bytes
+    float pdf_rev;   // 4 bytes
+    vec3 wo;         // 12 bytes
+    uint index;      // 4 bytes: triangle or punctual light
+    vec3 beta;       // 12 bytes
+    uint instance;   // 4 bytes: NO_HIT at an emitter's own point
+    vec2 bary;       // 8 bytes
+    uint pad0;       // 4 bytes
+    uint pad1;       // 4 bytes
+};
+#define BDPT_VERTEX_CAMERA 0u
+#define BDPT_VERTEX_AREA_LIGHT 1u
+#define BDPT_VERTEX_POINT_LIGHT 2u
+#define BDPT_VERTEX_SURFACE 3u
+#define BDPT_VERTEX_DELTA 16u
 
 // Per-pixel sum, sum of squares and count. Total: 32 bytes.
 struct FilmPixel {

@@ -1,8 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Light tracing, stage 4: any-hit test of every join to the camera; an unoccluded one splats
-// its contribution onto its pixel (the shadow ray's `pad`) with order-independent integer
-// atomics. params.depth = the light vertex's index, s - 1.
+// Light tracing and BDPT, stage 4: any-hit test of every join queued by shade_light,
+// generate_light or connect_bdpt; an unoccluded one splats its contribution onto its pixel
+// (the shadow ray's `pad`) with order-independent integer atomics. params.depth = the
+// strategy's code 64 s + t, which keys the alpha test (ALPHA_CONNECT + 64 s + t).
 #include "layout.glsl"
 #include "bindings.glsl"
 #define BVH_ANY_HIT
@@ -24,8 +25,7 @@ void main() {
     ShadowRay shadow = shadow_rays[i];
     uint pixel, sample_index;
     path_pixel_sample(shadow.path, pixel, sample_index);
-    uint s = params.depth + 1u;
-    uvec4 key = alpha_key(frame.seed, pixel, sample_index, ALPHA_CONNECT + s * 64u + 1u, true);
+    uvec4 key = alpha_key(frame.seed, pixel, sample_index, ALPHA_CONNECT + params.depth, true);
     if (!scene_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
         splat_add(shadow.pad, shadow.contribution);
     }

@@ -1,9 +1,10 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 // Light tracing, stage 3: at each hit of a light subpath, queue the vertex's join to the camera
 // (a shadow ray that splats if unoccluded), then sample the adjoint BSDF for the next ray and
 // apply Russian roulette (src/cpu/bidir.rs, walk in importance mode). params.depth = d: the
-// hits are vertex d + 1 of their subpaths.
+// hits are vertex d + 1 of their subpaths. BDPT stores each vertex instead of joining it.
 #include "layout.glsl"
 #include "bindings.glsl"
 #include "rng.glsl"
@@ -14,6 +15,8 @@
 #include "surface.glsl"
 #include "light_tracing.glsl"
 #include "paths.glsl"
+#include "mis.glsl"
+#include "bdpt.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -43,8 +46,22 @@ void main() {
     GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
     vec3 ns = surface_normal(raw, sp, LOD_MAGNIFY);
 
-    // The join to the camera (s = d + 2 light vertices, t = 1).
-    if (connectible(mat)) {
+    bool bdpt = frame.integrator == INTEGRATOR_BDPT;
+    uint k = depth + 1u;  // the vertex's index in its subpath
+    if (bdpt) {
+        // Store the vertex; connect_bdpt joins it to the camera with the other strategies.
+        BdptVertex v = bdpt_endpoint(BDPT_VERTEX_SURFACE, p, ng, beta, 1.0, hit.triangle);
+        v.ns = ns;
+        v.wo = wo;
+        v.instance = hit.instance;
+        v.bary = vec2(hit.u, hit.v);
+        if (state.cone_width >= 0.0) {
+            v.pdf_fwd = bdpt_to_area(state.cone_width, bdpt_vertices[bdpt_light_index(ray.path, k - 1u)].p, v);
+        }
+        bdpt_vertices[bdpt_light_index(ray.path, k)] = v;
+        bdpt_set_light_length(ray.path, k + 1u);
+    } else if (connectible(mat)) {
+        // The join to the camera (s = d + 2 light vertices, t = 1).
         ShadowRay shadow;
         vec3 w;
         float dist;
@@ -73,6 +90,21 @@ void main() {
         beta *= weight * bsdf_frame_cos(f, wo) * cos_gi / (cos_go * bsdf_frame_cos(f, wi));
     } else {
         beta *= phi(mat, ng, ns, wi, wo) * cos_gi / pdf;
+    }
+    if (bdpt) {
+        // The delta flag, the ray's pdf for the next vertex, and the previous vertex's reverse
+        // density given this vertex's two directions (src/cpu/bidir.rs, walk).
+        uint prev = bdpt_light_index(ray.path, k - 1u);
+        if (delta) {
+            bdpt_vertices[bdpt_light_index(ray.path, k)].kind |= BDPT_VERTEX_DELTA;
+            bdpt_vertices[prev].pdf_rev = 1.0;
+            state.cone_width = -1.0;
+        } else {
+            state.cone_width = pdf;
+            BsdfFrame back;
+            float pdf_back = bsdf_frame_new_shading(mat, ng, ns, wi, back) ? bsdf_frame_pdf(back, wo) : 0.0;
+            bdpt_vertices[prev].pdf_rev = bdpt_to_area(pdf_back, p, bdpt_vertices[prev]);
+        }
     }
     if (!(max_component(beta) > 0.0) || any(isinf(beta)) || any(isnan(beta))) return;
     if (depth + 1u >= frame.rr_start_depth && frame.rr_mode != RR_OFF) {

@@ -52,8 +52,7 @@ use crate::sampling::{
     sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
 use crate::surface::{
-    alpha_key, surface_emission, surface_material, surface_normal, surface_point,
-    LOD_MAGNIFY,
+    alpha_key, surface_emission, surface_material, surface_normal, surface_point, LOD_MAGNIFY,
 };
 use crate::texture::TextureData;
 use glam::{Vec2, Vec3};
@@ -71,6 +70,17 @@ pub enum Integrator {
     Light,
     /// Both subpaths, every (s, t) connection, MIS over all strategies.
     Bdpt,
+}
+
+impl Integrator {
+    /// The name `--integrator` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Path => "path",
+            Integrator::Light => "light",
+            Integrator::Bdpt => "bdpt",
+        }
+    }
 }
 
 /// Alpha-test keys of light subpaths and connections, apart from the camera's bounces.
@@ -981,11 +991,10 @@ pub fn check(
     scene: &PreparedScene,
     settings: &crate::render::RenderSettings,
 ) -> Result<(), String> {
-    let name = match settings.integrator {
-        Integrator::Path => return Ok(()),
-        Integrator::Light => "light",
-        Integrator::Bdpt => "bdpt",
-    };
+    if settings.integrator == Integrator::Path {
+        return Ok(());
+    }
+    let name = settings.integrator.name();
     let refuse = |why: &str| Err(format!("--integrator {name} {why}"));
     if scene.camera.is_orthographic() {
         return refuse("needs a perspective camera: light paths join a pinhole, and an orthographic camera has none (use --integrator path)");

@@ -141,19 +141,17 @@ impl GpuRenderer {
         progress: &ProgressBar,
         stop: &std::sync::atomic::AtomicBool,
     ) -> Result<(RenderOutput, u32)> {
-        let light = settings.integrator == crate::cpu::Integrator::Light;
-        if settings.integrator == crate::cpu::Integrator::Bdpt {
-            bail!("--integrator bdpt runs on the CPU only so far: add --device cpu");
-        }
-        if light {
+        let splatting = settings.integrator != crate::cpu::Integrator::Path;
+        if splatting {
             crate::cpu::bidir::check(scene, settings).map_err(|e| anyhow::anyhow!(e))?;
         }
         let setup = self.setup(scene, settings, wavefront, false)?;
-        if light && setup.band_rows < settings.height {
+        if splatting && setup.band_rows < settings.height {
             setup.destroy(&self.ctx);
             bail!(
-                "--integrator light splats anywhere on the image, so the whole film must fit one \
+                "--integrator {} splats anywhere on the image, so the whole film must fit one \
                  storage binding of {}: render {}×{} with --device cpu",
+                settings.integrator.name(),
                 self.ctx.info.name,
                 settings.width,
                 settings.height
@@ -223,6 +221,26 @@ impl GpuRenderer {
         let band_pixels = band_rows * settings.width;
         let environment = settings.environment_map();
         let env = crate::environment::map_or_none(&environment);
+        let splatting = settings.integrator != crate::cpu::Integrator::Path;
+        // A splatting batch never straddles two passes: the splats of one sample index make one
+        // film sample. BDPT keeps both subpaths of every path in flight, as many as one storage
+        // binding holds.
+        let bdpt_stride = wavefront::bdpt_vertices_per_path(settings.max_depth) as u64;
+        let capacity = match settings.integrator {
+            crate::cpu::Integrator::Path => capacity,
+            crate::cpu::Integrator::Light => capacity.min(band_pixels),
+            crate::cpu::Integrator::Bdpt => {
+                let per_path = bdpt_stride * size_of::<crate::layout::BdptVertex>() as u64;
+                capacity
+                    .min(band_pixels)
+                    .min((range / per_path).max(1) as u32)
+            }
+        };
+        let bdpt_vertices = if settings.integrator == crate::cpu::Integrator::Bdpt {
+            capacity as u64 * bdpt_stride
+        } else {
+            0
+        };
         let buffers = RenderBuffers::new(
             ctx,
             &self.pipelines,
@@ -232,11 +250,8 @@ impl GpuRenderer {
             capacity as u64,
             band_pixels as u64,
             if active_list { band_pixels as u64 } else { 0 },
-            if settings.integrator == crate::cpu::Integrator::Light {
-                band_pixels as u64
-            } else {
-                0
-            },
+            if splatting { band_pixels as u64 } else { 0 },
+            bdpt_vertices,
             settings.paths.as_deref(),
         )?;
         let query_pool = if self.timing {
@@ -246,13 +261,6 @@ impl GpuRenderer {
             Some(unsafe { ctx.device.create_query_pool(&info, None) }?)
         } else {
             None
-        };
-        // A light-tracing batch never straddles two passes: the splats of one sample index
-        // make one film sample.
-        let capacity = if settings.integrator == crate::cpu::Integrator::Light {
-            capacity.min(band_pixels)
-        } else {
-            capacity
         };
         Ok(Setup {
             capacity,
@@ -471,11 +479,15 @@ impl GpuRenderer {
                     &[],
                 );
             }
-            if settings.integrator == crate::cpu::Integrator::Light {
-                let pass_done = batch.first_pixel + batch.size == pixel_count;
-                recorder.record_light_batch(batch, settings.max_depth, pass_done);
-            } else {
-                recorder.record_batch(batch, settings.max_depth);
+            let pass_done = batch.first_pixel + batch.size == pixel_count;
+            match settings.integrator {
+                crate::cpu::Integrator::Path => recorder.record_batch(batch, settings.max_depth),
+                crate::cpu::Integrator::Light => {
+                    recorder.record_light_batch(batch, settings.max_depth, pass_done)
+                }
+                crate::cpu::Integrator::Bdpt => {
+                    recorder.record_bdpt_batch(batch, settings.max_depth, pass_done)
+                }
             }
             let timed = std::mem::take(&mut recorder.timed);
             memory::barrier(

@@ -44,10 +44,12 @@ pub enum Binding {
     Splats = 25,
     /// The `--paths` automata (`PathExpr::gpu_table`).
     PathDfa = 26,
+    /// `--integrator bdpt`: both subpaths of every path in flight (`bdpt.glsl`).
+    BdptVertices = 27,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 27] = [
+    pub const ALL: [Binding; 28] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -75,6 +77,7 @@ impl Binding {
         Binding::ActivePixels,
         Binding::Splats,
         Binding::PathDfa,
+        Binding::BdptVertices,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {

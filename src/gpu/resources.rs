@@ -7,7 +7,7 @@ use super::memory::{Buffer, Commands, Location};
 use super::pipelines::{Binding, Pipelines};
 use crate::environment::EnvironmentMap;
 use crate::layout::{
-    args, counter, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
+    args, counter, BdptVertex, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
 };
 use crate::render::PreparedScene;
 use anyhow::{bail, Result};
@@ -36,8 +36,9 @@ pub struct RenderBuffers {
 
 impl RenderBuffers {
     /// Creates every buffer for `capacity` paths in flight, a film of `band_pixels` and an
-    /// active-pixel list of `active_pixels` entries (0 for renders that never use one), binds
-    /// them and uploads the scene. The film's read-back buffer also uploads a band's
+    /// active-pixel list of `active_pixels` entries (0 for renders that never use one), splat
+    /// sums for `splat_pixels` and `bdpt_vertices` subpath vertices (0 for the path tracer),
+    /// binds them and uploads the scene. The film's read-back buffer also uploads a band's
     /// accumulators between the passes of a render that stops at a target error.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -50,6 +51,7 @@ impl RenderBuffers {
         band_pixels: u64,
         active_pixels: u64,
         splat_pixels: u64,
+        bdpt_vertices: u64,
         path_expr: Option<&crate::paths::PathExpr>,
     ) -> Result<RenderBuffers> {
         use vk::BufferUsageFlags as U;
@@ -131,6 +133,10 @@ impl RenderBuffers {
             Location::Host,
         )?;
         let splats = device("splats", (splat_pixels * 24) as usize)?;
+        let bdpt = device(
+            "bdpt_vertices",
+            bdpt_vertices as usize * size_of::<BdptVertex>(),
+        )?;
         let dfa_table =
             path_expr.map_or_else(|| crate::paths::GPU_TABLE_NONE.to_vec(), |p| p.gpu_table());
         let path_dfa = device("path_dfa", 4 * dfa_table.len())?;
@@ -171,6 +177,7 @@ impl RenderBuffers {
             (Binding::ActivePixels, active.buffer),
             (Binding::Splats, splats.buffer),
             (Binding::PathDfa, path_dfa.buffer),
+            (Binding::BdptVertices, bdpt.buffer),
         ]);
 
         // Upload the scene through host-visible staging buffers.
@@ -244,6 +251,7 @@ impl RenderBuffers {
                 env_marginal,
                 light_nodes,
                 light_trails,
+                bdpt,
             ],
         })
     }

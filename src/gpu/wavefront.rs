@@ -51,10 +51,31 @@ pub fn batches(pixel_count: u32, spp: u32, capacity: u32) -> Vec<Batch> {
     out
 }
 
-/// Timestamps one batch writes at most: one before the first kernel and one after each of
-/// generate, (2 + 1 + 2) per bounce and accumulate.
+/// Timestamps one batch writes at most: one before the first kernel and one after each
+/// dispatch. The path tracer records generate, (2 + 1 + 2) per bounce and accumulate; BDPT
+/// generate_light, 3 per light bounce, generate, 3 per camera bounce, 4 per strategy and
+/// accumulate_splats.
 pub fn query_count(max_depth: u32) -> u32 {
-    1 + 1 + 5 * (max_depth + 1) + 1
+    let path = 1 + 5 * (max_depth + 1) + 1;
+    let strategies = bdpt_strategies(max_depth).count() as u32;
+    let bdpt = 1 + 3 * max_depth + 1 + 3 * (max_depth + 1) + 4 * strategies + 1;
+    1 + path.max(bdpt)
+}
+
+/// Slots of `BdptVertex` per BDPT path: its light subpath's max_depth + 1 vertices and its
+/// camera subpath's max_depth + 2 (`bdpt.glsl`, `bdpt_stride`).
+pub fn bdpt_vertices_per_path(max_depth: u32) -> u32 {
+    2 * max_depth + 3
+}
+
+/// The (s, t) strategies `connect_bdpt` runs, one dispatch each, in the order of
+/// `bdpt_strategy` (`bdpt.glsl`): for every path length k = s + t − 2 ≤ max_depth,
+/// s = 0 … k + 1, but (1, 1).
+pub fn bdpt_strategies(max_depth: u32) -> impl Iterator<Item = (u32, u32)> {
+    (0..=max_depth).flat_map(|k| {
+        let last = if k == 0 { 0 } else { k + 1 };
+        (0..=last).map(move |s| (s, k + 2 - s))
+    })
 }
 
 /// Records the kernels of one batch into a command buffer.
@@ -103,11 +124,12 @@ impl Recorder<'_> {
             params(batch, 0),
             batch.size.div_ceil(WORKGROUP_SIZE),
         );
-        self.connect_kernel("connect_light", batch, 0);
+        // connect_light's params.depth is the strategy's code 64 s + t (its alpha key).
+        self.connect_kernel("connect_light", batch, 64 + 1);
         for depth in 0..max_depth {
             self.extend(batch, ALPHA_LIGHT_WALK | depth);
             self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
-            self.connect_kernel("connect_light", batch, depth + 1);
+            self.connect_kernel("connect_light", batch, 64 * (depth + 2) + 1);
         }
         if pass_done {
             self.dispatch(
@@ -116,6 +138,114 @@ impl Recorder<'_> {
                 self.pixel_count.div_ceil(WORKGROUP_SIZE),
             );
         }
+    }
+
+    /// One batch of bidirectional path tracing (`--integrator bdpt`): the light subpaths
+    /// (generate_light, then extend → shade_light per vertex, storing every vertex), the camera
+    /// subpaths (generate, then extend → shade_camera per vertex, storing every vertex), then
+    /// connect_bdpt evaluates every (s, t) strategy of every path, one dispatch row per strategy,
+    /// and splats its weighted contribution; at the end of a pass accumulate_splats makes the
+    /// sums one film sample per pixel, as for light tracing.
+    pub fn record_bdpt_batch(&mut self, batch: Batch, max_depth: u32, pass_done: bool) {
+        const ALPHA_LIGHT_WALK: u32 = 1 << 20;
+        self.reset_counters(0);
+        self.start_timing(max_depth);
+        self.dispatch(
+            "generate_light",
+            params(batch, 0),
+            batch.size.div_ceil(WORKGROUP_SIZE),
+        );
+        for depth in 0..max_depth {
+            self.extend(batch, ALPHA_LIGHT_WALK | depth);
+            self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
+        }
+        // Queue 0 starts full for the camera subpaths.
+        self.set_queue_counters(batch.size);
+        self.generate(batch);
+        for depth in 0..=max_depth {
+            self.extend(batch, depth);
+            self.dispatch_indirect("shade_camera", params(batch, depth), args::RAYS);
+        }
+        // One strategy at a time, so that its shadow rays fit the queue of batch.size.
+        for (j, (s, t)) in bdpt_strategies(max_depth).enumerate() {
+            self.clear_shadow_queue(batch);
+            self.dispatch(
+                "connect_bdpt",
+                params(batch, j as u32),
+                batch.size.div_ceil(WORKGROUP_SIZE),
+            );
+            self.connect_kernel("connect_light", batch, 64 * s + t);
+        }
+        if pass_done {
+            self.dispatch(
+                "accumulate_splats",
+                params(batch, 0),
+                self.pixel_count.div_ceil(WORKGROUP_SIZE),
+            );
+        }
+    }
+
+    /// Empties the shadow queue (a dispatch_args that only clears).
+    fn clear_shadow_queue(&mut self, batch: Batch) {
+        let mut p = params(batch, 0);
+        p.counter = counter::SHADOW;
+        p.args_slot = args::SHADOW;
+        p.total_counter = u32::MAX;
+        p.clear_mask = 1 << counter::SHADOW;
+        self.dispatch("dispatch_args", p, 1);
+    }
+
+    /// Mid-batch: sets queue 0's counter to `first_queue` and empties queue 1 and the shadow
+    /// queue, leaving the running totals.
+    fn set_queue_counters(&self, first_queue: u32) {
+        let device = self.device;
+        let stages = |access| (vk::PipelineStageFlags::COMPUTE_SHADER, access);
+        barrier(
+            device,
+            self.cmd,
+            stages(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE),
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+        );
+        unsafe {
+            device.cmd_fill_buffer(
+                self.cmd,
+                self.counters.buffer,
+                4 * counter::RAYS_0 as u64,
+                4,
+                first_queue,
+            );
+            device.cmd_fill_buffer(
+                self.cmd,
+                self.counters.buffer,
+                4 * counter::RAYS_1 as u64,
+                4,
+                0,
+            );
+            device.cmd_fill_buffer(
+                self.cmd,
+                self.counters.buffer,
+                4 * counter::SHADOW as u64,
+                4,
+                0,
+            );
+        }
+        barrier(
+            device,
+            self.cmd,
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::DRAW_INDIRECT,
+                vk::AccessFlags::SHADER_READ
+                    | vk::AccessFlags::SHADER_WRITE
+                    | vk::AccessFlags::INDIRECT_COMMAND_READ,
+            ),
+        );
     }
 
     fn start_timing(&mut self, max_depth: u32) {
@@ -318,6 +448,29 @@ mod tests {
     use super::*;
     use crate::cpu::path_pixel_sample;
     use crate::layout::FrameParams;
+
+    /// The strategies of connect_bdpt: every (s, t) with t ≥ 1 and s + t − 2 ≤ max_depth once,
+    /// but (1, 1), and (0, 1), which joins nothing.
+    #[test]
+    fn bdpt_strategies_cover_each_once() {
+        for max_depth in 0..12 {
+            let list: Vec<(u32, u32)> = bdpt_strategies(max_depth).collect();
+            let mut expected = Vec::new();
+            for k in 0..=max_depth {
+                for s in 0..=k + 2 {
+                    let t = k + 2 - s;
+                    if t >= 1 && (s, t) != (1, 1) {
+                        expected.push((s, t));
+                    }
+                }
+            }
+            assert_eq!(list, expected, "max depth {max_depth}");
+            assert!(
+                query_count(max_depth)
+                    >= 1 + 1 + 3 * max_depth + 1 + 3 * (max_depth + 1) + 4 * list.len() as u32 + 1
+            );
+        }
+    }
 
     #[test]
     fn batches_cover_every_path_once() {
