@@ -1,7 +1,7 @@
 #!/bin/sh
 # Renders the README's pictures of the bidirectional integrators into tools/gallery/:
 #
-#     sh tools/gallery/bidir.sh        # builds wavetrace; CPU renders (BDPT runs on the CPU)
+#     sh tools/gallery/bidir.sh        # builds wavetrace; CPU renders (the strategy images are the CPU twin's)
 #
 # - bdpt-strategies.png: every (s, t) strategy of the Cornell box up to three scattering
 #   vertices, weighted (upper row of each pair) and unweighted (lower row): the lecture's
