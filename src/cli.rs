@@ -181,6 +181,80 @@ impl AovArg {
     }
 }
 
+/// One `--aov`: the image's quantity, or an extra layer of paths matching an expression.
+#[derive(Clone, Debug)]
+pub enum AovSpec {
+    Property(AovArg),
+    Paths {
+        name: String,
+        expr: std::sync::Arc<wavetrace::paths::PathExpr>,
+    },
+}
+
+/// Channel names of the image's own layer, which a path layer may not take.
+const RESERVED_LAYER_NAMES: &[&str] = &["R", "G", "B", "variance", "count", "sum", "sum_sq"];
+
+fn parse_aov(s: &str) -> Result<AovSpec, String> {
+    let Some((name, expr)) = s.split_once('=') else {
+        return AovArg::from_str(s, true).map(AovSpec::Property).map_err(|_| {
+            format!(
+                "'{s}' is neither a property (radiance, base-color, normal, uv, emission) nor NAME=EXPR"
+            )
+        });
+    };
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(format!(
+            "'{name}': a layer name is letters, digits, '_' and '-' (as in caustics=LS+DE)"
+        ));
+    }
+    if RESERVED_LAYER_NAMES.contains(&name) {
+        return Err(format!(
+            "'{name}' names a channel of the image itself; choose another layer name"
+        ));
+    }
+    let expr = parse_paths(expr)?;
+    Ok(AovSpec::Paths {
+        name: name.to_owned(),
+        expr,
+    })
+}
+
+impl RenderOptions {
+    /// The image's quantity: radiance unless one `--aov PROPERTY` says otherwise.
+    pub fn aov_property(&self) -> anyhow::Result<AovArg> {
+        let mut found = None;
+        for a in &self.aov {
+            if let AovSpec::Property(p) = a {
+                if found.is_some_and(|f| f != *p) {
+                    anyhow::bail!("--aov: the image records one property; give one of them");
+                }
+                found = Some(*p);
+            }
+        }
+        Ok(found.unwrap_or(AovArg::Radiance))
+    }
+
+    /// The `--aov NAME=EXPR` layers, in order; names are unique.
+    pub fn path_layers(
+        &self,
+    ) -> anyhow::Result<Vec<(String, std::sync::Arc<wavetrace::paths::PathExpr>)>> {
+        let mut out: Vec<(String, std::sync::Arc<wavetrace::paths::PathExpr>)> = Vec::new();
+        for a in &self.aov {
+            if let AovSpec::Paths { name, expr } = a {
+                if out.iter().any(|(n, _)| n == name) {
+                    anyhow::bail!("--aov {name}=…: two layers are named {name}");
+                }
+                out.push((name.clone(), expr.clone()));
+            }
+        }
+        Ok(out)
+    }
+}
+
 /// The seed's combined-sampling weightings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MisArg {
@@ -401,10 +475,14 @@ pub struct RenderOptions {
     /// emitter's importance to the shading point, or by emitted power alone.
     #[arg(long, value_enum, default_value_t = LightSamplerArg::Bvh)]
     pub light_sampler: LightSamplerArg,
-    /// Record radiance, or a property of the surface each camera ray hits first (averaged over
-    /// the pixel's samples): for checking textures, normal maps and texture coordinates.
-    #[arg(long, value_enum, default_value_t = AovArg::Radiance)]
-    pub aov: AovArg,
+    /// What the image records: radiance (the default), or a property of the surface each
+    /// camera ray hits first (base-color, normal, uv, emission; averaged over the pixel's
+    /// samples) for checking textures, normal maps and texture coordinates. Or, repeatable,
+    /// NAME=EXPR: an extra EXR layer NAME (channels NAME.R, …, NAME.variance.R, …; a PNG
+    /// output gets OUTPUT.NAME.png beside it) holding the radiance of only the paths that match
+    /// the path expression EXPR (see --paths), from the same paths as the image.
+    #[arg(long, value_name = "PROPERTY|NAME=EXPR", value_parser = parse_aov)]
+    pub aov: Vec<AovSpec>,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,

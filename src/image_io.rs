@@ -35,12 +35,32 @@ pub fn write_image_with(
     exposure: f32,
     attributes: &[(String, String)],
 ) -> anyhow::Result<()> {
+    write_image_layers(film, &[], path, exposure, attributes)
+}
+
+/// [`write_image_with`] and extra named images of the same size (`--aov NAME=EXPR`): in an EXR
+/// as channels NAME.R, NAME.G, NAME.B, NAME.variance.R, … beside the image's; beside a PNG as
+/// files STEM.NAME.png.
+pub fn write_image_layers(
+    film: &Film,
+    layers: &[(String, Film)],
+    path: &Path,
+    exposure: f32,
+    attributes: &[(String, String)],
+) -> anyhow::Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    if ext.as_deref() == Some("png") {
+        for (name, layer) in layers {
+            let sibling = path.with_extension(format!("{name}.png"));
+            write_png(layer, &sibling, exposure)
+                .with_context(|| format!("writing PNG image {}", sibling.display()))?;
+        }
+    }
     match ext.as_deref() {
-        Some("exr") => write_exr(film, path, attributes)
+        Some("exr") => write_exr(film, layers, path, attributes)
             .with_context(|| format!("writing OpenEXR image {}", path.display())),
         Some("png") => write_png(film, path, exposure)
             .with_context(|| format!("writing PNG image {}", path.display())),
@@ -72,7 +92,14 @@ pub struct ImageData {
 /// Reads the first layer of an EXR file: channels R, G, B are required; variance.R/G/B and
 /// count are returned when present. Errors name the path.
 pub fn read_exr(path: &Path) -> anyhow::Result<ImageData> {
-    read_exr_inner(path).with_context(|| format!("reading OpenEXR image {}", path.display()))
+    read_exr_inner(path, "").with_context(|| format!("reading OpenEXR image {}", path.display()))
+}
+
+/// The extra layer `name` of an EXR written with `--aov NAME=EXPR` (channels NAME.R, …,
+/// NAME.variance.R, …; the count is the image's).
+pub fn read_exr_layer(path: &Path, name: &str) -> anyhow::Result<ImageData> {
+    read_exr_inner(path, &format!("{name}."))
+        .with_context(|| format!("reading layer {name} of OpenEXR image {}", path.display()))
 }
 
 /// A film rebuilt from an EXR that wavetrace wrote (mean, variance of the mean and count), for
@@ -154,7 +181,9 @@ fn read_film_exact_inner(path: &Path) -> anyhow::Result<(Film, Vec<(String, Stri
     Ok((Film::from_pixels(width, height, pixels, 0), attributes))
 }
 
-fn write_exr(film: &Film, path: &Path, attributes: &[(String, String)]) -> anyhow::Result<()> {
+/// The mean and variance-of-the-mean channels of `film`, named `{prefix}R`, …,
+/// `{prefix}variance.R`, ….
+fn mean_variance_channels(film: &Film, prefix: &str) -> Vec<AnyChannel<FlatSamples>> {
     let n = film.len();
     let mut mean = [
         Vec::with_capacity(n),
@@ -173,17 +202,33 @@ fn write_exr(film: &Film, path: &Path, attributes: &[(String, String)]) -> anyho
             var[c].push(v[c]);
         }
     }
+    let mut out = Vec::with_capacity(6);
+    for (c, (m, v)) in ["R", "G", "B"].iter().zip(mean.into_iter().zip(var)) {
+        out.push(AnyChannel::new(
+            format!("{prefix}{c}").as_str(),
+            FlatSamples::F32(m),
+        ));
+        out.push(AnyChannel::new(
+            format!("{prefix}variance.{c}").as_str(),
+            FlatSamples::F32(v),
+        ));
+    }
+    out
+}
+
+fn write_exr(
+    film: &Film,
+    layers: &[(String, Film)],
+    path: &Path,
+    attributes: &[(String, String)],
+) -> anyhow::Result<()> {
     let count: Vec<u32> = film.pixels.iter().map(|p| p.count).collect();
     let plane = |f: fn(&FilmPixel) -> f32| -> Vec<f32> { film.pixels.iter().map(f).collect() };
-    let [r, g, b] = mean;
-    let [vr, vg, vb] = var;
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
-        AnyChannel::new("R", FlatSamples::F32(r)),
-        AnyChannel::new("G", FlatSamples::F32(g)),
-        AnyChannel::new("B", FlatSamples::F32(b)),
-        AnyChannel::new("variance.R", FlatSamples::F32(vr)),
-        AnyChannel::new("variance.G", FlatSamples::F32(vg)),
-        AnyChannel::new("variance.B", FlatSamples::F32(vb)),
+    let mut list = mean_variance_channels(film, "");
+    for (name, layer) in layers {
+        list.extend(mean_variance_channels(layer, &format!("{name}.")));
+    }
+    list.extend([
         AnyChannel::new("count", FlatSamples::U32(count)),
         AnyChannel::new("sum.R", FlatSamples::F32(plane(|p| p.sum[0]))),
         AnyChannel::new("sum.G", FlatSamples::F32(plane(|p| p.sum[1]))),
@@ -191,7 +236,8 @@ fn write_exr(film: &Film, path: &Path, attributes: &[(String, String)]) -> anyho
         AnyChannel::new("sum_sq.R", FlatSamples::F32(plane(|p| p.sum_sq[0]))),
         AnyChannel::new("sum_sq.G", FlatSamples::F32(plane(|p| p.sum_sq[1]))),
         AnyChannel::new("sum_sq.B", FlatSamples::F32(plane(|p| p.sum_sq[2]))),
-    ]));
+    ]);
+    let channels = AnyChannels::sort(SmallVec::from_vec(list));
     let size = (film.width as usize, film.height as usize);
     let mut layer_attributes = LayerAttributes::default();
     for (name, value) in attributes {
@@ -235,7 +281,7 @@ fn find_channel<'a>(
         .map(|c| &c.sample_data)
 }
 
-fn read_exr_inner(path: &Path) -> anyhow::Result<ImageData> {
+fn read_exr_inner(path: &Path, prefix: &str) -> anyhow::Result<ImageData> {
     let image = read_first_flat_layer_from_file(path)?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
@@ -243,7 +289,7 @@ fn read_exr_inner(path: &Path) -> anyhow::Result<ImageData> {
     let rgb = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
         let planes: Vec<Vec<f32>> = names
             .iter()
-            .map(|n| channel(n).map(|s| s.values_as_f32().collect()))
+            .map(|n| channel(&format!("{prefix}{n}")).map(|s| s.values_as_f32().collect()))
             .collect::<Option<_>>()?;
         Some(
             (0..width * height)
@@ -259,7 +305,7 @@ fn read_exr_inner(path: &Path) -> anyhow::Result<ImageData> {
             .map(|c| c.name.to_string())
             .collect();
         bail!(
-            "the first layer has no R, G, B channels (it has: {})",
+            "the first layer has no {prefix}R, {prefix}G, {prefix}B channels (it has: {})",
             names.join(", ")
         );
     };

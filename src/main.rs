@@ -222,7 +222,7 @@ fn prepare(
         rr_mode: opts.rr.code(),
         rr_start_depth: opts.rr_depth,
         debug_flags: opts.debug_flags,
-        aov: opts.aov.code(),
+        aov: opts.aov_property()?.code(),
         aperture: opts.aperture,
         focus_distance: opts.focus_distance,
         integrator: opts.integrator.integrator(),
@@ -326,6 +326,27 @@ fn render(args: &RenderArgs) -> Result<()> {
         }
         if args.sample_range.is_some() || args.shard.is_some() || args.resume.is_some() {
             bail!("--bdpt-strategies renders every sample: it does not combine with --sample-range, --shard or --resume");
+        }
+    }
+    let path_layers = args.opts.path_layers()?;
+    if !path_layers.is_empty() {
+        let refuse = |what: &str| -> Result<()> {
+            bail!("--aov NAME=EXPR renders its layers beside a whole image: it does not combine with {what}")
+        };
+        if progressive.is_some() {
+            refuse("--target-error or --time-limit")?;
+        }
+        if args.sample_range.is_some() || args.shard.is_some() || args.resume.is_some() {
+            refuse("--sample-range, --shard or --resume")?;
+        }
+        if args.bdpt_strategies.is_some() {
+            refuse("--bdpt-strategies")?;
+        }
+        if settings.aov != wavetrace::layout::AOV_RADIANCE {
+            refuse("a property --aov (path layers hold radiance)")?;
+        }
+        if multi_gpu(&args.opts.gpu_index).is_some() {
+            refuse("several --gpu-index devices")?;
         }
     }
     let plan = shard_cmd::plan(args, &record, progressive.is_some(), default_output)?;
@@ -507,7 +528,14 @@ fn render(args: &RenderArgs) -> Result<()> {
         record = r;
         (film, end < target.end)
     };
-    wavetrace::image_io::write_image_with(&film, &output, args.exposure, &record.attributes())?;
+    let layers = render_path_layers(args, &prepared, &settings, device, &path_layers, end)?;
+    wavetrace::image_io::write_image_layers(
+        &film,
+        &layers,
+        &output,
+        args.exposure,
+        &record.attributes(),
+    )?;
     println!("wrote {}", output.display());
     if interrupted {
         let held = record.samples.expect("fixed-range renders have a range");
@@ -530,6 +558,62 @@ fn render(args: &RenderArgs) -> Result<()> {
         std::process::exit(shard_cmd::INTERRUPTED_EXIT);
     }
     Ok(())
+}
+
+/// The `--aov NAME=EXPR` layers: the image's samples 0..`samples` again with `--paths EXPR` in
+/// place of the image's, on the same device with the same random numbers, so each layer holds
+/// exactly the image's paths that match its expression.
+fn render_path_layers(
+    args: &RenderArgs,
+    prepared: &PreparedScene,
+    settings: &RenderSettings,
+    device: DeviceKind,
+    layers: &[(String, std::sync::Arc<wavetrace::paths::PathExpr>)],
+    samples: u32,
+) -> Result<Vec<(String, wavetrace::film::Film)>> {
+    if layers.is_empty() {
+        return Ok(Vec::new());
+    }
+    let gpu = match device {
+        DeviceKind::Gpu => Some(GpuRenderer::new(&GpuOptions {
+            device_index: args.opts.gpu_index.as_ref().and_then(|g| g.one()),
+            validation: args.opts.validate,
+            timing: false,
+        })?),
+        _ => None,
+    };
+    let never = std::sync::atomic::AtomicBool::new(false);
+    let hidden = ProgressBar::hidden();
+    layers
+        .iter()
+        .map(|(name, expr)| {
+            let s = RenderSettings {
+                paths: Some(expr.clone()),
+                ..settings.clone()
+            };
+            let film = match &gpu {
+                Some(g) => {
+                    g.render_range_with_progress(
+                        prepared,
+                        &s,
+                        args.opts.wavefront,
+                        0..samples,
+                        &hidden,
+                        &never,
+                    )?
+                    .0
+                    .film
+                }
+                None => {
+                    wavetrace::cpu::render_range(prepared, &s, 0..samples, &hidden, &never)
+                        .0
+                        .film
+                }
+            };
+            println!("layer {name}: the paths {}", expr.source);
+            Ok((name.clone(), film))
+        })
+        .collect()
 }
 
 /// The devices of `--gpu-index LIST|all`, or None for one device.

@@ -116,7 +116,7 @@ pub fn record(
         ("rr_depth", o.rr_depth.to_string()),
         ("light_sampler", lower(&o.light_sampler)),
         ("environment", environment),
-        ("aov", lower(&o.aov)),
+        ("aov", lower(&o.aov_property()?)),
         ("instancing", (!o.no_instancing).to_string()),
         ("debug_flags", o.debug_flags.to_string()),
     ];

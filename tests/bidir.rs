@@ -436,6 +436,94 @@ fn every_bdpt_weighting_is_unbiased() {
     }
 }
 
+/// `--aov NAME=EXPR` writes each expression's image as EXR channels NAME.R, … beside the
+/// image's, from the same paths: the layers of a partition add up to the image, for the path
+/// tracer and BDPT; bad layer names and combinations are refused by name.
+#[test]
+fn path_layers_partition_the_image() {
+    let dir = common::temp("bidir", "layers");
+    std::fs::create_dir_all(&dir).unwrap();
+    for integrator in ["path", "bdpt"] {
+        let out = dir.join(format!("{integrator}.exr"));
+        let o = common::wavetrace(&[
+            "render",
+            "scenes/cornell-materials.gltf",
+            "--device",
+            "cpu",
+            "--integrator",
+            integrator,
+            "--width",
+            "16",
+            "--spp",
+            "4",
+            "--aov",
+            "emitters=LE",
+            "--aov",
+            "diffuse_last=L(D|S)*DE",
+            "--aov",
+            "specular_last=L(D|S)*SE",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let image = wavetrace::image_io::read_exr(&out).unwrap();
+        let parts: Vec<_> = ["emitters", "diffuse_last", "specular_last"]
+            .iter()
+            .map(|n| wavetrace::image_io::read_exr_layer(&out, n).unwrap())
+            .collect();
+        assert!(parts[1].mean.iter().any(|p| p[0] > 0.0));
+        for (i, m) in image.mean.iter().enumerate() {
+            for c in 0..3 {
+                let sum: f32 = parts.iter().map(|p| p.mean[i][c]).sum();
+                assert!(
+                    (sum - m[c]).abs() <= 1e-4 * m[c].abs().max(1.0),
+                    "{integrator}: pixel {i} channel {c}: layers {sum}, image {}",
+                    m[c]
+                );
+            }
+        }
+    }
+    let out = dir.join("refused.exr");
+    for (args, expect) in [
+        (
+            vec!["--aov", "R=LE"],
+            "'R' names a channel of the image itself",
+        ),
+        (
+            vec!["--aov", "bad name=LE"],
+            "a layer name is letters, digits",
+        ),
+        (vec!["--aov", "x=L(E"], "missing ')'"),
+        (
+            vec!["--aov", "a=LE", "--aov", "a=LDE"],
+            "two layers are named a",
+        ),
+        (vec!["--aov", "chrome"], "neither a property"),
+        (
+            vec!["--aov", "a=LE", "--target-error", "0.1"],
+            "does not combine with --target-error",
+        ),
+    ] {
+        let mut all = vec![
+            "render",
+            "scenes/cornell-box.gltf",
+            "--device",
+            "cpu",
+            "--width",
+            "8",
+            "--spp",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        all.extend(args.iter().copied());
+        let o = common::wavetrace(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err.contains(expect), "{args:?}: stderr was\n{err}");
+    }
+}
+
 /// What the light and bidirectional integrators cannot do yet is refused with one message
 /// naming the option, and a non-zero exit; a malformed path expression names itself.
 #[test]
