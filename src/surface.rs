@@ -246,6 +246,36 @@ pub fn alpha_key(seed: u32, pixel: u32, sample: u32, depth: u32, shadow: bool) -
     )
 }
 
+/// glTF's back-face culling (`doubleSided` false) is a rule of what the camera sees: a
+/// single-sided triangle is absent only for primary camera rays that meet its back face (and
+/// for the joins of light vertices to the camera, which are those rays traced from the other
+/// end). Every other ray — bounces, shadow rays, light subpaths, BDPT's connections — meets
+/// both faces, so transport is reciprocal and light and camera paths see one scene. The `z` of
+/// a primary ray's alpha key: `alpha_key(…, 0, false)`.
+pub const ALPHA_KEY_PRIMARY_Z: u32 = 0x4000_0000;
+
+/// Alpha-key bit (in `z`, which `alpha_key` never sets this high): a join of a light vertex to
+/// the camera, traced from the light vertex, so culled as the primary ray from the camera would
+/// be: a single-sided triangle is absent where its front faces this ray.
+pub const ALPHA_KEY_TOWARDS_EYE: u32 = 1 << 31;
+
+/// `key` for a join to the camera traced from its far end ([`ALPHA_KEY_TOWARDS_EYE`]).
+pub fn towards_eye(key: UVec4) -> UVec4 {
+    UVec4::new(key.x, key.y, key.z | ALPHA_KEY_TOWARDS_EYE, key.w)
+}
+
+/// Whether a single-sided triangle whose front-face normal is `n` is absent for a ray of
+/// direction `dir` with alpha key `key` (module rule above: primary rays and joins to the
+/// camera only).
+pub fn culled(key: UVec4, dir: Vec3, n: Vec3) -> bool {
+    let facing = dir.dot(n);
+    if key.z & ALPHA_KEY_TOWARDS_EYE != 0 {
+        facing < 0.0
+    } else {
+        key.z == ALPHA_KEY_PRIMARY_Z && facing > 0.0
+    }
+}
+
 /// Whether a surface of evaluated alpha `alpha` exists for the ray: MASK by the cutoff, BLEND
 /// with probability alpha, OPAQUE always.
 pub fn alpha_present(flags: u32, alpha: f32, cutoff: f32, u: f32) -> bool {
@@ -259,8 +289,8 @@ pub fn alpha_present(flags: u32, alpha: f32, cutoff: f32, u: f32) -> bool {
 }
 
 /// Whether triangle `index`'s surface exists at (u, v) for the ray with direction `dir` (in the
-/// triangle's space) and alpha key `key`: the any-hit test of both traversals. A back face of a
-/// TRIANGLE_TEST_CULL triangle (dir·(e1 × e2) > 0) does not exist; TRIANGLE_TEST_ALPHA
+/// triangle's space) and alpha key `key`: the any-hit test of both traversals. A
+/// TRIANGLE_TEST_CULL triangle does not exist where [`culled`] says; TRIANGLE_TEST_ALPHA
 /// triangles exist by their alpha; all others always exist.
 #[allow(clippy::too_many_arguments)]
 pub fn triangle_present(
@@ -280,7 +310,7 @@ pub fn triangle_present(
         return true;
     }
     if tri.material & TRIANGLE_TEST_CULL != 0
-        && dir.dot(Vec3::from(tri.e1).cross(Vec3::from(tri.e2))) > 0.0
+        && culled(key, dir, Vec3::from(tri.e1).cross(Vec3::from(tri.e2)))
     {
         return false;
     }

@@ -436,6 +436,55 @@ fn every_bdpt_weighting_is_unbiased() {
     }
 }
 
+/// Back-face culling depends on the segment, not on which end traces it: a single-sided panel
+/// under the Cornell box's light, its front face down, shadows the floor for camera paths
+/// (their shadow rays meet its front) and must for light paths too (they meet its back: with
+/// culling applied as for camera rays they would pass and light the floor beneath).
+#[test]
+fn single_sided_occluders_block_light_and_camera_paths_alike() {
+    let mut doc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(common::scene_path("cornell-box.gltf")).unwrap(),
+    )
+    .unwrap();
+    // The white rectangle as the ceiling has it (normal −Y), 0.35 wide, 0.35 below the light.
+    let panel = serde_json::json!({
+        "name": "single-sided panel",
+        "mesh": 0,
+        "matrix": [0.35, 0.0, 0.0, 0.0, 0.0, 0.0, 0.35, 0.0, 0.0, -0.35, 0.0, 0.0, 0.0, 0.64, 0.0, 1.0]
+    });
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(panel);
+    let index = nodes.len() - 1;
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(index.into());
+    let path = common::temp("bidir", "panel.gltf");
+    std::fs::write(&path, serde_json::to_string(&doc).unwrap()).unwrap();
+    let scene =
+        wavetrace::render::PreparedScene::new(&wavetrace::scene::Scene::load(&path).unwrap());
+    let alpha = sidak(0.01, 3);
+    let reference = batch_tiles(&scene, &settings(Integrator::Path, 8, 3), 11);
+    for integrator in [Integrator::Light, Integrator::Bdpt] {
+        print!("{integrator:?}: ");
+        welch_tiles(
+            &batch_tiles(&scene, &settings(integrator, 8, 3), 12),
+            &reference,
+            alpha,
+        )
+        .unwrap_or_else(|e| panic!("{integrator:?} ≠ path under a single-sided panel:\n{e}"));
+    }
+    if common::gpu().is_some() {
+        let s = settings(Integrator::Light, 8, 3);
+        let gpu = batch_tiles_of(&s, 13, |b| {
+            common::render_gpu(&scene, b, None).unwrap().film
+        });
+        print!("GPU light: ");
+        welch_tiles(&gpu, &reference, alpha)
+            .unwrap_or_else(|e| panic!("GPU light ≠ path under a single-sided panel:\n{e}"));
+    }
+}
+
 /// `--aov NAME=EXPR` writes each expression's image as EXR channels NAME.R, … beside the
 /// image's, from the same paths: the layers of a partition add up to the image, for the path
 /// tracer and BDPT; bad layer names and combinations are refused by name.

@@ -63,6 +63,13 @@ vec3 phi(GpuMaterial mat, vec3 ng, vec3 ns, vec3 w_cam, vec3 w_light) {
     return bsdf_frame_eval(f, w_light, TRANSPORT_RADIANCE) * (bsdf_frame_cos(f, w_light) / cos_g);
 }
 
+// Whether the camera, in direction w from a point of triangle `index` (front-face normal ng),
+// sees the point: not on the back face of a single-sided triangle, which primary rays cull
+// (surface.glsl, culled; src/cpu/bidir.rs, camera_sees).
+bool camera_sees(uint index, vec3 ng, vec3 w) {
+    return (triangles[index].material & TRIANGLE_TEST_CULL) == 0u || dot(ng, w) >= 0.0;
+}
+
 // A surface vertex can be joined to the camera if its material has a non-delta lobe.
 bool connectible(GpuMaterial m) {
     float alpha = m.roughness * m.roughness;

@@ -144,13 +144,26 @@ bool alpha_present(uint flags, float alpha, float cutoff, float u) {
     return true;
 }
 
+// Back-face culling is what the camera sees: single-sided triangles are absent only for
+// primary camera rays meeting their back face and for joins of light vertices to the camera
+// traced from the light vertex (alpha-key bit ALPHA_KEY_TOWARDS_EYE); every other ray meets both
+// faces (surface.rs, culled).
+#define ALPHA_KEY_PRIMARY_Z 0x40000000u
+#define ALPHA_KEY_TOWARDS_EYE 0x80000000u
+uvec4 towards_eye(uvec4 key) { return uvec4(key.x, key.y, key.z | ALPHA_KEY_TOWARDS_EYE, key.w); }
+bool culled(uvec4 key, vec3 dir, vec3 n) {
+    float facing = dot(dir, n);
+    if ((key.z & ALPHA_KEY_TOWARDS_EYE) != 0u) return facing < 0.0;
+    return key.z == ALPHA_KEY_PRIMARY_Z && facing > 0.0;
+}
+
 // The any-hit test of both traversals: whether triangle `index` exists at (u, v) for the ray of
-// direction dir (triangle space): back faces of TRIANGLE_TEST_CULL triangles do not, alpha-tested
-// ones by their alpha.
+// direction dir (triangle space): not where a TRIANGLE_TEST_CULL triangle is culled, alpha-
+// tested ones by their alpha.
 bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
     GpuTriangle tri = triangles[index];
     if ((tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL)) == 0u) return true;
-    if ((tri.material & TRIANGLE_TEST_CULL) != 0u && dot(dir, cross(tri.e1, tri.e2)) > 0.0) return false;
+    if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, cross(tri.e1, tri.e2))) return false;
     if ((tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
     uvec4 tv = triangle_vertices[index];
     GpuMaterial m = materials[triangle_material(tri)];

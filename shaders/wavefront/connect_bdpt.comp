@@ -80,6 +80,7 @@ void main() {
         if (t == 1u) {
             float g_we;
             if (!camera_connection(qs.p, qs.ng, bdpt_on_surface(qs), w_q, dist, target, g_we, shadow)) return;
+            if (qs_surface && !camera_sees(qs.index, qs.ng, w_q)) return;
             camera_side = vec3(g_we);
         } else {
             vec3 d = qs.p - pt.p;

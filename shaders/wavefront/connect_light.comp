@@ -26,6 +26,8 @@ void main() {
     uint pixel, sample_index;
     path_pixel_sample(shadow.path, pixel, sample_index);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, ALPHA_CONNECT + params.depth, true);
+    // A join to the camera (t = 1) runs from the light vertex: towards the eye.
+    if (params.depth % 64u == 1u) key = towards_eye(key);
     if (!scene_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
         splat_add(shadow.pad, shadow.contribution);
     }

@@ -67,7 +67,7 @@ void main() {
         float dist;
         uint target;
         float g_we;
-        if (camera_connection(p, ng, true, w, dist, target, g_we, shadow)) {
+        if (camera_connection(p, ng, true, w, dist, target, g_we, shadow) && camera_sees(hit.triangle, ng, w)) {
             queue_camera_join(shadow, beta * phi(mat, ng, ns, w, wo) * g_we, ray.path, light_path_ends_here(state.prev_specular, SYM_D));
         }
     }

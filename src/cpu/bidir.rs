@@ -41,7 +41,7 @@ use crate::cpu::{accumulate, emitted_radiance};
 use crate::film::Film;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, GpuPunctualLight, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL,
-    LIGHT_SPOT, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF,
+    LIGHT_SPOT, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF, TRIANGLE_TEST_CULL,
 };
 use crate::mc::roulette_f32;
 use crate::mis::Heuristic;
@@ -52,7 +52,8 @@ use crate::sampling::{
     sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
 use crate::surface::{
-    alpha_key, surface_emission, surface_material, surface_normal, surface_point, LOD_MAGNIFY,
+    alpha_key, surface_emission, surface_material, surface_normal, surface_point, towards_eye,
+    LOD_MAGNIFY,
 };
 use crate::texture::TextureData;
 use glam::{Vec2, Vec3};
@@ -670,6 +671,12 @@ impl<'a> Bidir<'a> {
             return false;
         }
         let alpha = alpha_key(f.seed, key.0, key.1, ALPHA_CONNECT + key.2, true);
+        // A join to the camera runs from the light vertex: towards the eye.
+        let alpha = if b.kind == Kind::Camera {
+            towards_eye(alpha)
+        } else {
+            alpha
+        };
         !self.scene.intersect_any(
             &Ray {
                 origin,
@@ -855,6 +862,9 @@ impl<'a> Bidir<'a> {
             let dist = d.length();
             let w = d / dist;
             let (pixel, we, _) = self.camera_importance(-w)?;
+            if qs.kind == Kind::Surface && !self.camera_sees(qs, w) {
+                return None;
+            }
             let value = if qs.kind == Kind::Surface {
                 self.phi(qs, w, qs.wo)
             } else {
@@ -899,6 +909,13 @@ impl<'a> Bidir<'a> {
             return None;
         }
         Some((c, None, sampled))
+    }
+
+    /// Whether the camera, in direction `w` from surface vertex `v`, sees it: not on the back
+    /// face of a single-sided triangle, which primary rays cull (`surface::culled`).
+    fn camera_sees(&self, v: &Vertex, w: Vec3) -> bool {
+        let tri = &self.scene.triangles[v.index as usize];
+        tri.material & TRIANGLE_TEST_CULL == 0 || v.ng.dot(w) >= 0.0
     }
 
     /// A surface vertex can be joined to another if its material has a non-delta lobe.
@@ -1002,9 +1019,8 @@ pub fn check(
     if settings.aperture > 0.0 {
         return refuse("joins light paths to a pinhole: --aperture must be 0 (use --integrator path for depth of field)");
     }
-    // Light from infinity reaches the back faces of open single-sided surfaces, which glTF's
-    // culling (applied to every ray, `TRIANGLE_TEST_CULL`) lets it pass one way only: light
-    // paths there would see another scene than camera paths.
+    // Light from infinity needs origins on a disc beyond the scene and, for BDPT, camera
+    // vertices that escape to it: not written yet.
     if settings.environment_map().is_some() {
         return refuse("does not start light paths at the environment yet: drop --env/--environment or use --integrator path");
     }
