@@ -111,11 +111,13 @@ void queue_camera_join(ShadowRay shadow, vec3 contribution, uint path, bool acce
     shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
 }
 
-// Adds c to pixel's splat sums: each channel in units of 2^-24 as a 64-bit integer split into
-// a low and a high word; the low word's carry is detected from atomicAdd's old value, so the
-// total is exact and independent of the order of the additions. Non-finite, negative and
-// absurd (>= 2^39) values are not added.
-void splat_add(uint pixel, vec3 c) {
+// Adds c to pixel's splat sums of the batch's pass `slot` (the sample index less the batch's
+// first: a batch holds whole passes, or a run of pixels of one): each channel in units of
+// 2^-24 as a 64-bit integer split into a low and a high word; the low word's carry is detected
+// from atomicAdd's old value, so the total is exact and independent of the order of the
+// additions. Non-finite, negative and absurd (>= 2^39) values are not added.
+void splat_add(uint slot, uint pixel, vec3 c) {
+    pixel += slot * frame.band_pixel_count;
     for (uint ch = 0u; ch < 3u; ch++) {
         float v = c[ch];
         if (!(v > 0.0) || !(v < 549755813888.0)) continue;

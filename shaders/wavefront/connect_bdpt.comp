@@ -116,7 +116,7 @@ void main() {
     float weight = bdpt_mis_weight(path, s, t, sampled, mat_qs, mat_pt);
     if (!(weight > 0.0)) return;
     if (s == 0u) {
-        splat_add(target, c * weight);
+        splat_add(sample_index - params.first_sample, target, c * weight);
         return;
     }
     shadow.path = path;

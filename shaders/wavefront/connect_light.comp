@@ -29,6 +29,6 @@ void main() {
     // A join to the camera (t = 1) runs from the light vertex: towards the eye.
     if (params.depth % 64u == 1u) key = towards_eye(key);
     if (!scene_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
-        splat_add(shadow.pad, shadow.contribution);
+        splat_add(sample_index - params.first_sample, shadow.pad, shadow.contribution);
     }
 }

@@ -222,18 +222,25 @@ impl GpuRenderer {
         let environment = settings.environment_map();
         let env = crate::environment::map_or_none(&environment);
         let splatting = settings.integrator != crate::cpu::Integrator::Path;
-        // A splatting batch never straddles two passes: the splats of one sample index make one
-        // film sample. BDPT keeps both subpaths of every path in flight, as many as one storage
-        // binding holds.
+        // BDPT keeps both subpaths of every path in flight, as many as one storage binding
+        // holds.
         let bdpt_stride = wavefront::bdpt_vertices_per_path(settings.max_depth) as u64;
-        let capacity = match settings.integrator {
-            crate::cpu::Integrator::Path => capacity,
-            crate::cpu::Integrator::Light => capacity.min(band_pixels),
-            crate::cpu::Integrator::Bdpt => {
-                let per_path = bdpt_stride * size_of::<crate::layout::BdptVertex>() as u64;
-                capacity
-                    .min(band_pixels)
-                    .min((range / per_path).max(1) as u32)
+        let capacity = if settings.integrator == crate::cpu::Integrator::Bdpt {
+            let per_path = bdpt_stride * size_of::<crate::layout::BdptVertex>() as u64;
+            capacity.min((range / per_path).max(1) as u32)
+        } else {
+            capacity
+        };
+        // A splatting batch holds whole passes (or a run of pixels of one pass, `batches`), each
+        // with its own splat image: the splats of one sample index make one film sample.
+        let (capacity, splat_passes) = match splatting {
+            false => (capacity, 0),
+            true if capacity < band_pixels => (capacity, 1),
+            true => {
+                let passes = (capacity / band_pixels)
+                    .min((range / (24 * band_pixels as u64)) as u32)
+                    .max(1);
+                (passes * band_pixels, passes)
             }
         };
         let bdpt_vertices = if settings.integrator == crate::cpu::Integrator::Bdpt {
@@ -250,7 +257,7 @@ impl GpuRenderer {
             capacity as u64,
             band_pixels as u64,
             if active_list { band_pixels as u64 } else { 0 },
-            if splatting { band_pixels as u64 } else { 0 },
+            splat_passes as u64 * band_pixels as u64,
             bdpt_vertices,
             settings.paths.as_deref(),
         )?;
@@ -479,7 +486,8 @@ impl GpuRenderer {
                     &[],
                 );
             }
-            let pass_done = batch.first_pixel + batch.size == pixel_count;
+            // (A batch of whole passes ends each of them.)
+            let pass_done = batch.first_pixel + batch.size >= pixel_count;
             match settings.integrator {
                 crate::cpu::Integrator::Path => recorder.record_batch(batch, settings.max_depth),
                 crate::cpu::Integrator::Light => {

@@ -111,7 +111,8 @@ impl Recorder<'_> {
 
     /// One batch of light tracing (`--integrator light`): generate_light → connect_light, then
     /// (extend → shade_light → connect_light) per scattering vertex; at the end of a pass
-    /// (`pass_done`) the splat sums become one film sample per pixel (accumulate_splats).
+    /// (`pass_done`) the splat sums of each of the batch's passes become one film sample per
+    /// pixel (accumulate_splats).
     /// Light rays' alpha keys are ALPHA_LIGHT_WALK + d: `extend` reads params.depth, whose low
     /// bit still picks the queue.
     pub fn record_light_batch(&mut self, batch: Batch, max_depth: u32, pass_done: bool) {
