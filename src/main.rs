@@ -516,6 +516,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     if let Some(r) = &report {
         println!("{r}");
     }
+    let fault = stats.fault.clone();
     let (film, interrupted) = if progressive.is_some() {
         // Renders in passes hold different samples per pixel: no range to merge or resume.
         record.samples = None;
@@ -528,7 +529,11 @@ fn render(args: &RenderArgs) -> Result<()> {
         record = r;
         (film, end < target.end)
     };
-    let layers = render_path_layers(args, &prepared, &settings, device, &path_layers, end)?;
+    // (After a fault the device is gone: the layers are left out of the partial image.)
+    let layers = match fault {
+        None => render_path_layers(args, &prepared, &settings, device, &path_layers, end)?,
+        Some(_) => Vec::new(),
+    };
     wavetrace::image_io::write_image_layers(
         &film,
         &layers,
@@ -537,6 +542,26 @@ fn render(args: &RenderArgs) -> Result<()> {
         &record.attributes(),
     )?;
     println!("wrote {}", output.display());
+    if let Some(fault) = fault {
+        let held = record
+            .samples
+            .map_or_else(|| "no samples".to_owned(), |r| format!("samples {r}"));
+        bail!(
+            "{fault}: {} holds the {held} finished before it{}",
+            output.display(),
+            if output
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+            {
+                format!(
+                    "; continue with the same command and --resume {}",
+                    output.display()
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
     if interrupted {
         let held = record.samples.expect("fixed-range renders have a range");
         eprintln!(
@@ -592,18 +617,19 @@ fn render_path_layers(
                 ..settings.clone()
             };
             let film = match &gpu {
-                Some(g) => {
-                    g.render_range_with_progress(
+                Some(g) => g
+                    .render_range_with_progress(
                         prepared,
                         &s,
                         args.opts.wavefront,
                         0..samples,
                         &hidden,
                         &never,
-                    )?
-                    .0
-                    .film
-                }
+                    )
+                    .and_then(|(out, _)| match out.stats.fault {
+                        Some(fault) => bail!("layer {name}: {fault}"),
+                        None => Ok(out.film),
+                    })?,
                 None => {
                     wavetrace::cpu::render_range(prepared, &s, 0..samples, &hidden, &never)
                         .0
@@ -685,6 +711,9 @@ fn render_on_devices(
                             progress,
                             never,
                         )?;
+                        if let Some(fault) = &out.stats.fault {
+                            bail!("{name}: {fault}");
+                        }
                         Ok((name, range, out))
                     })
                 })

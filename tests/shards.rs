@@ -463,3 +463,73 @@ fn a_render_split_over_devices_is_the_single_render() {
     );
     assert_same_samples(&two, &one);
 }
+
+/// `render` with `WAVETRACE_FAULT` set (src/gpu/fault.rs).
+fn run_render_with_fault(fault: &str, size: u32, spp: u32, extra: &[&str], out: &Path) -> Output {
+    let (size, spp) = (size.to_string(), spp.to_string());
+    let mut args = vec![
+        "render",
+        "scenes/cornell-box.gltf",
+        "--device",
+        "gpu",
+        "--width",
+        &size,
+        "--height",
+        &size,
+        "--spp",
+        &spp,
+        "--max-depth",
+        "4",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    std::process::Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(&args)
+        .env("WAVETRACE_FAULT", fault)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the wavetrace binary runs")
+}
+
+/// Faults end cleanly (issue 14, item 5): a device lost in the fourth batch (two passes each)
+/// ends the render with a message naming it and an EXR of the six samples finished before it,
+/// which --resume completes into what one render gives; memory exhausted while the buffers are
+/// made names the buffer. Never a panic.
+#[test]
+fn gpu_faults_end_cleanly_and_keep_the_finished_samples() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let (full, partial) = (temp("fault-full.exr"), temp("fault-partial.exr"));
+    let wavefront = ["--wavefront", "2048"];
+    render("gpu", 32, 12, &wavefront, &full);
+    let o = run_render_with_fault("device-lost@4", 32, 12, &wavefront, &partial);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("the GPU was lost during a wavefront batch (VK_ERROR_DEVICE_LOST)")
+            && err.contains("holds the samples 0..6 finished before it")
+            && err.contains("--resume"),
+        "{err}"
+    );
+    let p = read_exr_file(&partial);
+    assert_eq!(p.record.samples, Some(SampleRange::new(0, 6)));
+    let mut resume = wavefront.to_vec();
+    resume.extend(["--resume", partial.to_str().unwrap()]);
+    render("gpu", 32, 12, &resume, &partial);
+    assert_same_samples(&partial, &full);
+
+    for buffer in ["film", "bvh_nodes", "rays"] {
+        let out = temp(&format!("fault-{buffer}.exr"));
+        let o = run_render_with_fault(&format!("oom@{buffer}"), 16, 2, &[], &out);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(
+            err.contains(&format!("out of GPU memory allocating buffer '{buffer}'")),
+            "{err}"
+        );
+    }
+}

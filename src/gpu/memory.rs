@@ -65,13 +65,15 @@ impl Buffer {
         let alloc = vk::MemoryAllocateInfo::default()
             .allocation_size(req.size)
             .memory_type_index(type_index);
-        let memory = match unsafe { device.allocate_memory(&alloc, None) } {
+        let allocated = super::fault::before_allocation(name)
+            .and_then(|()| unsafe { device.allocate_memory(&alloc, None) });
+        let memory = match allocated {
             Ok(m) => m,
             Err(e) => {
                 unsafe { device.destroy_buffer(buffer, None) };
                 return Err(anyhow!(
-                    "out of GPU memory allocating buffer '{name}' ({} MiB): {e}; try a smaller --wavefront",
-                    size >> 20
+                    "out of GPU memory allocating buffer '{name}' ({:.1} MiB): {e}; try a smaller --wavefront",
+                    size as f64 / (1u64 << 20) as f64
                 ));
             }
         };
@@ -182,6 +184,22 @@ impl Commands {
 
     /// Ends, submits and waits (at most `timeout_s`); device loss and time-outs become errors.
     pub fn submit_and_wait(&self, ctx: &Context, what: &str, timeout_s: u64) -> Result<()> {
+        self.submit_and_wait_checked(ctx, what, timeout_s, || Ok(()))
+    }
+
+    /// [`Commands::submit_and_wait`] of one wavefront batch, where an injected device loss can
+    /// strike (`fault.rs`).
+    pub fn submit_batch(&self, ctx: &Context, what: &str, timeout_s: u64) -> Result<()> {
+        self.submit_and_wait_checked(ctx, what, timeout_s, super::fault::before_batch)
+    }
+
+    fn submit_and_wait_checked(
+        &self,
+        ctx: &Context,
+        what: &str,
+        timeout_s: u64,
+        before: impl FnOnce() -> std::result::Result<(), vk::Result>,
+    ) -> Result<()> {
         let explain = |e: vk::Result| match e {
             vk::Result::ERROR_DEVICE_LOST => {
                 anyhow!("the GPU was lost during {what} (VK_ERROR_DEVICE_LOST)")
@@ -198,6 +216,7 @@ impl Commands {
             self.device.end_command_buffer(self.cmd).map_err(explain)?;
             let cmds = [self.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            before().map_err(explain)?;
             self.device
                 .queue_submit(ctx.queue, &submit, self.fence)
                 .map_err(explain)?;

@@ -3,6 +3,7 @@
 
 pub mod compute;
 pub mod context;
+pub mod fault;
 pub mod memory;
 pub mod pipelines;
 pub mod resources;
@@ -125,6 +126,9 @@ impl GpuRenderer {
             progress,
             &never,
         )?;
+        if let Some(fault) = out.stats.fault {
+            bail!("{fault}");
+        }
         Ok(out)
     }
 
@@ -132,6 +136,9 @@ impl GpuRenderer {
     /// over all `settings.spp`). When `stop` is set it stops at the next whole sample pass of an
     /// image of one band (an image of several bands renders to the end); returns the output
     /// and the end of the samples rendered: every pixel holds samples [samples.start, end).
+    /// A device lost or memory exhausted during an image of one band returns the samples
+    /// finished before it (the last film copied back, at most a few seconds old) with the
+    /// error in `stats.fault`; the caller reports it.
     pub fn render_range_with_progress(
         &self,
         scene: &PreparedScene,
@@ -313,7 +320,8 @@ impl GpuRenderer {
         let start = Instant::now();
         let bands = Self::bands(settings, setup.band_rows);
         let never = std::sync::atomic::AtomicBool::new(false);
-        let stop = if bands.len() == 1 { stop } else { &never };
+        let one_band = bands.len() == 1;
+        let stop = if one_band { stop } else { &never };
         let mut end = samples.end;
         for band in bands {
             let frame = Self::band_frame(setup, settings.width, band);
@@ -339,7 +347,19 @@ impl GpuRenderer {
             self.commands
                 .submit_and_wait(ctx, "clearing the film", SUBMIT_TIMEOUT_S)?;
 
-            end = self.run_batches(
+            // An image of one band keeps a copy of its film at whole passes, so that a lost
+            // device or exhausted memory still leaves the samples finished (`RenderStats::fault`).
+            let mut checkpoint = one_band.then(|| Checkpoint {
+                pixels: vec![FilmPixel::default(); frame.band_pixel_count as usize],
+                end: samples.start,
+                taken: Instant::now(),
+                every: if fault::injected() {
+                    std::time::Duration::ZERO
+                } else {
+                    CHECKPOINT_INTERVAL
+                },
+            });
+            let ran = self.run_batches(
                 settings,
                 setup,
                 samples.clone(),
@@ -347,7 +367,17 @@ impl GpuRenderer {
                 progress,
                 &mut stats,
                 stop,
-            )?;
+                checkpoint.as_mut(),
+            );
+            end = match (ran, checkpoint) {
+                (Ok(e), _) => e,
+                (Err(e), Some(c)) => {
+                    stats.fault = Some(format!("{e:#}"));
+                    stats.seconds = start.elapsed().as_secs_f64();
+                    return Ok((c.pixels, stats, c.end));
+                }
+                (Err(e), None) => return Err(e),
+            };
             pixels.extend(self.read_film(buffers, film_bytes)?);
         }
         stats.seconds = start.elapsed().as_secs_f64();
@@ -431,7 +461,9 @@ impl GpuRenderer {
             )?;
             let never = std::sync::atomic::AtomicBool::new(false);
             let samples = pass.first_sample..pass.first_sample + settings.spp;
-            self.run_batches(settings, setup, samples, slots, progress, stats, &never)?;
+            self.run_batches(
+                settings, setup, samples, slots, progress, stats, &never, None,
+            )?;
             film.pixels[first..first + count]
                 .copy_from_slice(&self.read_film(buffers, film_bytes)?);
         }
@@ -452,6 +484,7 @@ impl GpuRenderer {
         progress: &ProgressBar,
         stats: &mut RenderStats,
         stop: &std::sync::atomic::AtomicBool,
+        mut checkpoint: Option<&mut Checkpoint>,
     ) -> Result<u32> {
         let first_sample = samples.start;
         let ctx = &self.ctx;
@@ -512,13 +545,22 @@ impl GpuRenderer {
             );
             self.commands.copy(counters, counters_back, counters.size);
             self.commands
-                .submit_and_wait(ctx, "a wavefront batch", SUBMIT_TIMEOUT_S)?;
+                .submit_batch(ctx, "a wavefront batch", SUBMIT_TIMEOUT_S)?;
             let c: Vec<u32> =
                 bytemuck::pod_collect_to_vec(&counters_back.read(counters.size as usize));
             stats.extension_rays += c[counter::TOTAL_EXTENSION_RAYS as usize] as u64;
             stats.shadow_rays += c[counter::TOTAL_SHADOW_RAYS as usize] as u64;
             stats.dropped += c[counter::DROPPED_SAMPLES as usize] as u64;
             progress.inc(batch.size as u64);
+            if let Some(c) = checkpoint.as_deref_mut() {
+                let passes_done = batch.first_pixel + batch.size >= pixel_count;
+                if passes_done && c.taken.elapsed() >= c.every {
+                    let bytes = pixel_count as u64 * size_of::<FilmPixel>() as u64;
+                    c.pixels = self.read_film(buffers, bytes)?;
+                    c.end = batch.first_sample + (batch.size / pixel_count).max(1);
+                    c.taken = Instant::now();
+                }
+            }
             if let Some(pool) = query_pool {
                 let mut ticks = vec![0u64; timed.len() + 1];
                 unsafe {
@@ -541,6 +583,18 @@ impl GpuRenderer {
         }
         Ok(samples.end)
     }
+}
+
+/// How often a render of one band copies its film back while it runs (see `Checkpoint`).
+const CHECKPOINT_INTERVAL: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// The film of a render of one band as it stood after its last whole sample pass copied back:
+/// samples [start, `end`) of every pixel.
+struct Checkpoint {
+    pixels: Vec<FilmPixel>,
+    end: u32,
+    taken: Instant,
+    every: std::time::Duration,
 }
 
 /// What one render holds between its passes: the paths in flight, the band height, the frame
