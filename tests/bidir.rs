@@ -485,6 +485,71 @@ fn single_sided_occluders_block_light_and_camera_paths_alike() {
     }
 }
 
+/// Point and spot lights (KHR_lights_punctual) as light-subpath origins: the Cornell box lit by
+/// a point light and a spot light instead of its area light; light tracing and BDPT against the
+/// path tracer, and on the GPU against the CPU. Neither light is seen directly by any
+/// integrator.
+#[test]
+fn punctual_lights_start_light_paths() {
+    let mut doc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(common::scene_path("cornell-box.gltf")).unwrap(),
+    )
+    .unwrap();
+    for m in doc["materials"].as_array_mut().unwrap() {
+        if m.get("emissiveFactor").is_some() {
+            m["emissiveFactor"] = serde_json::json!([0.0, 0.0, 0.0]);
+        }
+    }
+    doc["extensionsUsed"]
+        .as_array_mut()
+        .unwrap()
+        .push("KHR_lights_punctual".into());
+    doc["extensions"] = serde_json::json!({ "KHR_lights_punctual": { "lights": [
+        { "type": "point", "intensity": 2.0, "color": [1.0, 0.8, 0.6] },
+        { "type": "spot", "intensity": 6.0, "spot": { "innerConeAngle": 0.3, "outerConeAngle": 0.6 } }
+    ]}});
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(
+        serde_json::json!({ "name": "point", "translation": [0.3, 0.6, 0.2],
+        "extensions": { "KHR_lights_punctual": { "light": 0 } } }),
+    );
+    // A spot pointing down (its axis is the node's −Z, turned to −Y).
+    nodes.push(
+        serde_json::json!({ "name": "spot", "translation": [-0.3, 0.9, 0.0],
+        "rotation": [-0.7071068, 0.0, 0.0, 0.7071068],
+        "extensions": { "KHR_lights_punctual": { "light": 1 } } }),
+    );
+    let n = nodes.len();
+    let roots = doc["scenes"][0]["nodes"].as_array_mut().unwrap();
+    roots.push((n - 2).into());
+    roots.push((n - 1).into());
+    let path = common::temp("bidir", "punctual.gltf");
+    std::fs::write(&path, serde_json::to_string(&doc).unwrap()).unwrap();
+    let scene =
+        wavetrace::render::PreparedScene::new(&wavetrace::scene::Scene::load(&path).unwrap());
+    let alpha = sidak(0.01, 4);
+    let reference = batch_tiles(&scene, &settings(Integrator::Path, 8, 3), 14);
+    for integrator in [Integrator::Light, Integrator::Bdpt] {
+        print!("{integrator:?}: ");
+        welch_tiles(
+            &batch_tiles(&scene, &settings(integrator, 8, 3), 15),
+            &reference,
+            alpha,
+        )
+        .unwrap_or_else(|e| panic!("{integrator:?} ≠ path under punctual lights:\n{e}"));
+        if common::gpu().is_some() {
+            let s = settings(integrator, 8, 3);
+            let gpu = batch_tiles_of(&s, 16, |b| {
+                common::render_gpu(&scene, b, None).unwrap().film
+            });
+            print!("GPU {integrator:?}: ");
+            welch_tiles(&gpu, &reference, alpha).unwrap_or_else(|e| {
+                panic!("GPU {integrator:?} ≠ path under punctual lights:\n{e}")
+            });
+        }
+    }
+}
+
 /// `--aov NAME=EXPR` writes each expression's image as EXR channels NAME.R, … beside the
 /// image's, from the same paths: the layers of a partition add up to the image, for the path
 /// tracer and BDPT; bad layer names and combinations are refused by name.

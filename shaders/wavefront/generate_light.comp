@@ -55,15 +55,16 @@ void main() {
     if (bdpt) {
         bdpt_vertices[bdpt_light_index(i, 0u)] = y0;
         bdpt_set_light_length(i, 1u);
-    } else {
-        // The origin's join to the camera (s = 1, t = 1).
+    } else if (!point) {
+        // The origin's join to the camera (s = 1, t = 1); a point or spot light is not seen
+        // directly (camera rays cannot hit a point: src/cpu/bidir.rs, sample).
         ShadowRay shadow;
         vec3 w;
         float dist;
         uint target;
         float g_we;
         if (camera_connection(y0.p, y0.ng, !point, w, dist, target, g_we, shadow)) {
-            queue_camera_join(shadow, y0.beta * bdpt_emission(y0, mat, w, dist) * g_we, i, light_path_ends_here(state.prev_specular, 4u));
+            queue_camera_join(shadow, y0.beta * emitted_radiance(mat, dot(y0.ng, w)) * g_we, i, light_path_ends_here(state.prev_specular, 4u));
         }
     }
     if (frame.max_depth == 0u) return;

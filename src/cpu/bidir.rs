@@ -952,6 +952,12 @@ impl<'a> Bidir<'a> {
             camera.clear();
             camera.push(self.camera_vertex());
             for s in 1..=light.len() {
+                // A point or spot light is not seen directly: camera rays cannot hit a point,
+                // and no integrator may show what the path tracer cannot (BDPT leaves out
+                // (1, 1) altogether).
+                if s == 1 && light[0].kind == Kind::PointLight {
+                    continue;
+                }
                 if !self.path_matches(light, camera, s, 1) {
                     continue;
                 }
