@@ -181,6 +181,13 @@ impl AovArg {
     }
 }
 
+/// `--texture-lod`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TextureLodArg {
+    Cones,
+    Finest,
+}
+
 /// One `--aov`: the image's quantity, or an extra layer of paths matching an expression.
 #[derive(Clone, Debug)]
 pub enum AovSpec {
@@ -483,6 +490,12 @@ pub struct RenderOptions {
     /// the path expression EXPR (see --paths), from the same paths as the image.
     #[arg(long, value_name = "PROPERTY|NAME=EXPR", value_parser = parse_aov)]
     pub aov: Vec<AovSpec>,
+    /// Texture level of detail: the mip level each camera path's ray cone selects (cones,
+    /// the default), or the finest level everywhere (finest), as light tracing and BDPT read
+    /// textures: use it to compare those integrators with the path tracer on textured scenes,
+    /// where coarse mip levels of a texture atlas bleed across its islands.
+    #[arg(long, value_enum, default_value_t = TextureLodArg::Cones)]
+    pub texture_lod: TextureLodArg,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,

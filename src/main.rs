@@ -227,6 +227,7 @@ fn prepare(
         focus_distance: opts.focus_distance,
         integrator: opts.integrator.integrator(),
         paths: opts.paths.clone(),
+        finest_textures: opts.texture_lod == crate::cli::TextureLodArg::Finest,
     };
     prepared
         .thin_lens(&settings)

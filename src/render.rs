@@ -72,6 +72,9 @@ pub struct RenderSettings {
     pub integrator: crate::cpu::Integrator,
     /// Only paths matching this expression count (`--paths`).
     pub paths: Option<Arc<crate::paths::PathExpr>>,
+    /// Textures at their finest level everywhere (`--texture-lod finest`), as light and BDPT
+    /// vertices read them, instead of the level the camera ray's cone selects.
+    pub finest_textures: bool,
 }
 
 impl Default for RenderSettings {
@@ -97,6 +100,7 @@ impl Default for RenderSettings {
             focus_distance: None,
             integrator: crate::cpu::Integrator::Path,
             paths: None,
+            finest_textures: false,
         }
     }
 }
@@ -605,6 +609,11 @@ impl PreparedScene {
         };
         let lens = self.thin_lens(settings).unwrap_or_default();
         self.camera.write_frame_params(lens, &mut frame);
+        if settings.finest_textures {
+            // A cone of no width reads every texture at level 0 (`surface_lod_base`).
+            frame.cone_width = 0.0;
+            frame.cone_spread = 0.0;
+        }
         if let Some((map, scale)) = settings.environment_map() {
             map.write_frame_params(scale, settings.env_rotate, &mut frame);
             // The environment's power through the scene's bounding disc, π·R²·∫L dω, against

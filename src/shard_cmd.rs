@@ -117,6 +117,7 @@ pub fn record(
         ("light_sampler", lower(&o.light_sampler)),
         ("environment", environment),
         ("aov", lower(&o.aov_property()?)),
+        ("texture_lod", lower(&o.texture_lod)),
         ("instancing", (!o.no_instancing).to_string()),
         ("debug_flags", o.debug_flags.to_string()),
     ];
