@@ -83,13 +83,16 @@ pub const MATERIAL_ALPHA_BLEND: u32 = 4;
 /// Some texture slot is set: hits need the texture level of detail (set when the scene is
 /// prepared, so shading does not test five slots per hit).
 pub const MATERIAL_TEXTURED: u32 = 8;
+/// KHR_materials_unlit: the surface emits its base colour (`surface::surface_emission`) and
+/// scatters nothing (`bsdf`).
+pub const MATERIAL_UNLIT: u32 = 16;
 
 /// No texture in a `GpuMaterial::*_texture` slot.
 pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 80 bytes.
+/// Total: 112 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -110,6 +113,13 @@ pub struct GpuMaterial {
     pub emissive_texture: u32, // 4 bytes: sRGB; RGB × emission
     pub normal_texture: u32,  // 4 bytes: tangent-space normal
     pub transmission_texture: u32, // 4 bytes: R × transmission
+    /// KHR_materials_specular's specularColorFactor (linear RGB, may exceed 1).
+    pub specular_color: [f32; 3], // 12 bytes
+    pub specular_texture: u32, // 4 bytes: A × specular
+    pub specular_color_texture: u32, // 4 bytes: sRGB; RGB × specular_color
+    pub pad0: u32,            // 4 bytes
+    pub pad1: u32,            // 4 bytes
+    pub pad2: u32,            // 4 bytes
 }
 
 impl Default for GpuMaterial {
@@ -132,6 +142,12 @@ impl Default for GpuMaterial {
             emissive_texture: NO_TEXTURE,
             normal_texture: NO_TEXTURE,
             transmission_texture: NO_TEXTURE,
+            specular_color: [1.0; 3],
+            specular_texture: NO_TEXTURE,
+            specular_color_texture: NO_TEXTURE,
+            pad0: 0,
+            pad1: 0,
+            pad2: 0,
         }
     }
 }
@@ -551,7 +567,13 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         metallic_roughness_texture,
         emissive_texture,
         normal_texture,
-        transmission_texture
+        transmission_texture,
+        specular_color,
+        specular_texture,
+        specular_color_texture,
+        pad0,
+        pad1,
+        pad2
     }),
     struct_layout!(GpuVertex {
         tangent,

@@ -5,7 +5,11 @@
 //! - Attributes are interpolated with the hit's barycentrics (u weights p1, v weights p2).
 //! - Textures modulate the factors as glTF says: base colour × texture (sRGB) × COLOR_0,
 //!   metallic × B and roughness × G of the metallic-roughness texture, emission × emissive
-//!   texture (sRGB), transmission × R. Occlusion maps are ignored: a path tracer computes the
+//!   texture (sRGB), transmission × R, KHR_materials_specular's specular × A of its
+//!   specularTexture and specularColor × RGB of its specularColorTexture (sRGB). An unlit
+//!   material (KHR_materials_unlit) emits base colour × texture × COLOR_0: the loader puts the
+//!   base colour's factor and texture in the emission slots, and `surface_emission` multiplies
+//!   in the vertex colour. Occlusion maps are ignored: a path tracer computes the
 //!   occlusion they approximate.
 //! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
 //! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
@@ -16,8 +20,8 @@
 
 use crate::layout::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuVertex, INSTANCE_IDENTITY, INSTANCE_MIRRORED,
-    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_FLAT, TRIANGLE_PLAIN,
-    TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_UNLIT, NO_TEXTURE, TRIANGLE_FLAT,
+    TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::sampling::{pcg4d, uint_to_unit_float};
 use crate::texture::{sample_texture_ref, TextureData};
@@ -150,20 +154,25 @@ pub fn surface_lod_base(sp: &SurfacePoint, cone_width: f32, cos_view: f32) -> [f
 /// A level of detail that always magnifies (alpha tests read level 0).
 pub const LOD_MAGNIFY: [f32; 2] = [-1e30, -1e30];
 
-/// Material `m` at the surface point: factors times textures times vertex colour.
-/// The emitted radiance factor at the point: emissive factor × texture (surface.glsl).
+/// The emitted radiance factor at the point: emissive factor × texture, × the vertex colour
+/// for an unlit material (its emission is its base colour term).
 pub fn surface_emission(
     data: &TextureData,
     m: &GpuMaterial,
     sp: &SurfacePoint,
     lod: [f32; 2],
 ) -> Vec3 {
-    let e = Vec3::from(m.emission);
+    let mut e = Vec3::from(m.emission);
+    if m.flags & MATERIAL_UNLIT != 0 {
+        e *= sp.color.truncate();
+    }
     if m.emissive_texture == NO_TEXTURE {
         return e;
     }
     e * sample_texture_ref(data, m.emissive_texture, sp.uv, lod).truncate()
 }
+
+/// Material `m` at the surface point: factors times textures times vertex colour.
 
 pub fn surface_material(
     data: &TextureData,
@@ -186,6 +195,13 @@ pub fn surface_material(
     out.emission = surface_emission(data, m, sp, lod).to_array();
     if m.transmission_texture != NO_TEXTURE {
         out.transmission *= sample_texture_ref(data, m.transmission_texture, sp.uv, lod).x;
+    }
+    if m.specular_texture != NO_TEXTURE {
+        out.specular *= sample_texture_ref(data, m.specular_texture, sp.uv, lod).w;
+    }
+    if m.specular_color_texture != NO_TEXTURE {
+        let c = sample_texture_ref(data, m.specular_color_texture, sp.uv, lod).truncate();
+        out.specular_color = (Vec3::from(m.specular_color) * c).to_array();
     }
     out
 }

@@ -15,7 +15,7 @@ use wavetrace::bsdf::{
     bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, BsdfFrame, TransportMode,
 };
 use wavetrace::bvh::Ray;
-use wavetrace::layout::{FrameParams, GpuMaterial};
+use wavetrace::layout::{FrameParams, GpuMaterial, MATERIAL_UNLIT};
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
 use wavetrace::scene::{camera_ray, Camera, Projection, ThinLens};
@@ -56,7 +56,7 @@ fn cases() -> Vec<Case> {
         .collect()
 }
 
-/// The material of case `i` (twins.comp, twin_material).
+/// The material of case `i` (twins.comp, twin_material): the last 512 cases are unlit.
 fn twin_material(i: u32) -> GpuMaterial {
     let k = (i / 4) % 4;
     GpuMaterial {
@@ -66,6 +66,8 @@ fn twin_material(i: u32) -> GpuMaterial {
         transmission: [0.0, 0.0, 1.0, 0.5][k as usize],
         ior: 1.5,
         specular: if (i / 16).is_multiple_of(2) { 1.0 } else { 0.5 },
+        specular_color: [[1.0; 3], [0.3, 1.8, 0.9], [40.0, 0.0, 1.0]][((i / 128) % 3) as usize],
+        flags: if i / 512 == 7 { MATERIAL_UNLIT } else { 0 },
         ..Default::default()
     }
 }

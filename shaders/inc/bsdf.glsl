@@ -1,5 +1,5 @@
-// The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission and
-// _specular's factor: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
+// _specular and _unlit: twin of src/bsdf/mod.rs, same names; the model and its conventions are
 // written down there. Direction convention: wo points towards where the light goes (previous
 // vertex), wi towards where it comes from; both point away from the surface; ng is the
 // front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
@@ -26,7 +26,7 @@ struct BsdfFrame {
     float transmission;
     float alpha;
     float etap;        // eta on the far side / eta on wo's side
-    float f0;
+    vec3 f0;           // the dielectric Fresnel's RGB F0 (specular_f0) and F90 (specular)
     float f90;
     vec3 lobe_pmf;     // diffuse, reflection, transmission
     float albedo_estimate;
@@ -55,13 +55,17 @@ float average3(vec3 v) {
     return (v.x + v.y + v.z) / 3.0;
 }
 
+float max3(vec3 v) {
+    return max(max(v.x, v.y), v.z);
+}
+
 // The frame of shading normal ns flipped with ng to wo's side and bent (BsdfFrame::new_shading):
 // evaluated in the shading frame, zero where the geometric and shading sides of wi disagree.
 // False where wo lies in the surface's plane.
 bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFrame f) {
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
-    f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = 0.0; f.f90 = 0.0;
+    f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
     f.lobe_pmf = vec3(0.0); f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
@@ -71,21 +75,24 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     build_frame(f.n, f.t, f.b);
     f.wo = vec3(dot(wo, f.t), dot(wo, f.b), geometric ? abs(cos_g) : dot(wo, f.n));
     if (!geometric) f.ng = vec3(dot(ng_wo, f.t), dot(ng_wo, f.b), dot(ng_wo, f.n));
-    f.transmission = m.metallic < 1.0 ? m.transmission : 0.0;
+    // An unlit surface scatters nothing: every lobe's weight is 0.
+    bool unlit = (m.flags & MATERIAL_UNLIT) != 0u;
+    f.transmission = (m.metallic < 1.0 && !unlit) ? m.transmission : 0.0;
     float ior = max(m.ior, 1.0);
     f.etap = (f.transmission > 0.0 && !front) ? 1.0 / ior : ior;
-    f.f0 = dielectric_f0(m.ior) * m.specular;
-    f.f90 = m.specular;
-    f.base = m.base_color;
-    f.metallic = m.metallic;
+    float specular = unlit ? 0.0 : m.specular;
+    f.base = unlit ? vec3(0.0) : m.base_color;
+    f.metallic = unlit ? 0.0 : m.metallic;
+    f.f0 = specular_f0(m.ior, m.specular_color, specular);
+    f.f90 = specular;
     f.alpha = m.roughness * m.roughness;
     // Lobe albedo estimates at the macro normal (Fresnel at cos theta_o).
-    float fe = fresnel_dielectric(f.wo.z, f.f0, f.f90, f.etap);
+    vec3 fe = fresnel_dielectric_color(f.wo.z, f.f0, f.f90, f.etap);
     float fm = average3(fresnel_conductor(f.base, f.wo.z));
-    float dielectric = 1.0 - m.metallic;
-    vec3 w = vec3(dielectric * (1.0 - f.transmission) * (1.0 - fe) * average3(f.base),
-                  dielectric * fe + m.metallic * fm,
-                  dielectric * f.transmission * (1.0 - fe) * average3(f.base));
+    float dielectric = 1.0 - f.metallic;
+    vec3 w = vec3(dielectric * (1.0 - f.transmission) * (1.0 - max3(fe)) * average3(f.base),
+                  dielectric * average3(fe) + f.metallic * fm,
+                  dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base));
     float total = w.x + w.y + w.z;
     f.lobe_pmf = total > 0.0 ? w / total : vec3(0.0);
     f.albedo_estimate = total;
@@ -135,11 +142,11 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     if (wi.z > 0.0) {
         vec3 h = normalize(wo + wi);
         float vh = dot(wo, h);
-        float fd = fresnel_dielectric(vh, f.f0, f.f90, f.etap);
-        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - fd) * INV_PI * f.base;
+        vec3 fd = fresnel_dielectric_color(vh, f.f0, f.f90, f.etap);
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - max3(fd)) * INV_PI * f.base;
         if (!bsdf_is_delta(f)) {
             float spec = ggx_d(h, f.alpha) * ggx_visibility(wo.z, wi.z, f.alpha);
-            value += (dielectric * fd * vec3(1.0) + f.metallic * fresnel_conductor(f.base, vh)) * spec;
+            value += (dielectric * fd + f.metallic * fresnel_conductor(f.base, vh)) * spec;
         }
         return value;
     }
@@ -148,7 +155,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         if (!refraction_half_vector(f, wi, m)) return vec3(0.0);
         float om = dot(wo, m);
         float im = dot(wi, m);
-        float fd = fresnel_dielectric(om, f.f0, f.f90, f.etap);
+        float fd = max3(fresnel_dielectric_color(om, f.f0, f.f90, f.etap));
         float denom = f.etap * im + om;
         // Walter et al. 2007, eq. 21, for radiance (the 1/eta^2 of refraction included).
         float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo.z, wi.z, f.alpha);
@@ -185,15 +192,15 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
 bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 value) {
     vec3 wo = f.wo;
     float dielectric = 1.0 - f.metallic;
-    float fd = fresnel_dielectric(wo.z, f.f0, f.f90, f.etap);
+    vec3 fd = fresnel_dielectric_color(wo.z, f.f0, f.f90, f.etap);
     if (lobe == LOBE_REFLECTION) {
         wi = vec3(-wo.x, -wo.y, wo.z);
-        value = dielectric * fd * vec3(1.0) + f.metallic * fresnel_conductor(f.base, wo.z);
+        value = dielectric * fd + f.metallic * fresnel_conductor(f.base, wo.z);
         return true;
     }
     value = vec3(0.0);
     if (!refract_through(wo, vec3(0.0, 0.0, 1.0), f.etap, wi)) return false;
-    value = dielectric * f.transmission * (1.0 - fd) * f.base;
+    value = dielectric * f.transmission * (1.0 - max3(fd)) * f.base;
     if (mode == TRANSPORT_RADIANCE) value /= f.etap * f.etap;
     return true;
 }

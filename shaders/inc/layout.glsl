@@ -38,11 +38,12 @@ struct GpuTriangle {
 #define MATERIAL_ALPHA_MASK 2u
 #define MATERIAL_ALPHA_BLEND 4u
 #define MATERIAL_TEXTURED 8u
+#define MATERIAL_UNLIT 16u
 #define NO_TEXTURE 0xffffffffu
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
 // texture references that modulate its factors at each surface point (surface.glsl).
-// Total: 80 bytes.
+// Total: 112 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -60,6 +61,12 @@ struct GpuMaterial {
     uint emissive_texture;            // 4 bytes
     uint normal_texture;              // 4 bytes
     uint transmission_texture;        // 4 bytes
+    vec3 specular_color;              // 12 bytes: KHR_materials_specular's specularColorFactor
+    uint specular_texture;            // 4 bytes: A x specular
+    uint specular_color_texture;      // 4 bytes: sRGB; RGB x specular_color
+    uint pad0;                        // 4 bytes
+    uint pad1;                        // 4 bytes
+    uint pad2;                        // 4 bytes
 };
 
 // Shading attributes of one vertex, world space. Total: 64 bytes.

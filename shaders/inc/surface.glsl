@@ -85,12 +85,16 @@ vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
 
 #define LOD_MAGNIFY vec2(-1e30)
 
-// Material m at the surface point: factors times textures times vertex colour.
-// The emitted radiance factor at the point: emissive factor × texture (src/surface.rs).
+// The emitted radiance factor at the point: emissive factor × texture, × the vertex colour for
+// an unlit material (src/surface.rs).
 vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    if (m.emissive_texture == NO_TEXTURE) return m.emission;
-    return m.emission * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
+    vec3 e = m.emission;
+    if ((m.flags & MATERIAL_UNLIT) != 0u) e *= sp.color.xyz;
+    if (m.emissive_texture == NO_TEXTURE) return e;
+    return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
+
+// Material m at the surface point: factors times textures times vertex colour.
 
 GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     GpuMaterial o = m;
@@ -106,6 +110,12 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     o.emission = surface_emission(m, sp, lod);
     if (m.transmission_texture != NO_TEXTURE) {
         o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
+    }
+    if (m.specular_texture != NO_TEXTURE) {
+        o.specular *= sample_texture_ref(m.specular_texture, sp.uv0, sp.uv1, lod).w;
+    }
+    if (m.specular_color_texture != NO_TEXTURE) {
+        o.specular_color = m.specular_color * sample_texture_ref(m.specular_color_texture, sp.uv0, sp.uv1, lod).xyz;
     }
     return o;
 }

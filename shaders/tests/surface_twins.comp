@@ -23,7 +23,7 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "surface.glsl"
 
 #define INPUTS_PER_CASE 6u
-#define OUTPUTS_PER_CASE 9u
+#define OUTPUTS_PER_CASE 11u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -73,4 +73,6 @@ void main() {
     vec3 ns_side = dot(ns, ng_wo) > 0.0 ? ns : -ns;
     outputs[o + 8u] = vec4(bend_shading_normal(ns_side, ng_wo, wo),
                            triangle_present(tri_index, in2.x, in2.y, key, vec3(0.0)) ? 1.0 : 0.0);
+    outputs[o + 9u] = vec4(e.specular_color, e.specular);
+    outputs[o + 10u] = vec4(e.emission, 0.0);
 }

@@ -25,12 +25,12 @@ layout(push_constant) uniform Push { uint case_count; };
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-// The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission and
-// specular factors swept by the case index.
+// The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
+// specular factor and colour swept by the case index; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
-    m.flags = 0u;
+    m.flags = i / 512u == 7u ? MATERIAL_UNLIT : 0u;
     m.emission = vec3(0.0);
     uint r = i % 4u;
     m.roughness = r == 0u ? 0.0 : (r == 1u ? 0.05 : (r == 2u ? 0.3 : 0.8));
@@ -39,6 +39,13 @@ GpuMaterial twin_material(uint i) {
     m.transmission = k == 2u ? 1.0 : (k == 3u ? 0.5 : 0.0);
     m.ior = 1.5;
     m.specular = (i / 16u) % 2u == 0u ? 1.0 : 0.5;
+    uint c = (i / 128u) % 3u;
+    m.specular_color = c == 0u ? vec3(1.0) : (c == 1u ? vec3(0.3, 1.8, 0.9) : vec3(40.0, 0.0, 1.0));
+    m.specular_texture = NO_TEXTURE;
+    m.specular_color_texture = NO_TEXTURE;
+    m.pad0 = 0u;
+    m.pad1 = 0u;
+    m.pad2 = 0u;
     return m;
 }
 

@@ -1,5 +1,5 @@
 //! The glTF 2.0 metallic-roughness BSDF (specification, Appendix B) with KHR_materials_ior,
-//! KHR_materials_transmission and KHR_materials_specular's `specularFactor`: evaluation,
+//! KHR_materials_transmission, KHR_materials_specular and KHR_materials_unlit: evaluation,
 //! sampling and pdf. Twin of `shaders/inc/bsdf.glsl`, same names.
 //!
 //! Direction convention (here and in the GLSL twin, never swapped): `wo` points from the surface
@@ -13,10 +13,14 @@
 //! §5.2): with radiance, f_t carries 1/η² where η = η_wi / η_wo.
 //!
 //! The model, with c = baseColor, F_d the dielectric Fresnel and F_m the metal one (both on v·h):
-//!   f = (1 − metallic) · [(1 − F_d) · ((1 − transmission) · c/π + transmission · c · btdf)
+//!   f = (1 − metallic) · [(1 − max(F_d)) · ((1 − transmission) · c/π + transmission · c · btdf)
 //!                         + F_d · D·V]
 //!     + metallic · F_m · D·V
-//! exactly `mix(dielectric_brdf, metal_brdf, metallic)` with `fresnel_mix` of Appendix B; the
+//! exactly `mix(dielectric_brdf, metal_brdf, metallic)` with `fresnel_mix` of Appendix B as
+//! KHR_materials_specular redefines it: F_d is RGB, F0 = min(((ior − 1)/(ior + 1))² ·
+//! specularColor, 1) · specular, F90 = specular, and the layers below the specular one are
+//! scaled by 1 − max(F_d) (the extension's "Implementation" section; with the default
+//! specularColor 1 the three channels are equal and this is the core model). The
 //! transmission lobe is a rough dielectric (Walter et al. 2007, eq. 21) refracting by `ior`,
 //! tinted by c as KHR_materials_transmission says. No energy compensation: at grazing angles
 //! the spec's dielectric mix (1 − F)·diffuse + F·specular reflects a little more than it
@@ -27,12 +31,18 @@
 //! With α < [`microfacet::ALPHA_DELTA`] the specular lobes are Dirac deltas: `bsdf_eval` and
 //! `bsdf_pdf` leave them out (they are zero almost everywhere), and `bsdf_sample` returns them
 //! flagged `delta` with the ratio f·|cos|/pdf as `weight`.
+//!
+//! KHR_materials_unlit: the surface shows its base colour term whatever the lighting. A path
+//! tracer gives it that look by making the surface an emitter of exactly that radiance
+//! (`surface::surface_emission`) whose BSDF is zero: seen directly it is its base colour, it
+//! reflects and transmits nothing, and like every emitter it lights the scene (a rasteriser's
+//! unlit surface lights nothing only because rasterisers have no indirect light).
 
 pub mod microfacet;
 #[cfg(test)]
 mod tests;
 
-use crate::layout::GpuMaterial;
+use crate::layout::{GpuMaterial, MATERIAL_UNLIT};
 use crate::sampling::{build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use microfacet::*;
@@ -78,7 +88,8 @@ pub struct BsdfFrame {
     alpha: f32,
     /// η on the far side / η on `wo`'s side (1 for opaque surfaces' geometry).
     etap: f32,
-    f0: f32,
+    /// The dielectric Fresnel's RGB F0 ([`specular_f0`]) and F90 (specular).
+    f0: Vec3,
     f90: f32,
     /// Probabilities of choosing the diffuse, reflection and transmission lobes.
     pub lobe_pmf: [f32; 3],
@@ -150,7 +161,9 @@ impl BsdfFrame {
             wo.dot(b),
             if ns == ng { cos_g.abs() } else { wo.dot(n) },
         );
-        let transmission = if m.metallic < 1.0 {
+        // An unlit surface scatters nothing: every lobe's weight is 0.
+        let unlit = m.flags & MATERIAL_UNLIT != 0;
+        let transmission = if m.metallic < 1.0 && !unlit {
             m.transmission
         } else {
             0.0
@@ -161,17 +174,21 @@ impl BsdfFrame {
         } else {
             ior
         };
-        let f0 = dielectric_f0(m.ior) * m.specular;
-        let f90 = m.specular;
-        let base = Vec3::from(m.base_color);
+        let (base, metallic, specular) = if unlit {
+            (Vec3::ZERO, 0.0, 0.0)
+        } else {
+            (Vec3::from(m.base_color), m.metallic, m.specular)
+        };
+        let f0 = specular_f0(m.ior, Vec3::from(m.specular_color), specular);
+        let f90 = specular;
         // Lobe albedo estimates at the macro normal (Fresnel at cos θo).
-        let fe = fresnel_dielectric(wo_local.z, f0, f90, etap);
+        let fe = fresnel_dielectric_color(wo_local.z, f0, f90, etap);
         let fm = average(fresnel_conductor(base, wo_local.z));
-        let dielectric = 1.0 - m.metallic;
+        let dielectric = 1.0 - metallic;
         let w = [
-            dielectric * (1.0 - transmission) * (1.0 - fe) * average(base),
-            dielectric * fe + m.metallic * fm,
-            dielectric * transmission * (1.0 - fe) * average(base),
+            dielectric * (1.0 - transmission) * (1.0 - fe.max_element()) * average(base),
+            dielectric * average(fe) + metallic * fm,
+            dielectric * transmission * (1.0 - fe.max_element()) * average(base),
         ];
         let total = w[0] + w[1] + w[2];
         let lobe_pmf = if total > 0.0 {
@@ -185,7 +202,7 @@ impl BsdfFrame {
             n,
             wo: wo_local,
             base,
-            metallic: m.metallic,
+            metallic,
             transmission,
             alpha: m.roughness * m.roughness,
             etap,
@@ -244,13 +261,15 @@ impl BsdfFrame {
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
             let vh = wo.dot(h);
-            let fd = fresnel_dielectric(vh, self.f0, self.f90, self.etap);
-            let mut f = dielectric * (1.0 - self.transmission) * (1.0 - fd) * FRAC_1_PI * self.base;
+            let fd = fresnel_dielectric_color(vh, self.f0, self.f90, self.etap);
+            let mut f = dielectric
+                * (1.0 - self.transmission)
+                * (1.0 - fd.max_element())
+                * FRAC_1_PI
+                * self.base;
             if !self.is_delta() {
                 let spec = ggx_d(h, self.alpha) * ggx_visibility(wo.z, wi.z, self.alpha);
-                f += (dielectric * fd * Vec3::ONE
-                    + self.metallic * fresnel_conductor(self.base, vh))
-                    * spec;
+                f += (dielectric * fd + self.metallic * fresnel_conductor(self.base, vh)) * spec;
             }
             f
         } else if wi.z < 0.0 && self.transmission > 0.0 && !self.is_delta() {
@@ -258,7 +277,7 @@ impl BsdfFrame {
                 return Vec3::ZERO;
             };
             let (om, im) = (wo.dot(m), wi.dot(m));
-            let fd = fresnel_dielectric(om, self.f0, self.f90, self.etap);
+            let fd = fresnel_dielectric_color(om, self.f0, self.f90, self.etap).max_element();
             let denom = self.etap * im + om;
             // Walter et al. 2007, eq. 21, for radiance (the 1/η² of refraction included).
             let g2 = 4.0 * wo.z * wi.z.abs() * ggx_visibility(wo.z, wi.z, self.alpha);
@@ -309,14 +328,13 @@ impl BsdfFrame {
     fn delta_lobe(&self, lobe: usize, mode: TransportMode) -> Option<(Vec3, Vec3)> {
         let wo = self.wo;
         let dielectric = 1.0 - self.metallic;
-        let fd = fresnel_dielectric(wo.z, self.f0, self.f90, self.etap);
+        let fd = fresnel_dielectric_color(wo.z, self.f0, self.f90, self.etap);
         if lobe == LOBE_REFLECTION {
-            let value =
-                dielectric * fd * Vec3::ONE + self.metallic * fresnel_conductor(self.base, wo.z);
+            let value = dielectric * fd + self.metallic * fresnel_conductor(self.base, wo.z);
             Some((Vec3::new(-wo.x, -wo.y, wo.z), value))
         } else {
             let wi = refract_through(wo, Vec3::Z, self.etap)?;
-            let mut value = dielectric * self.transmission * (1.0 - fd) * self.base;
+            let mut value = dielectric * self.transmission * (1.0 - fd.max_element()) * self.base;
             if mode == TransportMode::Radiance {
                 value /= self.etap * self.etap;
             }

@@ -387,3 +387,137 @@ fn visibility_equals_height_correlated_smith() {
         }
     }
 }
+
+/// KHR_materials_specular's colour cases: F0 below the clamp, above it on one channel, and a
+/// weakened specular factor.
+fn specular_color_material(roughness: f32, transmission: f32, k: usize) -> GpuMaterial {
+    GpuMaterial {
+        specular_color: [[0.3, 1.8, 0.9], [40.0, 0.0, 1.0], [2.0, 2.0, 0.5]][k],
+        specular: [1.0, 1.0, 0.4][k],
+        ..material(0.7, 0.0, roughness, transmission)
+    }
+}
+
+#[test]
+fn specular_color_follows_the_extension_formula() {
+    // dielectric_f0 = min(((ior − 1)/(ior + 1))² · specularColor, 1) · specular, F90 = specular,
+    // F = F0 + (F90 − F0)(1 − |v·h|)⁵ per channel, the diffuse scaled by 1 − max(F)
+    // (KHR_materials_specular, "Implementation"), written out here independently.
+    for k in 0..3 {
+        let m = specular_color_material(0.5, 0.0, k);
+        let (wo, wi) = (direction(0.8, 0.2), direction(0.45, 2.5));
+        let h = (wo + wi).normalize();
+        let vh = wo.dot(h);
+        let f0 = (Vec3::splat(0.04) * Vec3::from(m.specular_color)).min(Vec3::ONE) * m.specular;
+        let f = f0 + (Vec3::splat(m.specular) - f0) * (1.0 - vh).powi(5);
+        let alpha = 0.25;
+        let expected = (1.0 - f.max_element()) * Vec3::splat(0.7) / PI
+            + f * ggx_d(h, alpha) * ggx_visibility(wo.z, wi.z, alpha);
+        let got = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+        assert!(
+            (got - expected).abs().max_element() <= 1e-5 * expected.max_element(),
+            "case {k}: {got} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn specular_color_sampling_matches_its_pdf_and_eval() {
+    let mut cases = Vec::new();
+    for r in [0.3, 0.7] {
+        for transmission in [0.0, 1.0] {
+            for k in 0..3 {
+                for cos in [0.9, 0.3] {
+                    for side in [1.0, -1.0] {
+                        if side < 0.0 && transmission == 0.0 {
+                            continue;
+                        }
+                        let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                        cases.push((specular_color_material(r, transmission, k), wo));
+                    }
+                }
+            }
+        }
+    }
+    let alpha = sidak(0.01, cases.len());
+    for (m, wo) in cases {
+        let p = chi_square_p(
+            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
+            &|wi| bsdf_pdf(&m, NG, wo, wi),
+            1_000_000,
+        );
+        assert!(p > alpha, "{m:?} from {wo}: χ² p = {p} < {alpha}");
+        for i in 0..2000 {
+            let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), TransportMode::Radiance) else {
+                continue;
+            };
+            let pdf = bsdf_pdf(&m, NG, wo, s.wi);
+            assert!((s.pdf - pdf).abs() <= 1e-3 * pdf, "{} vs {pdf}", s.pdf);
+            let f = bsdf_eval(&m, NG, wo, s.wi, TransportMode::Radiance);
+            let expected = f * s.wi.z.abs() / pdf;
+            assert!(
+                (s.weight - expected).abs().max_element()
+                    <= 1e-3 * expected.max_element().max(1e-3)
+            );
+        }
+    }
+}
+
+#[test]
+fn specular_color_is_reciprocal_and_conserves_energy_without_the_diffuse() {
+    let dirs = [
+        direction(0.9, 0.1),
+        direction(0.4, 2.0),
+        direction(0.15, 4.0),
+    ];
+    for k in 0..3 {
+        let m = specular_color_material(0.4, 0.0, k);
+        for a in dirs {
+            for b in dirs {
+                let fab = bsdf_eval(&m, NG, a, b, TransportMode::Radiance);
+                let fba = bsdf_eval(&m, NG, b, a, TransportMode::Importance);
+                assert!((fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3));
+            }
+        }
+    }
+    // A black base leaves the specular lobe alone: F ≤ 1 per channel, so no gain.
+    let mut checks = Vec::new();
+    for r in [0.0, 0.2, 0.6, 1.0] {
+        for cos in [1.0, 0.5, 0.1] {
+            for k in 0..3 {
+                let m = GpuMaterial {
+                    base_color: [0.0; 3],
+                    ..specular_color_material(r, 0.0, k)
+                };
+                checks.push((m, direction(cos, 0.3)));
+            }
+        }
+    }
+    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
+    for (m, wo) in checks {
+        let (a, se) = albedo(&m, wo, 100_000);
+        assert!(
+            a <= 1.0 + z * se + 1e-4,
+            "{m:?} from {wo}: albedo {a} ± {se}"
+        );
+    }
+}
+
+#[test]
+fn unlit_scatters_nothing() {
+    let m = GpuMaterial {
+        flags: crate::layout::MATERIAL_UNLIT,
+        ..material(0.8, 0.0, 0.5, 0.5)
+    };
+    for i in 0..1000 {
+        let wo = direction(0.1 + 0.0009 * i as f32, 0.3) * if i % 2 == 0 { 1.0 } else { -1.0 };
+        let wi = direction(0.7, 1.0 + i as f32);
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            assert_eq!(bsdf_eval(&m, NG, wo, wi, mode), Vec3::ZERO);
+            assert_eq!(bsdf_eval(&m, NG, wo, -wi, mode), Vec3::ZERO);
+            assert!(bsdf_sample(&m, NG, wo, u3(4, i), mode).is_none());
+        }
+        assert_eq!(bsdf_pdf(&m, NG, wo, wi), 0.0);
+        assert_eq!(bsdf_albedo_estimate(&m, NG, wo), 0.0);
+    }
+}

@@ -54,6 +54,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_specular",
+    "KHR_materials_unlit",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -152,7 +153,7 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
             );
         }
     }
-    let document = Document::from_json(root).map_err(validation_message)?;
+    let document = validated_document(root)?;
 
     let base = path.parent().unwrap_or(Path::new("."));
     let base = if base.as_os_str().is_empty() {
@@ -247,25 +248,27 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
     })
 }
 
+/// The `gltf` crate's validation of the typed model, less its refusal of required extensions
+/// it does not know itself (it lists only those it parses): every required extension was
+/// checked against [`SUPPORTED_EXTENSIONS`] before, so an "unsupported extension" error here
+/// names one that wavetrace reads from the raw JSON (KHR_materials_unlit, …).
+fn validated_document(root: gltf::json::Root) -> Result<Document> {
+    use gltf::json::validation::{Error, Validate};
+    let mut errors = Vec::new();
+    root.validate(&root, gltf::json::Path::new, &mut |path, error| {
+        if error != Error::Unsupported {
+            errors.push((path(), error));
+        }
+    });
+    if !errors.is_empty() {
+        return Err(validation_message(gltf::Error::Validation(errors)));
+    }
+    Ok(Document::from_json_without_validation(root))
+}
+
 /// What the file holds that the render will not show, said once each (`Scene::notes`).
 fn notes(document: &Document, builder: &Builder) -> Vec<String> {
     let mut notes = Vec::new();
-    let ignored_textures: Vec<String> = document
-        .materials()
-        .enumerate()
-        .filter(|(_, m)| {
-            m.specular().is_some_and(|t| {
-                t.specular_texture().is_some() || t.specular_color_texture().is_some()
-            })
-        })
-        .map(|(i, m)| label("material", i, m.name()))
-        .collect();
-    if !ignored_textures.is_empty() {
-        notes.push(format!(
-            "KHR_materials_specular's specularTexture and specularColorTexture are ignored: {} use the specular factors only",
-            ignored_textures.join(", ")
-        ));
-    }
     notes.extend(builder.repairs.notes());
     let ignored: Vec<&str> = document
         .extensions_used()
@@ -434,6 +437,17 @@ fn convert_material(
             s.specular_factor(),
         )
     })?;
+    // specularColorFactor may exceed 1 (the spec clamps F0, not the factor).
+    let specular_color = material
+        .specular()
+        .map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor()));
+    if !(specular_color.is_finite() && specular_color.min_element() >= 0.0) {
+        bail!(
+            "{}: {specular_color} must be finite and non-negative",
+            at("extensions.KHR_materials_specular.specularColorFactor")
+        );
+    }
+    let unlit = material.extension_value("KHR_materials_unlit").is_some();
     // KHR_materials_ior: ior ≥ 1, or exactly 0 (f0 = 1, a specular-glossiness conversion).
     let ior = material.ior().unwrap_or(1.5);
     if !(ior.is_finite() && (ior >= 1.0 || ior == 0.0)) {
@@ -503,7 +517,7 @@ fn convert_material(
             false,
         )?);
     }
-    if let Some(info) = material.emissive_texture() {
+    if let Some(info) = material.emissive_texture().filter(|_| !unlit) {
         textures.emissive = Some(reference("emissiveTexture", texture_info(info), true)?);
     }
     if let Some(info) = material
@@ -516,6 +530,31 @@ fn convert_material(
             false,
         )?);
     }
+    if let Some(specular) = material.specular() {
+        if let Some(info) = specular.specular_texture() {
+            textures.specular = Some(reference(
+                "extensions.KHR_materials_specular.specularTexture",
+                texture_info(info),
+                false,
+            )?);
+        }
+        if let Some(info) = specular.specular_color_texture() {
+            textures.specular_color = Some(reference(
+                "extensions.KHR_materials_specular.specularColorTexture",
+                texture_info(info),
+                true,
+            )?);
+        }
+    }
+    // KHR_materials_unlit: the base colour term is what the surface shows, so it is emitted
+    // (factor × texture here, × vertex colour in `surface::surface_emission`); emissiveFactor
+    // and emissiveTexture are the fallback of viewers without the extension.
+    let emission = if unlit {
+        textures.emissive = textures.base_color;
+        base_color.min(Vec3::ONE)
+    } else {
+        emission
+    };
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
         normal_scale = normal.scale();
@@ -549,6 +588,8 @@ fn convert_material(
             ior,
             transmission,
             specular,
+            specular_color,
+            unlit,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),
