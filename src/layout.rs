@@ -92,7 +92,7 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 112 bytes.
+/// Total: 144 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -117,9 +117,18 @@ pub struct GpuMaterial {
     pub specular_color: [f32; 3], // 12 bytes
     pub specular_texture: u32, // 4 bytes: A × specular
     pub specular_color_texture: u32, // 4 bytes: sRGB; RGB × specular_color
+    /// KHR_materials_clearcoat: clearcoatFactor, clearcoatRoughnessFactor (α = roughness²).
+    pub clearcoat: f32, // 4 bytes
+    pub clearcoat_roughness: f32, // 4 bytes
+    pub clearcoat_texture: u32, // 4 bytes: R × clearcoat
+    pub clearcoat_roughness_texture: u32, // 4 bytes: G × clearcoat_roughness
+    pub clearcoat_normal_texture: u32, // 4 bytes: tangent-space normal of the coat
+    pub clearcoat_normal_scale: f32, // 4 bytes: clearcoatNormalTexture.scale
     pub pad0: u32,            // 4 bytes
+    /// The coat's world-space shading normal at a hit (`surface::surface_material` writes it);
+    /// zero: the BSDF's shading normal. Always zero in the scene's material table.
+    pub clearcoat_normal: [f32; 3], // 12 bytes
     pub pad1: u32,            // 4 bytes
-    pub pad2: u32,            // 4 bytes
 }
 
 impl Default for GpuMaterial {
@@ -145,9 +154,15 @@ impl Default for GpuMaterial {
             specular_color: [1.0; 3],
             specular_texture: NO_TEXTURE,
             specular_color_texture: NO_TEXTURE,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            clearcoat_texture: NO_TEXTURE,
+            clearcoat_roughness_texture: NO_TEXTURE,
+            clearcoat_normal_texture: NO_TEXTURE,
+            clearcoat_normal_scale: 1.0,
             pad0: 0,
+            clearcoat_normal: [0.0; 3],
             pad1: 0,
-            pad2: 0,
         }
     }
 }
@@ -571,9 +586,15 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         specular_color,
         specular_texture,
         specular_color_texture,
+        clearcoat,
+        clearcoat_roughness,
+        clearcoat_texture,
+        clearcoat_roughness_texture,
+        clearcoat_normal_texture,
+        clearcoat_normal_scale,
         pad0,
-        pad1,
-        pad2
+        clearcoat_normal,
+        pad1
     }),
     struct_layout!(GpuVertex {
         tangent,

@@ -187,6 +187,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         t.transmission,
         t.specular,
         t.specular_color,
+        t.clearcoat,
+        t.clearcoat_roughness,
+        t.clearcoat_normal,
     ]
     .iter()
     .any(Option::is_some)
@@ -214,6 +217,12 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         specular_color: m.specular_color.to_array(),
         specular_texture: slot(m.textures.specular),
         specular_color_texture: slot(m.textures.specular_color),
+        clearcoat: m.clearcoat,
+        clearcoat_roughness: m.clearcoat_roughness,
+        clearcoat_texture: slot(m.textures.clearcoat),
+        clearcoat_roughness_texture: slot(m.textures.clearcoat_roughness),
+        clearcoat_normal_texture: slot(m.textures.clearcoat_normal),
+        clearcoat_normal_scale: m.clearcoat_normal_scale,
         ..GpuMaterial::default()
     }
 }

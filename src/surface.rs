@@ -9,7 +9,8 @@
 //!   specularTexture and specularColor × RGB of its specularColorTexture (sRGB). An unlit
 //!   material (KHR_materials_unlit) emits base colour × texture × COLOR_0: the loader puts the
 //!   base colour's factor and texture in the emission slots, and `surface_emission` multiplies
-//!   in the vertex colour. Occlusion maps are ignored: a path tracer computes the
+//!   in the vertex colour. KHR_materials_clearcoat: clearcoat × R, clearcoatRoughness × G of
+//!   their textures, and the coat's own normal (`GpuMaterial::clearcoat_normal`). Occlusion maps are ignored: a path tracer computes the
 //!   occlusion they approximate.
 //! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
 //! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
@@ -203,6 +204,22 @@ pub fn surface_material(
         let c = sample_texture_ref(data, m.specular_color_texture, sp.uv, lod).truncate();
         out.specular_color = (Vec3::from(m.specular_color) * c).to_array();
     }
+    if m.clearcoat_texture != NO_TEXTURE {
+        out.clearcoat *= sample_texture_ref(data, m.clearcoat_texture, sp.uv, lod).x;
+    }
+    if m.clearcoat_roughness_texture != NO_TEXTURE {
+        out.clearcoat_roughness *=
+            sample_texture_ref(data, m.clearcoat_roughness_texture, sp.uv, lod).y;
+    }
+    // The coat's normal: its own map, else the interpolated normal even where the base is
+    // normal-mapped (KHR_materials_clearcoat); zero leaves the base's shading normal.
+    if out.clearcoat > 0.0
+        && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)
+    {
+        let scale = m.clearcoat_normal_scale;
+        let nc = surface_mapped_normal(data, m.clearcoat_normal_texture, scale, sp, lod);
+        out.clearcoat_normal = nc.to_array();
+    }
     out
 }
 
@@ -214,7 +231,19 @@ pub fn surface_normal(
     sp: &SurfacePoint,
     lod: [f32; 2],
 ) -> Vec3 {
-    if m.normal_texture == NO_TEXTURE {
+    surface_mapped_normal(data, m.normal_texture, m.normal_scale, sp, lod)
+}
+
+/// The interpolated normal perturbed by tangent-space normal map `texture` (or `NO_TEXTURE`)
+/// with XY scaled by `scale`: [`surface_normal`]'s rule, for the base's and the clearcoat's maps.
+pub fn surface_mapped_normal(
+    data: &TextureData,
+    texture: u32,
+    scale: f32,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> Vec3 {
+    if texture == NO_TEXTURE {
         return sp.ns;
     }
     let n = sp.ns;
@@ -226,9 +255,9 @@ pub fn surface_normal(
     }
     let t = t / t_length;
     let b = n.cross(t) * if sp.tangent.w < 0.0 { -1.0 } else { 1.0 };
-    let texel = sample_texture_ref(data, m.normal_texture, sp.uv, lod);
-    let x = (2.0 * texel.x - 1.0) * m.normal_scale;
-    let y = (2.0 * texel.y - 1.0) * m.normal_scale;
+    let texel = sample_texture_ref(data, texture, sp.uv, lod);
+    let x = (2.0 * texel.x - 1.0) * scale;
+    let y = (2.0 * texel.y - 1.0) * scale;
     let z = 2.0 * texel.z - 1.0;
     let mapped = t * x + b * y + n * z;
     let length = mapped.length();

@@ -18,6 +18,8 @@ use wavetrace::stats::sidak;
 const MODELS: &[(&str, &[&str])] = &[
     ("UnlitTest.glb", &["KHR_materials_unlit"]),
     ("SpecularTest.glb", &["KHR_materials_specular"]),
+    ("ClearCoatTest.glb", &["KHR_materials_clearcoat"]),
+    ("ClearCoatCarPaint.glb", &["KHR_materials_clearcoat"]),
 ];
 
 fn model(name: &str) -> Option<PathBuf> {
@@ -101,6 +103,37 @@ fn specular_factors_and_textures_are_read() {
         .materials
         .iter()
         .any(|m| m.textures.specular_color.is_some()));
+}
+
+#[test]
+fn clearcoat_factors_and_textures_are_read() {
+    let Some(scene) = load("ClearCoatTest.glb") else {
+        return;
+    };
+    let m = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap();
+    assert_eq!(m("Simple_Base").clearcoat, 0.0);
+    assert_eq!(
+        (
+            m("Simple_Coated").clearcoat,
+            m("Simple_Coated").clearcoat_roughness
+        ),
+        (1.0, 0.03)
+    );
+    assert!(m("Partial_Coated").textures.clearcoat.is_some());
+    assert!(m("RoughVariations_Coated")
+        .textures
+        .clearcoat_roughness
+        .is_some());
+    assert!(m("CoatNorm_Coated").textures.clearcoat_normal.is_some());
+    assert!(m("CoatNorm_Coated").textures.normal.is_none());
+    assert!(m("BaseNorm_Coated").textures.clearcoat_normal.is_none());
+    // The car paint requires the extension and has a base normal map but none for its coat.
+    let Some(car) = load("ClearCoatCarPaint.glb") else {
+        return;
+    };
+    let paint = &car.materials[0];
+    assert_eq!((paint.clearcoat, paint.clearcoat_roughness), (1.0, 0.0));
+    assert!(paint.textures.normal.is_some() && paint.textures.clearcoat_normal.is_none());
 }
 
 #[test]

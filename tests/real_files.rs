@@ -50,6 +50,7 @@ const FORBIDDEN_NOTES: &[&str] = &[
     "orthographic",
     "KHR_materials_unlit",
     "KHR_materials_specular",
+    "KHR_materials_clearcoat",
 ];
 
 #[test]

@@ -22,7 +22,7 @@ use wavetrace::texture::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 6;
-const OUTPUTS_PER_CASE: usize = 11;
+const OUTPUTS_PER_CASE: usize = 13;
 
 struct Synthetic {
     textures: Vec<GpuTexture>,
@@ -189,6 +189,12 @@ fn synthetic() -> Synthetic {
                 specular_color: [1.5, 0.5, 1.0],
                 specular_texture: slot(5),
                 specular_color_texture: slot(6),
+                clearcoat: 0.9,
+                clearcoat_roughness: 0.6,
+                clearcoat_texture: slot(7),
+                clearcoat_roughness_texture: slot(8),
+                clearcoat_normal_texture: if k == 2 { NO_TEXTURE } else { slot(9) },
+                clearcoat_normal_scale: 0.7,
                 ..Default::default()
             }
         })
@@ -398,6 +404,9 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             m.transmission_texture,
             m.specular_texture,
             m.specular_color_texture,
+            m.clearcoat_texture,
+            m.clearcoat_roughness_texture,
+            m.clearcoat_normal_texture,
         ]
         .into_iter()
         .filter(|&k| k != NO_TEXTURE)
@@ -439,6 +448,18 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
                 "surface_material (emission)",
                 Vec3::from(e.emission).extend(0.0),
                 1e-4,
+            );
+            check(
+                11,
+                "surface_material (clearcoat, clearcoat roughness)",
+                Vec4::new(e.clearcoat, e.clearcoat_roughness, 0.0, 0.0),
+                1e-4,
+            );
+            check(
+                12,
+                "surface_material (clearcoat normal)",
+                Vec3::from(e.clearcoat_normal).extend(0.0),
+                1e-3,
             );
             let key = UVec4::new(in3.w.to_bits(), in4.w.to_bits(), 7, 11);
             check(

@@ -68,6 +68,12 @@ fn twin_material(i: u32) -> GpuMaterial {
         specular: if (i / 16).is_multiple_of(2) { 1.0 } else { 0.5 },
         specular_color: [[1.0; 3], [0.3, 1.8, 0.9], [40.0, 0.0, 1.0]][((i / 128) % 3) as usize],
         flags: if i / 512 == 7 { MATERIAL_UNLIT } else { 0 },
+        clearcoat: if (i / 1024) % 2 == 1 { 0.7 } else { 0.0 },
+        clearcoat_roughness: if (i / 256).is_multiple_of(2) {
+            0.0
+        } else {
+            0.35
+        },
         ..Default::default()
     }
 }
@@ -230,7 +236,11 @@ fn glsl_functions_equal_their_rust_twins() {
         check(6, "offset_ray_origin", p.extend(0.0), &|a, b| {
             close(a, b, ULP_TOL)
         });
-        let m = twin_material(i as u32);
+        let mut m = twin_material(i as u32);
+        // Half the coated cases have a coat normal of their own (twins.comp).
+        if (i / 2048) % 2 == 1 {
+            m.clearcoat_normal = (c.n + 0.5 * c.wo).normalize().to_array();
+        }
         let wo = if i & 32 != 0 { -c.wo } else { c.wo };
         let radiance = TransportMode::Radiance;
         let s = bsdf_sample(&m, c.n, wo, c.u.truncate(), radiance);
@@ -239,7 +249,7 @@ fn glsl_functions_equal_their_rust_twins() {
         // magnify the angle tolerance). A lobe choice within rounding of a boundary is skipped.
         let gs = (g(7), g(8));
         let near_boundary = BsdfFrame::new(&m, c.n, wo).is_some_and(|f| {
-            let [p0, p1, _] = f.lobe_pmf;
+            let [p0, p1, _, _] = f.lobe_pmf;
             (c.u.z - p0).abs() < 1e-5 || (c.u.z - p0 - p1).abs() < 1e-5
         });
         match s {

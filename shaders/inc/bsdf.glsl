@@ -1,5 +1,5 @@
 // The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
-// _specular and _unlit: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// _specular, _unlit and _clearcoat: twin of src/bsdf/mod.rs, same names; the model and its conventions are
 // written down there. Direction convention: wo points towards where the light goes (previous
 // vertex), wi towards where it comes from; both point away from the surface; ng is the
 // front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
@@ -14,6 +14,7 @@
 #define LOBE_DIFFUSE 0u
 #define LOBE_REFLECTION 1u
 #define LOBE_TRANSMISSION 2u
+#define LOBE_CLEARCOAT 3u
 
 // A material seen from wo: local frame (+Z on wo's side), relative IOR, lobe probabilities.
 struct BsdfFrame {
@@ -28,10 +29,23 @@ struct BsdfFrame {
     float etap;        // eta on the far side / eta on wo's side
     vec3 f0;           // the dielectric Fresnel's RGB F0 (specular_f0) and F90 (specular)
     float f90;
-    vec3 lobe_pmf;     // diffuse, reflection, transmission
+    vec4 lobe_pmf;     // diffuse, reflection, transmission, clearcoat
     float albedo_estimate;
     vec3 ng;           // geometric normal on wo's side, local
+    vec3 ng_world;     // the same, world space
+    float clearcoat;   // the coat's weight (0: none), alpha, world frame about N_c, wo in it
+    float cc_alpha;
+    vec3 cc_t;
+    vec3 cc_b;
+    vec3 cc_n;
+    vec3 cc_wo;
 };
+
+// The clearcoat's Fresnel weight, F0 = 0.04 (ior 1.5) (KHR_materials_clearcoat, fresnel_coat).
+float fresnel_coat(float cos_theta) {
+    float f0 = dielectric_f0(1.5);
+    return f0 + (1.0 - f0) * schlick_weight(abs(cos_theta));
+}
 
 // BsdfFrame::new_shading's minimum height of wo's reflection above the geometric surface.
 #define SHADING_NORMAL_MIN_COS 0.01
@@ -66,7 +80,9 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
     f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
-    f.lobe_pmf = vec3(0.0); f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
+    f.lobe_pmf = vec4(0.0); f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
+    f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = 0.0;
+    f.cc_t = vec3(0.0); f.cc_b = vec3(0.0); f.cc_n = vec3(0.0); f.cc_wo = vec3(0.0);
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
     vec3 ng_wo = front ? ng : -ng;
@@ -90,11 +106,28 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     vec3 fe = fresnel_dielectric_color(f.wo.z, f.f0, f.f90, f.etap);
     float fm = average3(fresnel_conductor(f.base, f.wo.z));
     float dielectric = 1.0 - f.metallic;
-    vec3 w = vec3(dielectric * (1.0 - f.transmission) * (1.0 - max3(fe)) * average3(f.base),
+    vec4 w = vec4(dielectric * (1.0 - f.transmission) * (1.0 - max3(fe)) * average3(f.base),
                   dielectric * average3(fe) + f.metallic * fm,
-                  dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base));
-    float total = w.x + w.y + w.z;
-    f.lobe_pmf = total > 0.0 ? w / total : vec3(0.0);
+                  dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base),
+                  0.0);
+    // The coat: its frame about N_c and its weight clearcoat * F_c(wo.N_c) taken from the base.
+    f.ng_world = ng_wo;
+    f.clearcoat = unlit ? 0.0 : m.clearcoat;
+    f.cc_alpha = m.clearcoat_roughness * m.clearcoat_roughness;
+    f.cc_t = f.t; f.cc_b = f.b; f.cc_n = f.n; f.cc_wo = f.wo;
+    if (f.clearcoat > 0.0) {
+        vec3 nc = m.clearcoat_normal;
+        if (any(notEqual(nc, vec3(0.0)))) {
+            f.cc_n = bend_shading_normal(front ? nc : -nc, ng_wo, wo);
+            build_frame(f.cc_n, f.cc_t, f.cc_b);
+            f.cc_wo = vec3(dot(wo, f.cc_t), dot(wo, f.cc_b), dot(wo, f.cc_n));
+        }
+        float wc = f.clearcoat * fresnel_coat(f.cc_wo.z);
+        w.xyz *= 1.0 - wc;
+        w.w = wc;
+    }
+    float total = w.x + w.y + w.z + w.w;
+    f.lobe_pmf = total > 0.0 ? w / total : vec4(0.0);
     f.albedo_estimate = total;
     return true;
 }
@@ -205,14 +238,53 @@ bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 va
     return true;
 }
 
+bool bsdf_cc_is_delta(BsdfFrame f) {
+    return f.cc_alpha < ALPHA_DELTA;
+}
+
+vec3 bsdf_to_cc_local(BsdfFrame f, vec3 v) {
+    return vec3(dot(v, f.cc_t), dot(v, f.cc_b), dot(v, f.cc_n));
+}
+
+// The coat's weight clearcoat * F_c(|V.N_c|): V is wo for radiance, wi for importance.
+float bsdf_cc_weight(BsdfFrame f, vec3 wi, uint mode) {
+    float v = mode == TRANSPORT_RADIANCE ? f.cc_wo.z : dot(wi, f.cc_n);
+    return f.clearcoat * fresnel_coat(v);
+}
+
+// The coat's GGX lobe D.V at world wi, times |cos to N_c| / |cos to n| of the direction the
+// integrator multiplies by (BsdfFrame::eval_clearcoat).
+float bsdf_eval_clearcoat(BsdfFrame f, vec3 wi, uint mode) {
+    vec3 wc = bsdf_to_cc_local(f, wi);
+    if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
+    vec3 h = normalize(f.cc_wo + wc);
+    float spec = ggx_d(h, f.cc_alpha) * ggx_visibility(f.cc_wo.z, wc.z, f.cc_alpha);
+    if (all(equal(f.cc_n, f.n))) return spec;
+    float ratio = mode == TRANSPORT_RADIANCE ? wc.z / abs(dot(wi, f.n)) : f.cc_wo.z / f.wo.z;
+    return (isinf(ratio) || isnan(ratio)) ? 0.0 : spec * ratio;
+}
+
+// Solid-angle pdf of the coat's visible-normal sampling at world wi.
+float bsdf_pdf_clearcoat(BsdfFrame f, vec3 wi) {
+    vec3 wc = bsdf_to_cc_local(f, wi);
+    if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
+    vec3 h = normalize(f.cc_wo + wc);
+    return ggx_vndf_pdf(f.cc_wo, h, f.cc_alpha) / (4.0 * dot(f.cc_wo, h));
+}
+
 // f(wo, wi) of the non-delta lobes for world-space wi (BsdfFrame::eval).
 vec3 bsdf_frame_eval(BsdfFrame f, vec3 wi, uint mode) {
-    return bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+    vec3 base = bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+    if (f.clearcoat <= 0.0) return base;
+    float wc = bsdf_cc_weight(f, wi, mode);
+    return (1.0 - wc) * base + vec3(wc * bsdf_eval_clearcoat(f, wi, mode));
 }
 
 // The mixture pdf at world-space wi (BsdfFrame::pdf).
 float bsdf_frame_pdf(BsdfFrame f, vec3 wi) {
-    return bsdf_pdf_local(f, bsdf_to_local(f, wi));
+    float base = bsdf_pdf_local(f, bsdf_to_local(f, wi));
+    if (f.clearcoat <= 0.0 || f.lobe_pmf.w <= 0.0) return base;
+    return base + f.lobe_pmf.w * bsdf_pdf_clearcoat(f, wi);
 }
 
 // f of the non-delta lobes (without the cosine).
@@ -229,6 +301,16 @@ float bsdf_pdf(GpuMaterial m, vec3 ng, vec3 wo, vec3 wi) {
     return bsdf_frame_pdf(f, wi);
 }
 
+// A non-delta sample at world wi: the mixture's pdf and f.|cos|/pdf there (BsdfFrame::weighed).
+bool bsdf_weighed(BsdfFrame f, vec3 world, uint mode, out vec3 wi, out vec3 weight, out float pdf) {
+    wi = world;
+    weight = vec3(0.0);
+    pdf = bsdf_frame_pdf(f, world);
+    if (!(pdf > 0.0) || isinf(pdf)) return false;
+    weight = bsdf_frame_eval(f, world, mode) * (bsdf_frame_cos(f, world) / pdf);
+    return true;
+}
+
 // Samples wi from a frame (BsdfFrame::sample): u.z picks the lobe, u.xy the direction in it.
 // Writes weight = f.|cos|/pdf, the pdf (a delta lobe: its probability) and whether the lobe is
 // a delta; false if no direction.
@@ -238,16 +320,33 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
     weight = vec3(0.0);
     pdf = 0.0;
     delta = false;
-    uint lobe = u.z < f.lobe_pmf.x ? LOBE_DIFFUSE
-              : (u.z < f.lobe_pmf.x + f.lobe_pmf.y ? LOBE_REFLECTION : LOBE_TRANSMISSION);
-    float lobe_p = lobe == LOBE_DIFFUSE ? f.lobe_pmf.x : (lobe == LOBE_REFLECTION ? f.lobe_pmf.y : f.lobe_pmf.z);
+    vec4 p = f.lobe_pmf;
+    uint lobe = u.z < p.x ? LOBE_DIFFUSE
+              : (u.z < p.x + p.y ? LOBE_REFLECTION
+              : ((u.z < p.x + p.y + p.z || f.clearcoat <= 0.0) ? LOBE_TRANSMISSION : LOBE_CLEARCOAT));
+    float lobe_p = p[lobe];
     if (lobe_p <= 0.0) return false;
+    if (lobe == LOBE_CLEARCOAT) {
+        vec3 wc = bsdf_cc_is_delta(f) ? vec3(-f.cc_wo.x, -f.cc_wo.y, f.cc_wo.z)
+                : reflect_about(f.cc_wo, sample_ggx_vndf(f.cc_wo, f.cc_alpha, u.xy));
+        vec3 world = f.cc_t * wc.x + f.cc_b * wc.y + f.cc_n * wc.z;
+        if (wc.z <= 0.0 || dot(world, f.ng_world) <= 0.0) return false;
+        if (bsdf_cc_is_delta(f)) {
+            wi = world;
+            weight = vec3(bsdf_cc_weight(f, world, mode) / lobe_p);
+            pdf = lobe_p;
+            delta = true;
+            return true;
+        }
+        return bsdf_weighed(f, world, mode, wi, weight, pdf);
+    }
     vec3 local;
     if (lobe != LOBE_DIFFUSE && bsdf_is_delta(f)) {
         vec3 value;
         if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
         wi = bsdf_to_world(f, local);
-        weight = value / lobe_p;
+        float scale = f.clearcoat > 0.0 ? 1.0 - bsdf_cc_weight(f, wi, mode) : 1.0;
+        weight = value * (scale / lobe_p);
         pdf = lobe_p;
         delta = true;
         return true;
@@ -262,6 +361,7 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
     // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
     bool reflects = lobe != LOBE_TRANSMISSION;
     if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
+    if (f.clearcoat > 0.0) return bsdf_weighed(f, bsdf_to_world(f, local), mode, wi, weight, pdf);
     pdf = bsdf_pdf_local(f, local);
     if (!(pdf > 0.0) || isinf(pdf)) return false;
     wi = bsdf_to_world(f, local);

@@ -43,7 +43,7 @@ struct GpuTriangle {
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
 // texture references that modulate its factors at each surface point (surface.glsl).
-// Total: 112 bytes.
+// Total: 144 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -64,9 +64,15 @@ struct GpuMaterial {
     vec3 specular_color;              // 12 bytes: KHR_materials_specular's specularColorFactor
     uint specular_texture;            // 4 bytes: A x specular
     uint specular_color_texture;      // 4 bytes: sRGB; RGB x specular_color
+    float clearcoat;                  // 4 bytes: KHR_materials_clearcoat's clearcoatFactor
+    float clearcoat_roughness;        // 4 bytes: alpha = roughness^2
+    uint clearcoat_texture;           // 4 bytes: R x clearcoat
+    uint clearcoat_roughness_texture; // 4 bytes: G x clearcoat_roughness
+    uint clearcoat_normal_texture;    // 4 bytes
+    float clearcoat_normal_scale;     // 4 bytes
     uint pad0;                        // 4 bytes
+    vec3 clearcoat_normal;            // 12 bytes: the coat's world normal at a hit (0: the shading normal)
     uint pad1;                        // 4 bytes
-    uint pad2;                        // 4 bytes
 };
 
 // Shading attributes of one vertex, world space. Total: 64 bytes.

@@ -94,6 +94,32 @@ vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
 
+
+// The interpolated normal perturbed by tangent-space normal map `tex` (or NO_TEXTURE), XY scaled
+// by `scale` (surface_mapped_normal): the base's and the clearcoat's maps.
+vec3 surface_mapped_normal(uint tex, float scale, SurfacePoint sp, vec2 lod) {
+    if (tex == NO_TEXTURE) return sp.ns;
+    vec3 n = sp.ns;
+    vec3 t = sp.tangent.xyz;
+    t = t - n * dot(n, t);
+    float t_len = length(t);
+    if (!(t_len > 1e-12) || isinf(t_len)) return n;
+    t /= t_len;
+    vec3 b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
+    vec4 texel = sample_texture_ref(tex, sp.uv0, sp.uv1, lod);
+    float x = (2.0 * texel.x - 1.0) * scale;
+    float y = (2.0 * texel.y - 1.0) * scale;
+    float z = 2.0 * texel.z - 1.0;
+    vec3 mapped = t * x + b * y + n * z;
+    float len = length(mapped);
+    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
+}
+
+// The shading normal with the normal map applied (unit, not flipped).
+vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    return surface_mapped_normal(m.normal_texture, m.normal_scale, sp, lod);
+}
+
 // Material m at the surface point: factors times textures times vertex colour.
 
 GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
@@ -117,26 +143,17 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     if (m.specular_color_texture != NO_TEXTURE) {
         o.specular_color = m.specular_color * sample_texture_ref(m.specular_color_texture, sp.uv0, sp.uv1, lod).xyz;
     }
+    if (m.clearcoat_texture != NO_TEXTURE) {
+        o.clearcoat *= sample_texture_ref(m.clearcoat_texture, sp.uv0, sp.uv1, lod).x;
+    }
+    if (m.clearcoat_roughness_texture != NO_TEXTURE) {
+        o.clearcoat_roughness *= sample_texture_ref(m.clearcoat_roughness_texture, sp.uv0, sp.uv1, lod).y;
+    }
+    // The coat's normal: its own map, else the interpolated normal (0: the base's shading normal).
+    if (o.clearcoat > 0.0 && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)) {
+        o.clearcoat_normal = surface_mapped_normal(m.clearcoat_normal_texture, m.clearcoat_normal_scale, sp, lod);
+    }
     return o;
-}
-
-// The shading normal with the normal map applied (unit, not flipped).
-vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    if (m.normal_texture == NO_TEXTURE) return sp.ns;
-    vec3 n = sp.ns;
-    vec3 t = sp.tangent.xyz;
-    t = t - n * dot(n, t);
-    float t_len = length(t);
-    if (!(t_len > 1e-12) || isinf(t_len)) return n;
-    t /= t_len;
-    vec3 b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
-    vec4 texel = sample_texture_ref(m.normal_texture, sp.uv0, sp.uv1, lod);
-    float x = (2.0 * texel.x - 1.0) * m.normal_scale;
-    float y = (2.0 * texel.y - 1.0) * m.normal_scale;
-    float z = 2.0 * texel.z - 1.0;
-    vec3 mapped = t * x + b * y + n * z;
-    float len = length(mapped);
-    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
 }
 
 float alpha_random(uvec4 key, uint triangle) {

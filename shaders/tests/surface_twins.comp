@@ -23,7 +23,7 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "surface.glsl"
 
 #define INPUTS_PER_CASE 6u
-#define OUTPUTS_PER_CASE 11u
+#define OUTPUTS_PER_CASE 13u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -75,4 +75,6 @@ void main() {
                            triangle_present(tri_index, in2.x, in2.y, key, vec3(0.0)) ? 1.0 : 0.0);
     outputs[o + 9u] = vec4(e.specular_color, e.specular);
     outputs[o + 10u] = vec4(e.emission, 0.0);
+    outputs[o + 11u] = vec4(e.clearcoat, e.clearcoat_roughness, 0.0, 0.0);
+    outputs[o + 12u] = vec4(e.clearcoat_normal, 0.0);
 }

@@ -26,7 +26,7 @@ layout(push_constant) uniform Push { uint case_count; };
 layout(local_size_x = WORKGROUP_SIZE) in;
 
 // The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
-// specular factor and colour swept by the case index; the last 512 cases are unlit.
+// specular factor and colour, clearcoat swept by the case index; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
@@ -43,9 +43,15 @@ GpuMaterial twin_material(uint i) {
     m.specular_color = c == 0u ? vec3(1.0) : (c == 1u ? vec3(0.3, 1.8, 0.9) : vec3(40.0, 0.0, 1.0));
     m.specular_texture = NO_TEXTURE;
     m.specular_color_texture = NO_TEXTURE;
+    m.clearcoat = (i / 1024u) % 2u == 1u ? 0.7 : 0.0;
+    m.clearcoat_roughness = (i / 256u) % 2u == 0u ? 0.0 : 0.35;
+    m.clearcoat_texture = NO_TEXTURE;
+    m.clearcoat_roughness_texture = NO_TEXTURE;
+    m.clearcoat_normal_texture = NO_TEXTURE;
+    m.clearcoat_normal_scale = 1.0;
     m.pad0 = 0u;
+    m.clearcoat_normal = vec3(0.0);
     m.pad1 = 0u;
-    m.pad2 = 0u;
     return m;
 }
 
@@ -70,6 +76,8 @@ void main() {
     outputs[o + 5u] = vec4(bt, 0.0);
     outputs[o + 6u] = vec4(offset_ray_origin(wo * 10.0 * u.w, n), 0.0);
     GpuMaterial m = twin_material(i);
+    // Half the coated cases have a coat normal of their own.
+    if ((i / 2048u) % 2u == 1u) m.clearcoat_normal = normalize(n + 0.5 * wo);
     vec3 wo_side = (i & 32u) != 0u ? -wo : wo;
     vec3 wi, weight;
     float pdf;

@@ -32,6 +32,19 @@
 //! `bsdf_pdf` leave them out (they are zero almost everywhere), and `bsdf_sample` returns them
 //! flagged `delta` with the ratio f·|cos|/pdf as `weight`.
 //!
+//! KHR_materials_clearcoat layers a GGX reflection over all of that exactly as the extension's
+//! `fresnel_coat` writes it:
+//!   f_coated = (1 − clearcoat · F_c(|V·N_c|)) · f + clearcoat · F_c(|V·N_c|) · D_c·V_c
+//! with F_c Schlick's Fresnel of ior 1.5 (F0 = 0.04) on the *view* direction V and the coat's
+//! normal N_c (its own normal map, else the interpolated normal even where the base is
+//! normal-mapped), D_c·V_c the GGX lobe of α = clearcoatRoughness² about N_c (a delta mirror
+//! below [`microfacet::ALPHA_DELTA`]), whose cosine is |L·N_c|: as f is multiplied by the
+//! cosine to the base's shading normal, the coat's term carries |L·N_c|/|L·N| (1 where the two
+//! normals agree). F_c on V makes the coated BSDF non-reciprocal; V is `wo` for radiance and
+//! `wi` for importance, so the importance BSDF is the radiance one transposed, as BDPT needs.
+//! Not modelled: the spec's darkening of emission under the coat (emission · (1 − clearcoat ·
+//! F_c)) — emission stays the direction-independent factor every integrator reads.
+//!
 //! KHR_materials_unlit: the surface shows its base colour term whatever the lighting. A path
 //! tracer gives it that look by making the surface an emitter of exactly that radiance
 //! (`surface::surface_emission`) whose BSDF is zero: seen directly it is its base colour, it
@@ -72,6 +85,7 @@ pub struct BsdfSample {
 pub const LOBE_DIFFUSE: usize = 0;
 pub const LOBE_REFLECTION: usize = 1;
 pub const LOBE_TRANSMISSION: usize = 2;
+pub const LOBE_CLEARCOAT: usize = 3;
 
 /// A material seen from `wo`: the local frame with +Z on `wo`'s side, the relative index of
 /// refraction and the lobe selection probabilities.
@@ -91,13 +105,30 @@ pub struct BsdfFrame {
     /// The dielectric Fresnel's RGB F0 ([`specular_f0`]) and F90 (specular).
     f0: Vec3,
     f90: f32,
-    /// Probabilities of choosing the diffuse, reflection and transmission lobes.
-    pub lobe_pmf: [f32; 3],
+    /// Probabilities of choosing the diffuse, reflection, transmission and clearcoat lobes.
+    pub lobe_pmf: [f32; 4],
     /// Sum of the lobe albedo estimates (before normalising to `lobe_pmf`).
     pub albedo_estimate: f32,
     /// The geometric normal on `wo`'s side, in the local frame: a direction reflects or
     /// transmits by the side of the geometric surface it lies on.
     ng: Vec3,
+    /// The same in world space.
+    ng_world: Vec3,
+    /// The clearcoat layer: its weight (0: none), α, world frame about N_c (on `wo`'s side) and
+    /// `wo` in that frame.
+    clearcoat: f32,
+    cc_alpha: f32,
+    cc_t: Vec3,
+    cc_b: Vec3,
+    cc_n: Vec3,
+    cc_wo: Vec3,
+}
+
+/// The clearcoat's Fresnel weight F_c = F0 + (1 − F0)(1 − |cos|)⁵ with F0 = ((1.5 − 1)/(1.5 +
+/// 1))² = 0.04 (KHR_materials_clearcoat, `fresnel_coat`).
+pub fn fresnel_coat(cos: f32) -> f32 {
+    let f0 = dielectric_f0(1.5);
+    f0 + (1.0 - f0) * schlick_weight(cos.abs())
 }
 
 /// How far above the geometric surface the shading normal must reflect `wo`
@@ -185,16 +216,34 @@ impl BsdfFrame {
         let fe = fresnel_dielectric_color(wo_local.z, f0, f90, etap);
         let fm = average(fresnel_conductor(base, wo_local.z));
         let dielectric = 1.0 - metallic;
-        let w = [
+        let mut w = [
             dielectric * (1.0 - transmission) * (1.0 - fe.max_element()) * average(base),
             dielectric * average(fe) + metallic * fm,
             dielectric * transmission * (1.0 - fe.max_element()) * average(base),
+            0.0,
         ];
-        let total = w[0] + w[1] + w[2];
+        // The coat: its frame about N_c (the base's normal unless the hit gave its own), and
+        // its weight clearcoat · F_c(wo·N_c) taken from the base lobes' estimates.
+        let clearcoat = if unlit { 0.0 } else { m.clearcoat };
+        let (mut cc_t, mut cc_b, mut cc_n, mut cc_wo) = (t, b, n, wo_local);
+        if clearcoat > 0.0 {
+            let nc = Vec3::from(m.clearcoat_normal);
+            if nc != Vec3::ZERO {
+                cc_n = bend_shading_normal(if front { nc } else { -nc }, ng_wo, wo);
+                (cc_t, cc_b) = build_frame(cc_n);
+                cc_wo = Vec3::new(wo.dot(cc_t), wo.dot(cc_b), wo.dot(cc_n));
+            }
+            let wc = clearcoat * fresnel_coat(cc_wo.z);
+            for x in &mut w[..3] {
+                *x *= 1.0 - wc;
+            }
+            w[LOBE_CLEARCOAT] = wc;
+        }
+        let total = w[0] + w[1] + w[2] + w[3];
         let lobe_pmf = if total > 0.0 {
-            [w[0] / total, w[1] / total, w[2] / total]
+            w.map(|x| x / total)
         } else {
-            [0.0; 3]
+            [0.0; 4]
         };
         Some(BsdfFrame {
             t,
@@ -215,6 +264,13 @@ impl BsdfFrame {
             } else {
                 Vec3::new(ng_wo.dot(t), ng_wo.dot(b), ng_wo.dot(n))
             },
+            ng_world: ng_wo,
+            clearcoat,
+            cc_alpha: m.clearcoat_roughness * m.clearcoat_roughness,
+            cc_t,
+            cc_b,
+            cc_n,
+            cc_wo,
         })
     }
 
@@ -298,7 +354,7 @@ impl BsdfFrame {
         if !self.consistent(wi) {
             return 0.0;
         }
-        let [p_diffuse, p_reflection, p_transmission] = self.lobe_pmf;
+        let [p_diffuse, p_reflection, p_transmission, _] = self.lobe_pmf;
         if wi.z > 0.0 {
             let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
             if !self.is_delta() && p_reflection > 0.0 {
@@ -342,59 +398,147 @@ impl BsdfFrame {
         }
     }
 
+    fn cc_is_delta(&self) -> bool {
+        self.cc_alpha < ALPHA_DELTA
+    }
+
+    fn to_cc_local(self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.cc_t), v.dot(self.cc_b), v.dot(self.cc_n))
+    }
+
+    /// The coat's weight clearcoat · F_c(|V·N_c|) for world-space `wi`: V is `wo` for radiance,
+    /// `wi` for importance (the transposed BSDF).
+    fn cc_weight(&self, wi: Vec3, mode: TransportMode) -> f32 {
+        let v = match mode {
+            TransportMode::Radiance => self.cc_wo.z,
+            TransportMode::Importance => wi.dot(self.cc_n),
+        };
+        self.clearcoat * fresnel_coat(v)
+    }
+
+    /// The coat's GGX lobe D·V at world-space `wi` (0 for a delta coat or `wi` below the coat or
+    /// the geometric surface), times |cos| to N_c over |cos| to the shading normal of the
+    /// direction the integrator multiplies by (`wi` for radiance; `wo` for importance, the
+    /// transpose).
+    fn eval_clearcoat(&self, wi: Vec3, mode: TransportMode) -> f32 {
+        let wc = self.to_cc_local(wi);
+        if self.cc_is_delta() || wc.z <= 0.0 || wi.dot(self.ng_world) <= 0.0 {
+            return 0.0;
+        }
+        let h = (self.cc_wo + wc).normalize();
+        let spec = ggx_d(h, self.cc_alpha) * ggx_visibility(self.cc_wo.z, wc.z, self.cc_alpha);
+        if self.cc_n == self.n {
+            return spec;
+        }
+        let ratio = match mode {
+            TransportMode::Radiance => wc.z / wi.dot(self.n).abs(),
+            TransportMode::Importance => self.cc_wo.z / self.wo.z,
+        };
+        if ratio.is_finite() {
+            spec * ratio
+        } else {
+            0.0
+        }
+    }
+
+    /// Solid-angle pdf of the coat's visible-normal sampling at world-space `wi`.
+    fn pdf_clearcoat(&self, wi: Vec3) -> f32 {
+        let wc = self.to_cc_local(wi);
+        if self.cc_is_delta() || wc.z <= 0.0 || wi.dot(self.ng_world) <= 0.0 {
+            return 0.0;
+        }
+        let h = (self.cc_wo + wc).normalize();
+        ggx_vndf_pdf(self.cc_wo, h, self.cc_alpha) / (4.0 * self.cc_wo.dot(h))
+    }
+
     /// f(wo, wi) of the non-delta lobes for world-space `wi` ([`bsdf_eval`] with this frame).
     pub fn eval(self, wi: Vec3, mode: TransportMode) -> Vec3 {
-        self.eval_local(self.to_local(wi), mode)
+        let base = self.eval_local(self.to_local(wi), mode);
+        if self.clearcoat <= 0.0 {
+            return base;
+        }
+        let wc = self.cc_weight(wi, mode);
+        (1.0 - wc) * base + Vec3::splat(wc * self.eval_clearcoat(wi, mode))
     }
 
     /// The mixture pdf at world-space `wi` ([`bsdf_pdf`] with this frame).
     pub fn pdf(self, wi: Vec3) -> f32 {
-        self.pdf_local(self.to_local(wi))
+        let base = self.pdf_local(self.to_local(wi));
+        if self.clearcoat <= 0.0 || self.lobe_pmf[LOBE_CLEARCOAT] <= 0.0 {
+            return base;
+        }
+        base + self.lobe_pmf[LOBE_CLEARCOAT] * self.pdf_clearcoat(wi)
     }
 
     /// Samples one lobe with `u.z`, then a direction in it with `u.xy` ([`bsdf_sample`]).
     pub fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
-        let [p_diffuse, p_reflection, _] = self.lobe_pmf;
+        let [p_diffuse, p_reflection, p_transmission, _] = self.lobe_pmf;
         let lobe = if u.z < p_diffuse {
             LOBE_DIFFUSE
         } else if u.z < p_diffuse + p_reflection {
             LOBE_REFLECTION
-        } else {
+        } else if u.z < p_diffuse + p_reflection + p_transmission || self.clearcoat <= 0.0 {
             LOBE_TRANSMISSION
+        } else {
+            LOBE_CLEARCOAT
         };
         if self.lobe_pmf[lobe] <= 0.0 {
             return None;
+        }
+        let lobe_p = self.lobe_pmf[lobe];
+        let uv = Vec2::new(u.x, u.y);
+        if lobe == LOBE_CLEARCOAT {
+            let wc = if self.cc_is_delta() {
+                Vec3::new(-self.cc_wo.x, -self.cc_wo.y, self.cc_wo.z)
+            } else {
+                reflect_about(self.cc_wo, sample_ggx_vndf(self.cc_wo, self.cc_alpha, uv))
+            };
+            let wi = self.cc_t * wc.x + self.cc_b * wc.y + self.cc_n * wc.z;
+            if wc.z <= 0.0 || wi.dot(self.ng_world) <= 0.0 {
+                return None;
+            }
+            if self.cc_is_delta() {
+                // The mirror about N_c: f·|cos| = clearcoat · F_c, the same V·N_c either way.
+                return Some(BsdfSample {
+                    wi,
+                    weight: Vec3::splat(self.cc_weight(wi, mode) / lobe_p),
+                    pdf: lobe_p,
+                    delta: true,
+                });
+            }
+            return self.weighed(wi, mode);
         }
         if lobe != LOBE_DIFFUSE && self.is_delta() {
             let (wi, value) = self.delta_lobe(lobe, mode)?;
             if !self.consistent(wi) {
                 return None;
             }
-            let pdf = self.lobe_pmf[lobe];
+            let world = self.to_world(wi);
+            let scale = if self.clearcoat > 0.0 {
+                1.0 - self.cc_weight(world, mode)
+            } else {
+                1.0
+            };
             return Some(BsdfSample {
-                wi: self.to_world(wi),
-                weight: value / pdf,
-                pdf,
+                wi: world,
+                weight: value * (scale / lobe_p),
+                pdf: lobe_p,
                 delta: true,
             });
         }
         let wi = match lobe {
-            LOBE_DIFFUSE => sample_cosine_hemisphere(Vec2::new(u.x, u.y)),
-            LOBE_REFLECTION => reflect_about(
-                self.wo,
-                sample_ggx_vndf(self.wo, self.alpha, Vec2::new(u.x, u.y)),
-            ),
-            _ => refract_through(
-                self.wo,
-                sample_ggx_vndf(self.wo, self.alpha, Vec2::new(u.x, u.y)),
-                self.etap,
-            )?,
+            LOBE_DIFFUSE => sample_cosine_hemisphere(uv),
+            LOBE_REFLECTION => reflect_about(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv)),
+            _ => refract_through(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv), self.etap)?,
         };
         // Each lobe keeps to its side: a reflection below or a refraction above the surface is
         // no sample (the mixture pdf counts each lobe only on its own side).
         let reflects = lobe != LOBE_TRANSMISSION;
         if (wi.z > 0.0) != reflects || wi.z == 0.0 {
             return None;
+        }
+        if self.clearcoat > 0.0 {
+            return self.weighed(self.to_world(wi), mode);
         }
         let pdf = self.pdf_local(wi);
         if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
@@ -407,12 +551,26 @@ impl BsdfFrame {
             delta: false,
         })
     }
+
+    /// A non-delta sample at world-space `wi`: the mixture's pdf and f·|cos|/pdf there.
+    fn weighed(&self, wi: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        let pdf = self.pdf(wi);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.eval(wi, mode) * (self.cos_theta(wi) / pdf),
+            pdf,
+            delta: false,
+        })
+    }
 }
 
 /// f(wo, wi) of the non-delta lobes (without the cosine).
 pub fn bsdf_eval(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
     match BsdfFrame::new(m, ng, wo) {
-        Some(frame) => frame.eval_local(frame.to_local(wi), mode),
+        Some(frame) => frame.eval(wi, mode),
         None => Vec3::ZERO,
     }
 }
@@ -420,7 +578,7 @@ pub fn bsdf_eval(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3, mode: TransportM
 /// Pdf of [`bsdf_sample`] with respect to solid angle, over its non-delta lobes.
 pub fn bsdf_pdf(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3) -> f32 {
     match BsdfFrame::new(m, ng, wo) {
-        Some(frame) => frame.pdf_local(frame.to_local(wi)),
+        Some(frame) => frame.pdf(wi),
         None => 0.0,
     }
 }

@@ -521,3 +521,203 @@ fn unlit_scatters_nothing() {
         assert_eq!(bsdf_albedo_estimate(&m, NG, wo), 0.0);
     }
 }
+
+/// A coated material: `base` (metallic, transmission) under a coat of weight `cc` and roughness
+/// `cc_r`, the coat's normal tilted away from the surface's when `tilt`.
+fn coated(metallic: f32, transmission: f32, cc: f32, cc_r: f32, tilt: bool) -> GpuMaterial {
+    GpuMaterial {
+        clearcoat: cc,
+        clearcoat_roughness: cc_r,
+        clearcoat_normal: if tilt {
+            Vec3::new(0.3, -0.2, 1.0).normalize().to_array()
+        } else {
+            [0.0; 3]
+        },
+        ..material(0.7, metallic, 0.5, transmission)
+    }
+}
+
+#[test]
+fn clearcoat_follows_fresnel_coat() {
+    // coated = (1 − clearcoat·F_c(|V·N_c|))·material + clearcoat·F_c·D·G/(4|V·N_c||L·N_c|)
+    // (KHR_materials_clearcoat, "Layering"), written out here independently.
+    for (metallic, transmission) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)] {
+        let m = coated(metallic, transmission, 0.8, 0.4, false);
+        let base = GpuMaterial {
+            clearcoat: 0.0,
+            ..m
+        };
+        let (wo, wi) = (direction(0.8, 0.2), direction(0.45, 2.5));
+        let fc = 0.04 + 0.96 * (1.0 - wo.z).powi(5);
+        let h = (wo + wi).normalize();
+        let a = 0.16;
+        let coat = ggx_d(h, a) * ggx_visibility(wo.z, wi.z, a);
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            let v = if mode == TransportMode::Radiance {
+                wo.z
+            } else {
+                wi.z
+            };
+            let fc = 0.04 + 0.96 * (1.0 - v).powi(5);
+            let expected = (1.0 - 0.8 * fc) * bsdf_eval(&base, NG, wo, wi, mode)
+                + Vec3::splat(0.8 * fc * coat);
+            let got = bsdf_eval(&m, NG, wo, wi, mode);
+            assert!(
+                (got - expected).abs().max_element() <= 1e-5 * expected.max_element(),
+                "{mode:?}: {got} vs {expected}"
+            );
+        }
+        // Below the surface only the base's transmission, scaled by 1 − clearcoat·F_c(wo).
+        let below = wi * Vec3::new(1.0, 1.0, -1.0);
+        let expected = (1.0 - 0.8 * fc) * bsdf_eval(&base, NG, wo, below, TransportMode::Radiance);
+        let got = bsdf_eval(&m, NG, wo, below, TransportMode::Radiance);
+        assert!((got - expected).abs().max_element() <= 1e-5 * expected.max_element().max(1e-6));
+    }
+}
+
+fn coated_cases() -> Vec<(GpuMaterial, Vec3, String)> {
+    let mut cases = Vec::new();
+    for (metallic, transmission) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)] {
+        for (cc, cc_r) in [(1.0, 0.2), (0.5, 0.6)] {
+            for tilt in [false, true] {
+                for cos in [0.9, 0.3] {
+                    let mut sides = vec![1.0];
+                    if transmission > 0.0 {
+                        sides.push(-1.0);
+                    }
+                    for side in sides {
+                        let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                        let name = format!(
+                            "metallic {metallic}, transmission {transmission}, clearcoat {cc} \
+                             roughness {cc_r}, tilted {tilt}, wo {wo}"
+                        );
+                        cases.push((coated(metallic, transmission, cc, cc_r, tilt), wo, name));
+                    }
+                }
+            }
+        }
+    }
+    cases
+}
+
+#[test]
+fn clearcoat_sampling_matches_its_pdf_and_eval() {
+    let cases = coated_cases();
+    let alpha = sidak(0.01, cases.len());
+    for (m, wo, name) in cases {
+        let p = chi_square_p(
+            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
+            &|wi| bsdf_pdf(&m, NG, wo, wi),
+            1_000_000,
+        );
+        println!("{name}: χ² p = {p:.3}");
+        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            for i in 0..5000 {
+                let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), mode) else {
+                    continue;
+                };
+                assert!(!s.delta, "{name}");
+                let pdf = bsdf_pdf(&m, NG, wo, s.wi);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                    "{name}: {} vs {pdf}",
+                    s.pdf
+                );
+                let frame = BsdfFrame::new(&m, NG, wo).unwrap();
+                let expected = frame.eval(s.wi, mode) * frame.cos_theta(s.wi) / pdf;
+                assert!(
+                    (s.weight - expected).abs().max_element()
+                        <= 1e-3 * expected.max_element().max(1e-3),
+                    "{name}: {} vs {expected}",
+                    s.weight
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn clearcoat_importance_is_the_transposed_radiance_bsdf() {
+    // With a tilted coat normal, directions stay where `bend_shading_normal` leaves it alone
+    // (a bent normal depends on wo, which no transpose can follow).
+    for (m, _, name) in coated_cases() {
+        let dirs = if m.clearcoat_normal == [0.0; 3] {
+            [
+                direction(0.9, 0.1),
+                direction(0.4, 2.0),
+                direction(0.15, 4.0),
+            ]
+        } else {
+            [
+                direction(0.95, 0.1),
+                direction(0.8, 2.0),
+                direction(0.7, 4.0),
+            ]
+        };
+        for a in dirs {
+            for b in dirs {
+                let fab = bsdf_eval(&m, NG, a, b, TransportMode::Radiance);
+                let fba = bsdf_eval(&m, NG, b, a, TransportMode::Importance);
+                assert!(
+                    (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
+                    "{name}: {fab} vs {fba}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn clearcoat_conserves_energy_over_conserving_bases() {
+    // The coat's layering mixes the base and a GGX lobe (albedo ≤ 1) with weights summing to 1,
+    // so over a metal or a glass (each ≤ 1, `no_parameter_set_creates_energy`) it creates none.
+    let mut checks = Vec::new();
+    for (metallic, transmission) in [(1.0, 0.0), (0.0, 1.0)] {
+        for (cc, cc_r) in [(1.0, 0.0), (1.0, 0.3), (0.6, 1.0)] {
+            for r in [0.0, 0.3, 1.0] {
+                for cos in [1.0, 0.5, 0.1] {
+                    let m = GpuMaterial {
+                        clearcoat: cc,
+                        clearcoat_roughness: cc_r,
+                        ..material(1.0, metallic, r, transmission)
+                    };
+                    checks.push((m, direction(cos, 0.3)));
+                }
+            }
+        }
+    }
+    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
+    let mut worst: f64 = 0.0;
+    for (m, wo) in checks {
+        let (a, se) = albedo(&m, wo, 100_000);
+        worst = worst.max(a);
+        assert!(
+            a <= 1.0 + z * se + 1e-4,
+            "{m:?} from {wo}: albedo {a} ± {se}"
+        );
+    }
+    println!("highest coated albedo: {worst:.4}");
+    // White furnace: a smooth coat over a smooth white mirror reflects everything, exactly.
+    let mirror = GpuMaterial {
+        clearcoat: 1.0,
+        clearcoat_roughness: 0.0,
+        ..material(1.0, 1.0, 0.0, 0.0)
+    };
+    for cos in [1.0, 0.5, 0.05] {
+        let (a, se) = albedo(&mirror, direction(cos, 0.3), 10_000);
+        assert!((a - 1.0).abs() < 1e-5 && se < 1e-6, "cos {cos}: {a} ± {se}");
+    }
+    // A smooth coat over black reflects clearcoat·F_c(cos θo) and nothing else.
+    let black = GpuMaterial {
+        clearcoat: 0.7,
+        clearcoat_roughness: 0.0,
+        specular: 0.0,
+        ..material(0.0, 0.0, 0.5, 0.0)
+    };
+    for cos in [1.0, 0.5, 0.05] {
+        let (a, _) = albedo(&black, direction(cos, 0.3), 10_000);
+        let expected = 0.7 * fresnel_coat(cos) as f64;
+        assert!((a - expected).abs() < 1e-5, "cos {cos}: {a} vs {expected}");
+    }
+}

@@ -55,6 +55,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_specular",
     "KHR_materials_unlit",
+    "KHR_materials_clearcoat",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -174,7 +175,7 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
     let (materials, needs): (Vec<Material>, Vec<MaterialNeeds>) = document
         .materials()
         .enumerate()
-        .map(|(i, m)| convert_material(i, &m, &mut textures))
+        .map(|(i, m)| convert_material(i, &m, &document, &mut textures))
         .collect::<Result<Vec<_>>>()?
         .into_iter()
         .unzip();
@@ -388,9 +389,82 @@ fn untyped_transform(
     )))
 }
 
+/// A number of a material extension's raw JSON object `ext` (`what` is the object's JSON path
+/// and owner): `default` when absent, an error unless it is a number in [0, 1].
+fn raw_unit_factor(
+    ext: &serde_json::Value,
+    key: &str,
+    default: f32,
+    what: &str,
+    owner: &str,
+) -> Result<f32> {
+    let Some(v) = ext.get(key) else {
+        return Ok(default);
+    };
+    match v.as_f64() {
+        Some(x) if (0.0..=1.0 + 1e-4).contains(&x) => Ok((x as f32).min(1.0)),
+        _ => bail!("{what}.{key}{owner}: {v} must be a number in [0, 1]"),
+    }
+}
+
+/// A textureInfo or normalTextureInfo inside a material extension's raw JSON (the `gltf`
+/// crate types only the extensions it knows): its texture, texCoord, KHR_texture_transform and
+/// `scale` (1 when absent; a normalTextureInfo's). `what` is its JSON path.
+fn raw_texture_info<'a>(
+    document: &'a Document,
+    value: &serde_json::Value,
+    what: &str,
+    owner: &str,
+) -> Result<(TextureInfo<'a>, f32)> {
+    let index = value
+        .get("index")
+        .and_then(|v| v.as_u64())
+        .ok_or_else(|| anyhow!("{what}.index{owner}: expected a texture index"))?;
+    let texture = usize::try_from(index)
+        .ok()
+        .and_then(|i| document.textures().nth(i))
+        .ok_or_else(|| {
+            anyhow!(
+                "{what}.index{owner}: texture {index} does not exist (the file has {})",
+                document.textures().len()
+            )
+        })?;
+    let tex_coord = match value.get("texCoord") {
+        None => 0,
+        Some(v) => v
+            .as_u64()
+            .filter(|&c| c <= u32::MAX as u64)
+            .ok_or_else(|| anyhow!("{what}.texCoord{owner}: expected a non-negative integer"))?
+            as u32,
+    };
+    let scale = match value.get("scale") {
+        None => 1.0,
+        Some(v) => match v.as_f64() {
+            Some(x) if x.is_finite() => x as f32,
+            _ => bail!("{what}.scale{owner}: expected a finite number"),
+        },
+    };
+    let transform = untyped_transform(
+        value
+            .get("extensions")
+            .and_then(|e| e.get("KHR_texture_transform")),
+        what,
+        owner,
+    )?;
+    Ok((
+        TextureInfo {
+            texture,
+            tex_coord,
+            transform,
+        },
+        scale,
+    ))
+}
+
 fn convert_material(
     index: usize,
     material: &gltf::Material,
+    document: &Document,
     builder: &mut TextureBuilder,
 ) -> Result<(Material, MaterialNeeds)> {
     // The JSON path of one property of this material, and the material's name to follow it.
@@ -555,6 +629,35 @@ fn convert_material(
     } else {
         emission
     };
+    // KHR_materials_clearcoat, read from the raw JSON.
+    let (mut clearcoat, mut clearcoat_roughness, mut clearcoat_normal_scale) = (0.0, 0.0, 1.0);
+    if let Some(ext) = material.extension_value("KHR_materials_clearcoat") {
+        let what = path("extensions.KHR_materials_clearcoat");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        clearcoat = raw_unit_factor(ext, "clearcoatFactor", 0.0, &what, &owner)?;
+        clearcoat_roughness = raw_unit_factor(ext, "clearcoatRoughnessFactor", 0.0, &what, &owner)?;
+        for (key, slot) in [
+            ("clearcoatTexture", &mut textures.clearcoat),
+            (
+                "clearcoatRoughnessTexture",
+                &mut textures.clearcoat_roughness,
+            ),
+            ("clearcoatNormalTexture", &mut textures.clearcoat_normal),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_clearcoat.{key}");
+            let (info, scale) = raw_texture_info(document, value, &path(&property), &owner)?;
+            let r = reference(&property, info, false)?;
+            *slot = Some(r);
+            if key == "clearcoatNormalTexture" {
+                clearcoat_normal_scale = scale;
+            }
+        }
+    }
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
         normal_scale = normal.scale();
@@ -577,6 +680,10 @@ fn convert_material(
         textures.normal = Some(r);
         needs.normal_map = Some(builder.set.refs[r as usize].texcoord);
     }
+    // A coat's normal map needs tangents too (the base's set wins where both are mapped).
+    if let (None, Some(r)) = (needs.normal_map, textures.clearcoat_normal) {
+        needs.normal_map = Some(builder.set.refs[r as usize].texcoord);
+    }
     Ok((
         Material {
             name: material
@@ -590,6 +697,9 @@ fn convert_material(
             specular,
             specular_color,
             unlit,
+            clearcoat,
+            clearcoat_roughness,
+            clearcoat_normal_scale,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),

@@ -174,11 +174,16 @@ pub struct MaterialTextures {
     /// KHR_materials_specular's specularTexture (A) and specularColorTexture (RGB, sRGB).
     pub specular: Option<u32>,
     pub specular_color: Option<u32>,
+    /// KHR_materials_clearcoat's clearcoatTexture (R), clearcoatRoughnessTexture (G) and
+    /// clearcoatNormalTexture.
+    pub clearcoat: Option<u32>,
+    pub clearcoat_roughness: Option<u32>,
+    pub clearcoat_normal: Option<u32>,
 }
 
 /// A glTF metallic-roughness material with emission: `pbrMetallicRoughness` factors,
 /// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`,
-/// `KHR_materials_unlit` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
+/// `KHR_materials_unlit`, `KHR_materials_clearcoat` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
 /// textures that modulate them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -200,6 +205,11 @@ pub struct Material {
     /// KHR_materials_unlit: the surface emits its base colour × texture × vertex colour and
     /// scatters nothing; `emission` and `textures.emissive` then hold the base colour's.
     pub unlit: bool,
+    /// KHR_materials_clearcoat: clearcoatFactor and clearcoatRoughnessFactor in [0, 1] (0: no
+    /// coat), clearcoatNormalTexture.scale.
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    pub clearcoat_normal_scale: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
@@ -227,6 +237,9 @@ impl Material {
             specular: 1.0,
             specular_color: Vec3::ONE,
             unlit: false,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            clearcoat_normal_scale: 1.0,
             emission: Vec3::ZERO,
             double_sided: false,
             alpha: 1.0,
