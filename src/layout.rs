@@ -92,7 +92,7 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 144 bytes.
+/// Total: 160 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -124,11 +124,15 @@ pub struct GpuMaterial {
     pub clearcoat_roughness_texture: u32, // 4 bytes: G × clearcoat_roughness
     pub clearcoat_normal_texture: u32, // 4 bytes: tangent-space normal of the coat
     pub clearcoat_normal_scale: f32, // 4 bytes: clearcoatNormalTexture.scale
-    pub pad0: u32,            // 4 bytes
+    /// KHR_materials_sheen's sheenRoughnessFactor.
+    pub sheen_roughness: f32, // 4 bytes
     /// The coat's world-space shading normal at a hit (`surface::surface_material` writes it);
     /// zero: the BSDF's shading normal. Always zero in the scene's material table.
     pub clearcoat_normal: [f32; 3], // 12 bytes
-    pub pad1: u32,            // 4 bytes
+    pub sheen_color_texture: u32, // 4 bytes: sRGB; RGB × sheen_color
+    /// KHR_materials_sheen's sheenColorFactor (linear RGB; 0: no sheen).
+    pub sheen_color: [f32; 3], // 12 bytes
+    pub sheen_roughness_texture: u32, // 4 bytes: A × sheen_roughness
 }
 
 impl Default for GpuMaterial {
@@ -160,9 +164,11 @@ impl Default for GpuMaterial {
             clearcoat_roughness_texture: NO_TEXTURE,
             clearcoat_normal_texture: NO_TEXTURE,
             clearcoat_normal_scale: 1.0,
-            pad0: 0,
+            sheen_roughness: 0.0,
             clearcoat_normal: [0.0; 3],
-            pad1: 0,
+            sheen_color_texture: NO_TEXTURE,
+            sheen_color: [0.0; 3],
+            sheen_roughness_texture: NO_TEXTURE,
         }
     }
 }
@@ -286,9 +292,9 @@ pub const LIGHT_DIRECTIONAL: u32 = 2;
 /// `LightEntry::triangle` bit: the entry is punctual light (index in the low bits).
 pub const LIGHT_ENTRY_PUNCTUAL: u32 = 1 << 31;
 
-/// Constants of one render (std140 uniform). Total: 192 bytes.
+/// Constants of one render (std140 uniform). Total: 4288 bytes.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
     pub cam_position: [f32; 3], // 12 bytes
     /// Perspective cameras: tan(yfov / 2), the half-height of the image plane at unit distance;
@@ -358,6 +364,20 @@ pub struct FrameParams {
     /// go round the first n entries of the active-pixel list (band-local pixel indices, the
     /// `ActivePixels` binding), the pixels that have not yet reached the target.
     pub active_pixel_count: u32, // 4 bytes
+    /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
+    /// four entries per vec4): a uniform the shaders index, where a constant array of that size
+    /// costs lavapipe minutes of shader compilation. Every `FrameParams::default()` holds it.
+    pub sheen_albedo: [[f32; 4]; 256], // 4096 bytes
+}
+
+impl Default for FrameParams {
+    /// Every field 0, and the sheen albedo table.
+    fn default() -> Self {
+        FrameParams {
+            sheen_albedo: crate::bsdf::sheen::sheen_albedo_vec4s(),
+            ..Zeroable::zeroed()
+        }
+    }
 }
 
 /// `FrameParams::light_sampler`: emitters chosen by power alone (the table's CDF).
@@ -592,9 +612,11 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         clearcoat_roughness_texture,
         clearcoat_normal_texture,
         clearcoat_normal_scale,
-        pad0,
+        sheen_roughness,
         clearcoat_normal,
-        pad1
+        sheen_color_texture,
+        sheen_color,
+        sheen_roughness_texture
     }),
     struct_layout!(GpuVertex {
         tangent,
@@ -674,7 +696,8 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         env_pmf,
         light_sampler,
         light_bounded_cdf,
-        active_pixel_count
+        active_pixel_count,
+        sheen_albedo
     }),
     struct_layout!(DispatchParams {
         first_sample,

@@ -190,6 +190,8 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         t.clearcoat,
         t.clearcoat_roughness,
         t.clearcoat_normal,
+        t.sheen_color,
+        t.sheen_roughness,
     ]
     .iter()
     .any(Option::is_some)
@@ -223,6 +225,10 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         clearcoat_roughness_texture: slot(m.textures.clearcoat_roughness),
         clearcoat_normal_texture: slot(m.textures.clearcoat_normal),
         clearcoat_normal_scale: m.clearcoat_normal_scale,
+        sheen_color: m.sheen_color.to_array(),
+        sheen_roughness: m.sheen_roughness,
+        sheen_color_texture: slot(m.textures.sheen_color),
+        sheen_roughness_texture: slot(m.textures.sheen_roughness),
         ..GpuMaterial::default()
     }
 }

@@ -10,7 +10,8 @@
 //!   material (KHR_materials_unlit) emits base colour × texture × COLOR_0: the loader puts the
 //!   base colour's factor and texture in the emission slots, and `surface_emission` multiplies
 //!   in the vertex colour. KHR_materials_clearcoat: clearcoat × R, clearcoatRoughness × G of
-//!   their textures, and the coat's own normal (`GpuMaterial::clearcoat_normal`). Occlusion maps are ignored: a path tracer computes the
+//!   their textures, and the coat's own normal (`GpuMaterial::clearcoat_normal`);
+//!   KHR_materials_sheen: sheenColor × RGB (sRGB), sheenRoughness × A. Occlusion maps are ignored: a path tracer computes the
 //!   occlusion they approximate.
 //! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
 //! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
@@ -210,6 +211,13 @@ pub fn surface_material(
     if m.clearcoat_roughness_texture != NO_TEXTURE {
         out.clearcoat_roughness *=
             sample_texture_ref(data, m.clearcoat_roughness_texture, sp.uv, lod).y;
+    }
+    if m.sheen_color_texture != NO_TEXTURE {
+        let c = sample_texture_ref(data, m.sheen_color_texture, sp.uv, lod).truncate();
+        out.sheen_color = (Vec3::from(m.sheen_color) * c).to_array();
+    }
+    if m.sheen_roughness_texture != NO_TEXTURE {
+        out.sheen_roughness *= sample_texture_ref(data, m.sheen_roughness_texture, sp.uv, lod).w;
     }
     // The coat's normal: its own map, else the interpolated normal even where the base is
     // normal-mapped (KHR_materials_clearcoat); zero leaves the base's shading normal.

@@ -20,6 +20,7 @@ const MODELS: &[(&str, &[&str])] = &[
     ("SpecularTest.glb", &["KHR_materials_specular"]),
     ("ClearCoatTest.glb", &["KHR_materials_clearcoat"]),
     ("ClearCoatCarPaint.glb", &["KHR_materials_clearcoat"]),
+    ("SheenCloth/SheenCloth.gltf", &["KHR_materials_sheen"]),
 ];
 
 fn model(name: &str) -> Option<PathBuf> {
@@ -134,6 +135,22 @@ fn clearcoat_factors_and_textures_are_read() {
     let paint = &car.materials[0];
     assert_eq!((paint.clearcoat, paint.clearcoat_roughness), (1.0, 0.0));
     assert!(paint.textures.normal.is_some() && paint.textures.clearcoat_normal.is_none());
+}
+
+#[test]
+fn sheen_factors_and_textures_are_read() {
+    let Some(scene) = load("SheenCloth/SheenCloth.gltf") else {
+        return;
+    };
+    let cloth = &scene.materials[0];
+    assert_eq!((cloth.sheen_color, cloth.sheen_roughness), (Vec3::ONE, 1.0));
+    // One image as sRGB colour and as linear roughness (A): two decoded textures.
+    let (c, r) = (
+        cloth.textures.sheen_color.unwrap(),
+        cloth.textures.sheen_roughness.unwrap(),
+    );
+    let refs = &scene.textures.refs;
+    assert_ne!(refs[c as usize].texture, refs[r as usize].texture);
 }
 
 #[test]

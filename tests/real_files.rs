@@ -51,6 +51,7 @@ const FORBIDDEN_NOTES: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
 ];
 
 #[test]

@@ -22,7 +22,7 @@ use wavetrace::texture::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 6;
-const OUTPUTS_PER_CASE: usize = 13;
+const OUTPUTS_PER_CASE: usize = 14;
 
 struct Synthetic {
     textures: Vec<GpuTexture>,
@@ -195,6 +195,10 @@ fn synthetic() -> Synthetic {
                 clearcoat_roughness_texture: slot(8),
                 clearcoat_normal_texture: if k == 2 { NO_TEXTURE } else { slot(9) },
                 clearcoat_normal_scale: 0.7,
+                sheen_color: [0.8, 0.5, 0.9],
+                sheen_roughness: 0.6,
+                sheen_color_texture: slot(10),
+                sheen_roughness_texture: slot(11),
                 ..Default::default()
             }
         })
@@ -407,6 +411,8 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             m.clearcoat_texture,
             m.clearcoat_roughness_texture,
             m.clearcoat_normal_texture,
+            m.sheen_color_texture,
+            m.sheen_roughness_texture,
         ]
         .into_iter()
         .filter(|&k| k != NO_TEXTURE)
@@ -460,6 +466,12 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
                 "surface_material (clearcoat normal)",
                 Vec3::from(e.clearcoat_normal).extend(0.0),
                 1e-3,
+            );
+            check(
+                13,
+                "surface_material (sheen colour, sheen roughness)",
+                Vec3::from(e.sheen_color).extend(e.sheen_roughness),
+                1e-4,
             );
             let key = UVec4::new(in3.w.to_bits(), in4.w.to_bits(), 7, 11);
             check(

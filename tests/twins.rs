@@ -74,6 +74,12 @@ fn twin_material(i: u32) -> GpuMaterial {
         } else {
             0.35
         },
+        sheen_color: if (i / 64) % 4 == 3 {
+            [0.9, 0.4, 0.7]
+        } else {
+            [0.0; 3]
+        },
+        sheen_roughness: if (i / 8).is_multiple_of(2) { 0.3 } else { 0.8 },
         ..Default::default()
     }
 }
@@ -249,8 +255,12 @@ fn glsl_functions_equal_their_rust_twins() {
         // magnify the angle tolerance). A lobe choice within rounding of a boundary is skipped.
         let gs = (g(7), g(8));
         let near_boundary = BsdfFrame::new(&m, c.n, wo).is_some_and(|f| {
-            let [p0, p1, _, _] = f.lobe_pmf;
-            (c.u.z - p0).abs() < 1e-5 || (c.u.z - p0 - p1).abs() < 1e-5
+            // Any cumulative sum of the lobe probabilities near u.z.
+            let mut cumulative = 0.0;
+            f.lobe_pmf.iter().any(|&p| {
+                cumulative += p;
+                p > 0.0 && (c.u.z - cumulative).abs() < 1e-5
+            })
         });
         match s {
             Some(s) if gs.1.w != 0.0 => {

@@ -1,5 +1,5 @@
 // The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
-// _specular, _unlit and _clearcoat: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// _specular, _unlit, _clearcoat and _sheen: twin of src/bsdf/mod.rs, same names; the model and its conventions are
 // written down there. Direction convention: wo points towards where the light goes (previous
 // vertex), wi towards where it comes from; both point away from the surface; ng is the
 // front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
@@ -7,6 +7,7 @@
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
 #include "microfacet.glsl"
+#include "sheen.glsl"
 
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
@@ -15,6 +16,8 @@
 #define LOBE_REFLECTION 1u
 #define LOBE_TRANSMISSION 2u
 #define LOBE_CLEARCOAT 3u
+#define LOBE_SHEEN 4u
+#define LOBE_COUNT 5u
 
 // A material seen from wo: local frame (+Z on wo's side), relative IOR, lobe probabilities.
 struct BsdfFrame {
@@ -29,7 +32,8 @@ struct BsdfFrame {
     float etap;        // eta on the far side / eta on wo's side
     vec3 f0;           // the dielectric Fresnel's RGB F0 (specular_f0) and F90 (specular)
     float f90;
-    vec4 lobe_pmf;     // diffuse, reflection, transmission, clearcoat
+    vec4 lobe_pmf;     // diffuse, reflection, transmission, clearcoat (bsdf_lobe_pmf: all five)
+    float sheen_pmf;   // the sheen lobe's
     float albedo_estimate;
     vec3 ng;           // geometric normal on wo's side, local
     vec3 ng_world;     // the same, world space
@@ -39,6 +43,11 @@ struct BsdfFrame {
     vec3 cc_b;
     vec3 cc_n;
     vec3 cc_wo;
+    vec3 sheen_color;  // the sheen: colour, max component (0: none), alpha, roughness and the
+    float sheen_max;   // scaling 1 - max(colour) E(cos theta_o) of the layers below
+    float sheen_alpha;
+    float sheen_roughness;
+    float sheen_scale_o;
 };
 
 // The clearcoat's Fresnel weight, F0 = 0.04 (ior 1.5) (KHR_materials_clearcoat, fresnel_coat).
@@ -80,7 +89,10 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
     f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
-    f.lobe_pmf = vec4(0.0); f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
+    f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0;
+    f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
+    f.sheen_color = vec3(0.0); f.sheen_max = 0.0; f.sheen_alpha = 1.0; f.sheen_roughness = 0.0;
+    f.sheen_scale_o = 1.0;
     f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = 0.0;
     f.cc_t = vec3(0.0); f.cc_b = vec3(0.0); f.cc_n = vec3(0.0); f.cc_wo = vec3(0.0);
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
@@ -110,6 +122,18 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
                   dielectric * average3(fe) + f.metallic * fm,
                   dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base),
                   0.0);
+    float w_sheen = 0.0;
+    // The sheen: its albedo E(cos theta_o) taken from the layers below (albedo scaling).
+    f.sheen_color = unlit ? vec3(0.0) : m.sheen_color;
+    f.sheen_max = max3(f.sheen_color);
+    f.sheen_alpha = sheen_alpha(m.sheen_roughness);
+    f.sheen_roughness = m.sheen_roughness;
+    if (f.sheen_max > 0.0) {
+        float e = sheen_albedo(f.wo.z, m.sheen_roughness);
+        f.sheen_scale_o = max(1.0 - f.sheen_max * e, 0.0);
+        w.xyz *= f.sheen_scale_o;
+        w_sheen = average3(f.sheen_color) * e;
+    }
     // The coat: its frame about N_c and its weight clearcoat * F_c(wo.N_c) taken from the base.
     f.ng_world = ng_wo;
     f.clearcoat = unlit ? 0.0 : m.clearcoat;
@@ -124,12 +148,19 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
         }
         float wc = f.clearcoat * fresnel_coat(f.cc_wo.z);
         w.xyz *= 1.0 - wc;
+        w_sheen *= 1.0 - wc;
         w.w = wc;
     }
-    float total = w.x + w.y + w.z + w.w;
+    float total = w.x + w.y + w.z + w.w + w_sheen;
     f.lobe_pmf = total > 0.0 ? w / total : vec4(0.0);
+    f.sheen_pmf = total > 0.0 ? w_sheen / total : 0.0;
     f.albedo_estimate = total;
     return true;
+}
+
+// The probability of choosing lobe k (BsdfFrame::lobe_pmf[k]).
+float bsdf_lobe_pmf(BsdfFrame f, uint k) {
+    return k == LOBE_SHEEN ? f.sheen_pmf : f.lobe_pmf[k];
 }
 
 // The frame of the geometric normal alone (BsdfFrame::new).
@@ -167,6 +198,14 @@ bool refraction_half_vector(BsdfFrame f, vec3 wi, out vec3 m) {
     return finite && dot(f.wo, m) > 0.0 && dot(wi, m) < 0.0;
 }
 
+// The sheen's albedo scaling of the layers below for a direction of cosine cos_i:
+// min(1 - max(c) E(cos_o), 1 - max(c) E(cos_i)), at least 0; 1 without sheen.
+float bsdf_sheen_scale(BsdfFrame f, float cos_i) {
+    if (f.sheen_max <= 0.0) return 1.0;
+    float e = sheen_albedo(cos_i, f.sheen_roughness);
+    return min(f.sheen_scale_o, max(1.0 - f.sheen_max * e, 0.0));
+}
+
 // f of the non-delta lobes for local wi.
 vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     vec3 wo = f.wo;
@@ -181,6 +220,10 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
             float spec = ggx_d(h, f.alpha) * ggx_visibility(wo.z, wi.z, f.alpha);
             value += (dielectric * fd + f.metallic * fresnel_conductor(f.base, vh)) * spec;
         }
+        if (f.sheen_max > 0.0) {
+            value = value * bsdf_sheen_scale(f, wi.z)
+                  + f.sheen_color * (charlie_d(h.z, f.sheen_alpha) * sheen_visibility(wo.z, wi.z, f.sheen_alpha));
+        }
         return value;
     }
     if (wi.z < 0.0 && f.transmission > 0.0 && !bsdf_is_delta(f)) {
@@ -194,7 +237,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo.z, wi.z, f.alpha);
         float ft = ggx_d(m, f.alpha) * g2 * abs(im * om) / (wo.z * abs(wi.z) * denom * denom);
         if (mode == TRANSPORT_IMPORTANCE) ft *= f.etap * f.etap;
-        return dielectric * f.transmission * (1.0 - fd) * ft * f.base;
+        return dielectric * f.transmission * (1.0 - fd) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
     }
     return vec3(0.0);
 }
@@ -209,6 +252,7 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
             vec3 h = normalize(wo + wi);
             pdf += f.lobe_pmf.y * ggx_vndf_pdf(wo, h, f.alpha) / (4.0 * dot(wo, h));
         }
+        if (f.sheen_pmf > 0.0) pdf += f.sheen_pmf * uniform_cone_pdf(0.0);
         return pdf;
     }
     if (wi.z < 0.0 && !bsdf_is_delta(f) && f.lobe_pmf.z > 0.0) {
@@ -228,12 +272,12 @@ bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 va
     vec3 fd = fresnel_dielectric_color(wo.z, f.f0, f.f90, f.etap);
     if (lobe == LOBE_REFLECTION) {
         wi = vec3(-wo.x, -wo.y, wo.z);
-        value = dielectric * fd + f.metallic * fresnel_conductor(f.base, wo.z);
+        value = (dielectric * fd + f.metallic * fresnel_conductor(f.base, wo.z)) * bsdf_sheen_scale(f, wo.z);
         return true;
     }
     value = vec3(0.0);
     if (!refract_through(wo, vec3(0.0, 0.0, 1.0), f.etap, wi)) return false;
-    value = dielectric * f.transmission * (1.0 - max3(fd)) * f.base;
+    value = dielectric * f.transmission * (1.0 - max3(fd)) * bsdf_sheen_scale(f, wi.z) * f.base;
     if (mode == TRANSPORT_RADIANCE) value /= f.etap * f.etap;
     return true;
 }
@@ -320,16 +364,25 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
     weight = vec3(0.0);
     pdf = 0.0;
     delta = false;
-    vec4 p = f.lobe_pmf;
-    uint lobe = u.z < p.x ? LOBE_DIFFUSE
-              : (u.z < p.x + p.y ? LOBE_REFLECTION
-              : ((u.z < p.x + p.y + p.z || f.clearcoat <= 0.0) ? LOBE_TRANSMISSION : LOBE_CLEARCOAT));
-    float lobe_p = p[lobe];
-    if (lobe_p <= 0.0) return false;
+    // The first lobe whose cumulative probability exceeds u.z (rounding past the last sum: the
+    // last lobe that can be chosen).
+    uint lobe = LOBE_COUNT;
+    float cumulative = 0.0;
+    for (uint k = 0u; k < LOBE_COUNT; k++) {
+        float p = bsdf_lobe_pmf(f, k);
+        if (p > 0.0) {
+            lobe = k;
+            cumulative += p;
+            if (u.z < cumulative) break;
+        }
+    }
+    if (lobe == LOBE_COUNT) return false;
+    float lobe_p = bsdf_lobe_pmf(f, lobe);
+    vec3 world;
     if (lobe == LOBE_CLEARCOAT) {
         vec3 wc = bsdf_cc_is_delta(f) ? vec3(-f.cc_wo.x, -f.cc_wo.y, f.cc_wo.z)
                 : reflect_about(f.cc_wo, sample_ggx_vndf(f.cc_wo, f.cc_alpha, u.xy));
-        vec3 world = f.cc_t * wc.x + f.cc_b * wc.y + f.cc_n * wc.z;
+        world = f.cc_t * wc.x + f.cc_b * wc.y + f.cc_n * wc.z;
         if (wc.z <= 0.0 || dot(world, f.ng_world) <= 0.0) return false;
         if (bsdf_cc_is_delta(f)) {
             wi = world;
@@ -338,35 +391,33 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
             delta = true;
             return true;
         }
-        return bsdf_weighed(f, world, mode, wi, weight, pdf);
+    } else {
+        vec3 local;
+        if (lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && bsdf_is_delta(f)) {
+            vec3 value;
+            if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
+            wi = bsdf_to_world(f, local);
+            float scale = f.clearcoat > 0.0 ? 1.0 - bsdf_cc_weight(f, wi, mode) : 1.0;
+            weight = value * (scale / lobe_p);
+            pdf = lobe_p;
+            delta = true;
+            return true;
+        }
+        if (lobe == LOBE_DIFFUSE) {
+            local = sample_cosine_hemisphere(u.xy);
+        } else if (lobe == LOBE_SHEEN) {
+            local = sample_uniform_cone(u.xy, 0.0);
+        } else if (lobe == LOBE_REFLECTION) {
+            local = reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy));
+        } else if (!refract_through(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy), f.etap, local)) {
+            return false;
+        }
+        // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
+        bool reflects = lobe != LOBE_TRANSMISSION;
+        if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
+        world = bsdf_to_world(f, local);
     }
-    vec3 local;
-    if (lobe != LOBE_DIFFUSE && bsdf_is_delta(f)) {
-        vec3 value;
-        if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
-        wi = bsdf_to_world(f, local);
-        float scale = f.clearcoat > 0.0 ? 1.0 - bsdf_cc_weight(f, wi, mode) : 1.0;
-        weight = value * (scale / lobe_p);
-        pdf = lobe_p;
-        delta = true;
-        return true;
-    }
-    if (lobe == LOBE_DIFFUSE) {
-        local = sample_cosine_hemisphere(u.xy);
-    } else if (lobe == LOBE_REFLECTION) {
-        local = reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy));
-    } else if (!refract_through(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy), f.etap, local)) {
-        return false;
-    }
-    // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
-    bool reflects = lobe != LOBE_TRANSMISSION;
-    if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
-    if (f.clearcoat > 0.0) return bsdf_weighed(f, bsdf_to_world(f, local), mode, wi, weight, pdf);
-    pdf = bsdf_pdf_local(f, local);
-    if (!(pdf > 0.0) || isinf(pdf)) return false;
-    wi = bsdf_to_world(f, local);
-    weight = bsdf_eval_local(f, local, mode) * (abs(local.z) / pdf);
-    return true;
+    return bsdf_weighed(f, world, mode, wi, weight, pdf);
 }
 
 // bsdf_frame_sample for material m seen from wo.

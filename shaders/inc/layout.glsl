@@ -43,7 +43,7 @@ struct GpuTriangle {
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
 // texture references that modulate its factors at each surface point (surface.glsl).
-// Total: 144 bytes.
+// Total: 160 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -70,9 +70,11 @@ struct GpuMaterial {
     uint clearcoat_roughness_texture; // 4 bytes: G x clearcoat_roughness
     uint clearcoat_normal_texture;    // 4 bytes
     float clearcoat_normal_scale;     // 4 bytes
-    uint pad0;                        // 4 bytes
+    float sheen_roughness;            // 4 bytes: KHR_materials_sheen's sheenRoughnessFactor
     vec3 clearcoat_normal;            // 12 bytes: the coat's world normal at a hit (0: the shading normal)
-    uint pad1;                        // 4 bytes
+    uint sheen_color_texture;         // 4 bytes: sRGB; RGB x sheen_color
+    vec3 sheen_color;                 // 12 bytes: sheenColorFactor (0: no sheen)
+    uint sheen_roughness_texture;     // 4 bytes: A x sheen_roughness
 };
 
 // Shading attributes of one vertex, world space. Total: 64 bytes.
@@ -148,7 +150,7 @@ struct GpuPunctualLight {
 #define LIGHT_DIRECTIONAL 2u
 #define LIGHT_ENTRY_PUNCTUAL 0x80000000u
 
-// Constants of one render (std140 uniform). Total: 192 bytes.
+// Constants of one render (std140 uniform). Total: 4288 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
     float tan_half_fov_y; // 4 bytes: perspective: tan(yfov / 2); orthographic: 0
@@ -188,6 +190,7 @@ struct FrameParams {
     float light_bounded_cdf;  // 4 bytes: the table's CDF at its last bounded light
     uint active_pixel_count;  // 4 bytes: 0 = the band's pixels in order; n > 0 = the first n
                               //   entries of active_pixels (bindings.glsl, scene.glsl)
+    vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
 };
 #define LIGHT_SAMPLER_POWER 0u
 #define LIGHT_SAMPLER_BVH 1u

@@ -149,6 +149,12 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     if (m.clearcoat_roughness_texture != NO_TEXTURE) {
         o.clearcoat_roughness *= sample_texture_ref(m.clearcoat_roughness_texture, sp.uv0, sp.uv1, lod).y;
     }
+    if (m.sheen_color_texture != NO_TEXTURE) {
+        o.sheen_color = m.sheen_color * sample_texture_ref(m.sheen_color_texture, sp.uv0, sp.uv1, lod).xyz;
+    }
+    if (m.sheen_roughness_texture != NO_TEXTURE) {
+        o.sheen_roughness *= sample_texture_ref(m.sheen_roughness_texture, sp.uv0, sp.uv1, lod).w;
+    }
     // The coat's normal: its own map, else the interpolated normal (0: the base's shading normal).
     if (o.clearcoat > 0.0 && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)) {
         o.clearcoat_normal = surface_mapped_normal(m.clearcoat_normal_texture, m.clearcoat_normal_scale, sp, lod);

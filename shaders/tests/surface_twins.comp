@@ -18,12 +18,15 @@ layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
 #include "sampling.glsl"
+// Only bend_shading_normal of the BSDF runs here: a one-entry stand-in for the sheen table.
+const vec4 SHEEN_TABLE_UNUSED[1] = vec4[](vec4(0.0));
+#define SHEEN_ALBEDO_TABLE SHEEN_TABLE_UNUSED
 #include "bsdf.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
 
 #define INPUTS_PER_CASE 6u
-#define OUTPUTS_PER_CASE 13u
+#define OUTPUTS_PER_CASE 14u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -77,4 +80,5 @@ void main() {
     outputs[o + 10u] = vec4(e.emission, 0.0);
     outputs[o + 11u] = vec4(e.clearcoat, e.clearcoat_roughness, 0.0, 0.0);
     outputs[o + 12u] = vec4(e.clearcoat_normal, 0.0);
+    outputs[o + 13u] = vec4(e.sheen_color, e.sheen_roughness);
 }

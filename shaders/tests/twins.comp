@@ -15,6 +15,8 @@ layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
 #include "sampling.glsl"
+// The BSDF reads the sheen albedo table from the first camera set-up (FrameParams).
+#define SHEEN_ALBEDO_TABLE frames[0].sheen_albedo
 #include "bsdf.glsl"
 #include "mis.glsl"
 #include "bvh.glsl"
@@ -26,7 +28,7 @@ layout(push_constant) uniform Push { uint case_count; };
 layout(local_size_x = WORKGROUP_SIZE) in;
 
 // The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
-// specular factor and colour, clearcoat swept by the case index; the last 512 cases are unlit.
+// specular factor and colour, clearcoat, sheen swept by the case index; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
@@ -49,9 +51,12 @@ GpuMaterial twin_material(uint i) {
     m.clearcoat_roughness_texture = NO_TEXTURE;
     m.clearcoat_normal_texture = NO_TEXTURE;
     m.clearcoat_normal_scale = 1.0;
-    m.pad0 = 0u;
     m.clearcoat_normal = vec3(0.0);
-    m.pad1 = 0u;
+    bool sheen = (i / 64u) % 4u == 3u;
+    m.sheen_color = sheen ? vec3(0.9, 0.4, 0.7) : vec3(0.0);
+    m.sheen_roughness = (i / 8u) % 2u == 0u ? 0.3 : 0.8;
+    m.sheen_color_texture = NO_TEXTURE;
+    m.sheen_roughness_texture = NO_TEXTURE;
     return m;
 }
 

@@ -45,6 +45,12 @@
 //! Not modelled: the spec's darkening of emission under the coat (emission · (1 − clearcoat ·
 //! F_c)) — emission stays the direction-independent factor every integrator reads.
 //!
+//! KHR_materials_sheen layers the Charlie microfiber lobe (`sheen`) over the base with the
+//! extension's albedo scaling, below the coat:
+//!   f_sheen = sheenColor · D_s·ν_s + f · min(1 − max(sheenColor)·E(|V·N|), 1 − max(sheenColor)·E(|L·N|))
+//! (symmetric in V and L, so reciprocal), E tabulated by quadrature; the lobe is sampled
+//! uniformly over the hemisphere.
+//!
 //! KHR_materials_unlit: the surface shows its base colour term whatever the lighting. A path
 //! tracer gives it that look by making the surface an emitter of exactly that radiance
 //! (`surface::surface_emission`) whose BSDF is zero: seen directly it is its base colour, it
@@ -52,13 +58,19 @@
 //! unlit surface lights nothing only because rasterisers have no indirect light).
 
 pub mod microfacet;
+pub mod sheen;
+mod sheen_table;
 #[cfg(test)]
 mod tests;
 
 use crate::layout::{GpuMaterial, MATERIAL_UNLIT};
-use crate::sampling::{build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use crate::sampling::{
+    build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere, sample_uniform_cone,
+    uniform_cone_pdf,
+};
 use glam::{Vec2, Vec3};
 use microfacet::*;
+use sheen::{charlie_d, sheen_albedo, sheen_alpha, sheen_visibility};
 use std::f32::consts::FRAC_1_PI;
 
 /// Which quantity a path carries (`mode` of every BSDF function).
@@ -86,6 +98,9 @@ pub const LOBE_DIFFUSE: usize = 0;
 pub const LOBE_REFLECTION: usize = 1;
 pub const LOBE_TRANSMISSION: usize = 2;
 pub const LOBE_CLEARCOAT: usize = 3;
+pub const LOBE_SHEEN: usize = 4;
+/// How many lobes [`BsdfFrame::lobe_pmf`] chooses among.
+pub const LOBE_COUNT: usize = 5;
 
 /// A material seen from `wo`: the local frame with +Z on `wo`'s side, the relative index of
 /// refraction and the lobe selection probabilities.
@@ -105,8 +120,9 @@ pub struct BsdfFrame {
     /// The dielectric Fresnel's RGB F0 ([`specular_f0`]) and F90 (specular).
     f0: Vec3,
     f90: f32,
-    /// Probabilities of choosing the diffuse, reflection, transmission and clearcoat lobes.
-    pub lobe_pmf: [f32; 4],
+    /// Probabilities of choosing the diffuse, reflection, transmission, clearcoat and sheen
+    /// lobes.
+    pub lobe_pmf: [f32; LOBE_COUNT],
     /// Sum of the lobe albedo estimates (before normalising to `lobe_pmf`).
     pub albedo_estimate: f32,
     /// The geometric normal on `wo`'s side, in the local frame: a direction reflects or
@@ -122,6 +138,13 @@ pub struct BsdfFrame {
     cc_b: Vec3,
     cc_n: Vec3,
     cc_wo: Vec3,
+    /// The sheen layer: its colour, max component (0: none), α and roughness (the albedo
+    /// table's axis), and the scaling 1 − max(colour)·E(cos θo) of the layers below.
+    sheen_color: Vec3,
+    sheen_max: f32,
+    sheen_alpha: f32,
+    sheen_roughness: f32,
+    sheen_scale_o: f32,
 }
 
 /// The clearcoat's Fresnel weight F_c = F0 + (1 − F0)(1 − |cos|)⁵ with F0 = ((1.5 − 1)/(1.5 +
@@ -221,7 +244,24 @@ impl BsdfFrame {
             dielectric * average(fe) + metallic * fm,
             dielectric * transmission * (1.0 - fe.max_element()) * average(base),
             0.0,
+            0.0,
         ];
+        // The sheen: its albedo E(cos θo) taken from the layers below (albedo scaling).
+        let sheen_color = if unlit {
+            Vec3::ZERO
+        } else {
+            Vec3::from(m.sheen_color)
+        };
+        let sheen_max = sheen_color.max_element();
+        let mut sheen_scale_o = 1.0;
+        if sheen_max > 0.0 {
+            let e = sheen_albedo(wo_local.z, m.sheen_roughness);
+            sheen_scale_o = (1.0 - sheen_max * e).max(0.0);
+            for x in &mut w[..3] {
+                *x *= sheen_scale_o;
+            }
+            w[LOBE_SHEEN] = average(sheen_color) * e;
+        }
         // The coat: its frame about N_c (the base's normal unless the hit gave its own), and
         // its weight clearcoat · F_c(wo·N_c) taken from the base lobes' estimates.
         let clearcoat = if unlit { 0.0 } else { m.clearcoat };
@@ -237,13 +277,14 @@ impl BsdfFrame {
             for x in &mut w[..3] {
                 *x *= 1.0 - wc;
             }
+            w[LOBE_SHEEN] *= 1.0 - wc;
             w[LOBE_CLEARCOAT] = wc;
         }
-        let total = w[0] + w[1] + w[2] + w[3];
+        let total = w[0] + w[1] + w[2] + w[3] + w[4];
         let lobe_pmf = if total > 0.0 {
             w.map(|x| x / total)
         } else {
-            [0.0; 4]
+            [0.0; LOBE_COUNT]
         };
         Some(BsdfFrame {
             t,
@@ -271,6 +312,11 @@ impl BsdfFrame {
             cc_b,
             cc_n,
             cc_wo,
+            sheen_color,
+            sheen_max,
+            sheen_alpha: sheen_alpha(m.sheen_roughness),
+            sheen_roughness: m.sheen_roughness,
+            sheen_scale_o,
         })
     }
 
@@ -327,6 +373,12 @@ impl BsdfFrame {
                 let spec = ggx_d(h, self.alpha) * ggx_visibility(wo.z, wi.z, self.alpha);
                 f += (dielectric * fd + self.metallic * fresnel_conductor(self.base, vh)) * spec;
             }
+            if self.sheen_max > 0.0 {
+                f = f * self.sheen_scale(wi.z)
+                    + self.sheen_color
+                        * (charlie_d(h.z, self.sheen_alpha)
+                            * sheen_visibility(wo.z, wi.z, self.sheen_alpha));
+            }
             f
         } else if wi.z < 0.0 && self.transmission > 0.0 && !self.is_delta() {
             let Some(m) = self.refraction_half_vector(wi) else {
@@ -342,7 +394,7 @@ impl BsdfFrame {
             if mode == TransportMode::Importance {
                 ft *= self.etap * self.etap;
             }
-            dielectric * self.transmission * (1.0 - fd) * ft * self.base
+            dielectric * self.transmission * (1.0 - fd) * ft * self.sheen_scale(wi.z) * self.base
         } else {
             Vec3::ZERO
         }
@@ -354,13 +406,16 @@ impl BsdfFrame {
         if !self.consistent(wi) {
             return 0.0;
         }
-        let [p_diffuse, p_reflection, p_transmission, _] = self.lobe_pmf;
+        let [p_diffuse, p_reflection, p_transmission, _, p_sheen] = self.lobe_pmf;
         if wi.z > 0.0 {
             let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
             if !self.is_delta() && p_reflection > 0.0 {
                 let h = (wo + wi).normalize();
                 // dω_h/dω_i = 1 / (4 |wo·h|) (Walter et al. 2007, eq. 14).
                 pdf += p_reflection * ggx_vndf_pdf(wo, h, self.alpha) / (4.0 * wo.dot(h));
+            }
+            if p_sheen > 0.0 {
+                pdf += p_sheen * uniform_cone_pdf(0.0);
             }
             pdf
         } else if wi.z < 0.0 && !self.is_delta() && p_transmission > 0.0 {
@@ -387,15 +442,33 @@ impl BsdfFrame {
         let fd = fresnel_dielectric_color(wo.z, self.f0, self.f90, self.etap);
         if lobe == LOBE_REFLECTION {
             let value = dielectric * fd + self.metallic * fresnel_conductor(self.base, wo.z);
-            Some((Vec3::new(-wo.x, -wo.y, wo.z), value))
+            Some((
+                Vec3::new(-wo.x, -wo.y, wo.z),
+                value * self.sheen_scale(wo.z),
+            ))
         } else {
             let wi = refract_through(wo, Vec3::Z, self.etap)?;
-            let mut value = dielectric * self.transmission * (1.0 - fd.max_element()) * self.base;
+            let mut value = dielectric
+                * self.transmission
+                * (1.0 - fd.max_element())
+                * self.sheen_scale(wi.z)
+                * self.base;
             if mode == TransportMode::Radiance {
                 value /= self.etap * self.etap;
             }
             Some((wi, value))
         }
+    }
+
+    /// The sheen's albedo scaling of the layers below for a direction of cosine `cos_i`:
+    /// min(1 − max(sheenColor)·E(cos θo), 1 − max(sheenColor)·E(cos θi)), at least 0; 1 without
+    /// sheen.
+    fn sheen_scale(&self, cos_i: f32) -> f32 {
+        if self.sheen_max <= 0.0 {
+            return 1.0;
+        }
+        let e = sheen_albedo(cos_i, self.sheen_roughness);
+        self.sheen_scale_o.min((1.0 - self.sheen_max * e).max(0.0))
     }
 
     fn cc_is_delta(&self) -> bool {
@@ -472,22 +545,24 @@ impl BsdfFrame {
 
     /// Samples one lobe with `u.z`, then a direction in it with `u.xy` ([`bsdf_sample`]).
     pub fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
-        let [p_diffuse, p_reflection, p_transmission, _] = self.lobe_pmf;
-        let lobe = if u.z < p_diffuse {
-            LOBE_DIFFUSE
-        } else if u.z < p_diffuse + p_reflection {
-            LOBE_REFLECTION
-        } else if u.z < p_diffuse + p_reflection + p_transmission || self.clearcoat <= 0.0 {
-            LOBE_TRANSMISSION
-        } else {
-            LOBE_CLEARCOAT
-        };
-        if self.lobe_pmf[lobe] <= 0.0 {
+        // The first lobe whose cumulative probability exceeds u.z (rounding past the last
+        // sum: the last lobe that can be chosen).
+        let (mut lobe, mut cumulative) = (LOBE_COUNT, 0.0);
+        for (i, &p) in self.lobe_pmf.iter().enumerate() {
+            if p > 0.0 {
+                lobe = i;
+                cumulative += p;
+                if u.z < cumulative {
+                    break;
+                }
+            }
+        }
+        if lobe == LOBE_COUNT {
             return None;
         }
         let lobe_p = self.lobe_pmf[lobe];
         let uv = Vec2::new(u.x, u.y);
-        if lobe == LOBE_CLEARCOAT {
+        let world = if lobe == LOBE_CLEARCOAT {
             let wc = if self.cc_is_delta() {
                 Vec3::new(-self.cc_wo.x, -self.cc_wo.y, self.cc_wo.z)
             } else {
@@ -506,50 +581,44 @@ impl BsdfFrame {
                     delta: true,
                 });
             }
-            return self.weighed(wi, mode);
-        }
-        if lobe != LOBE_DIFFUSE && self.is_delta() {
-            let (wi, value) = self.delta_lobe(lobe, mode)?;
-            if !self.consistent(wi) {
+            wi
+        } else {
+            if lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && self.is_delta() {
+                let (wi, value) = self.delta_lobe(lobe, mode)?;
+                if !self.consistent(wi) {
+                    return None;
+                }
+                let world = self.to_world(wi);
+                let scale = if self.clearcoat > 0.0 {
+                    1.0 - self.cc_weight(world, mode)
+                } else {
+                    1.0
+                };
+                return Some(BsdfSample {
+                    wi: world,
+                    weight: value * (scale / lobe_p),
+                    pdf: lobe_p,
+                    delta: true,
+                });
+            }
+            let wi = match lobe {
+                LOBE_DIFFUSE => sample_cosine_hemisphere(uv),
+                // Charlie has no closed-form sampler: uniform directions, as Conty Estevez &
+                // Kulla 2017 suggest (the lobe peaks towards grazing, where cosine sampling is
+                // sparse).
+                LOBE_SHEEN => sample_uniform_cone(uv, 0.0),
+                LOBE_REFLECTION => reflect_about(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv)),
+                _ => refract_through(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv), self.etap)?,
+            };
+            // Each lobe keeps to its side: a reflection below or a refraction above the surface
+            // is no sample (the mixture pdf counts each lobe only on its own side).
+            let reflects = lobe != LOBE_TRANSMISSION;
+            if (wi.z > 0.0) != reflects || wi.z == 0.0 {
                 return None;
             }
-            let world = self.to_world(wi);
-            let scale = if self.clearcoat > 0.0 {
-                1.0 - self.cc_weight(world, mode)
-            } else {
-                1.0
-            };
-            return Some(BsdfSample {
-                wi: world,
-                weight: value * (scale / lobe_p),
-                pdf: lobe_p,
-                delta: true,
-            });
-        }
-        let wi = match lobe {
-            LOBE_DIFFUSE => sample_cosine_hemisphere(uv),
-            LOBE_REFLECTION => reflect_about(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv)),
-            _ => refract_through(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv), self.etap)?,
+            self.to_world(wi)
         };
-        // Each lobe keeps to its side: a reflection below or a refraction above the surface is
-        // no sample (the mixture pdf counts each lobe only on its own side).
-        let reflects = lobe != LOBE_TRANSMISSION;
-        if (wi.z > 0.0) != reflects || wi.z == 0.0 {
-            return None;
-        }
-        if self.clearcoat > 0.0 {
-            return self.weighed(self.to_world(wi), mode);
-        }
-        let pdf = self.pdf_local(wi);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wi: self.to_world(wi),
-            weight: self.eval_local(wi, mode) * (wi.z.abs() / pdf),
-            pdf,
-            delta: false,
-        })
+        self.weighed(world, mode)
     }
 
     /// A non-delta sample at world-space `wi`: the mixture's pdf and f·|cos|/pdf there.

@@ -56,6 +56,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_unlit",
     "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -658,6 +659,42 @@ fn convert_material(
             }
         }
     }
+    // KHR_materials_sheen, read from the raw JSON.
+    let (mut sheen_color, mut sheen_roughness) = (Vec3::ZERO, 0.0);
+    if let Some(ext) = material.extension_value("KHR_materials_sheen") {
+        let what = path("extensions.KHR_materials_sheen");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        if let Some(v) = ext.get("sheenColorFactor") {
+            let c: Option<Vec<f64>> = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+            match c {
+                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+                    sheen_color = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
+                }
+                _ => bail!("{what}.sheenColorFactor{owner}: {v} must be three numbers in [0, 1]"),
+            }
+        }
+        sheen_roughness = raw_unit_factor(ext, "sheenRoughnessFactor", 0.0, &what, &owner)?;
+        for (key, slot, srgb) in [
+            ("sheenColorTexture", &mut textures.sheen_color, true),
+            (
+                "sheenRoughnessTexture",
+                &mut textures.sheen_roughness,
+                false,
+            ),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_sheen.{key}");
+            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
+            *slot = Some(reference(&property, info, srgb)?);
+        }
+    }
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
         normal_scale = normal.scale();
@@ -700,6 +737,8 @@ fn convert_material(
             clearcoat,
             clearcoat_roughness,
             clearcoat_normal_scale,
+            sheen_color,
+            sheen_roughness,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),

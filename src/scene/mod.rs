@@ -179,11 +179,14 @@ pub struct MaterialTextures {
     pub clearcoat: Option<u32>,
     pub clearcoat_roughness: Option<u32>,
     pub clearcoat_normal: Option<u32>,
+    /// KHR_materials_sheen's sheenColorTexture (RGB, sRGB) and sheenRoughnessTexture (A).
+    pub sheen_color: Option<u32>,
+    pub sheen_roughness: Option<u32>,
 }
 
 /// A glTF metallic-roughness material with emission: `pbrMetallicRoughness` factors,
 /// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`,
-/// `KHR_materials_unlit`, `KHR_materials_clearcoat` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
+/// `KHR_materials_unlit`, `KHR_materials_clearcoat`, `KHR_materials_sheen` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
 /// textures that modulate them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -210,6 +213,10 @@ pub struct Material {
     pub clearcoat: f32,
     pub clearcoat_roughness: f32,
     pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen: sheenColorFactor (linear RGB in [0, 1]; 0: no sheen) and
+    /// sheenRoughnessFactor in [0, 1].
+    pub sheen_color: Vec3,
+    pub sheen_roughness: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
@@ -240,6 +247,8 @@ impl Material {
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
             clearcoat_normal_scale: 1.0,
+            sheen_color: Vec3::ZERO,
+            sheen_roughness: 0.0,
             emission: Vec3::ZERO,
             double_sided: false,
             alpha: 1.0,
