@@ -83,13 +83,16 @@ pub const MATERIAL_ALPHA_BLEND: u32 = 4;
 /// Some texture slot is set: hits need the texture level of detail (set when the scene is
 /// prepared, so shading does not test five slots per hit).
 pub const MATERIAL_TEXTURED: u32 = 8;
+/// KHR_materials_unlit: the surface emits its base colour (`surface::surface_emission`) and
+/// scatters nothing (`bsdf`).
+pub const MATERIAL_UNLIT: u32 = 16;
 
 /// No texture in a `GpuMaterial::*_texture` slot.
 pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 80 bytes.
+/// Total: 160 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -110,6 +113,26 @@ pub struct GpuMaterial {
     pub emissive_texture: u32, // 4 bytes: sRGB; RGB × emission
     pub normal_texture: u32,  // 4 bytes: tangent-space normal
     pub transmission_texture: u32, // 4 bytes: R × transmission
+    /// KHR_materials_specular's specularColorFactor (linear RGB, may exceed 1).
+    pub specular_color: [f32; 3], // 12 bytes
+    pub specular_texture: u32, // 4 bytes: A × specular
+    pub specular_color_texture: u32, // 4 bytes: sRGB; RGB × specular_color
+    /// KHR_materials_clearcoat: clearcoatFactor, clearcoatRoughnessFactor (α = roughness²).
+    pub clearcoat: f32, // 4 bytes
+    pub clearcoat_roughness: f32, // 4 bytes
+    pub clearcoat_texture: u32, // 4 bytes: R × clearcoat
+    pub clearcoat_roughness_texture: u32, // 4 bytes: G × clearcoat_roughness
+    pub clearcoat_normal_texture: u32, // 4 bytes: tangent-space normal of the coat
+    pub clearcoat_normal_scale: f32, // 4 bytes: clearcoatNormalTexture.scale
+    /// KHR_materials_sheen's sheenRoughnessFactor.
+    pub sheen_roughness: f32, // 4 bytes
+    /// The coat's world-space shading normal at a hit (`surface::surface_material` writes it);
+    /// zero: the BSDF's shading normal. Always zero in the scene's material table.
+    pub clearcoat_normal: [f32; 3], // 12 bytes
+    pub sheen_color_texture: u32, // 4 bytes: sRGB; RGB × sheen_color
+    /// KHR_materials_sheen's sheenColorFactor (linear RGB; 0: no sheen).
+    pub sheen_color: [f32; 3], // 12 bytes
+    pub sheen_roughness_texture: u32, // 4 bytes: A × sheen_roughness
 }
 
 impl Default for GpuMaterial {
@@ -132,6 +155,20 @@ impl Default for GpuMaterial {
             emissive_texture: NO_TEXTURE,
             normal_texture: NO_TEXTURE,
             transmission_texture: NO_TEXTURE,
+            specular_color: [1.0; 3],
+            specular_texture: NO_TEXTURE,
+            specular_color_texture: NO_TEXTURE,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            clearcoat_texture: NO_TEXTURE,
+            clearcoat_roughness_texture: NO_TEXTURE,
+            clearcoat_normal_texture: NO_TEXTURE,
+            clearcoat_normal_scale: 1.0,
+            sheen_roughness: 0.0,
+            clearcoat_normal: [0.0; 3],
+            sheen_color_texture: NO_TEXTURE,
+            sheen_color: [0.0; 3],
+            sheen_roughness_texture: NO_TEXTURE,
         }
     }
 }
@@ -255,9 +292,9 @@ pub const LIGHT_DIRECTIONAL: u32 = 2;
 /// `LightEntry::triangle` bit: the entry is punctual light (index in the low bits).
 pub const LIGHT_ENTRY_PUNCTUAL: u32 = 1 << 31;
 
-/// Constants of one render (std140 uniform). Total: 192 bytes.
+/// Constants of one render (std140 uniform). Total: 4288 bytes.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
     pub cam_position: [f32; 3], // 12 bytes
     /// Perspective cameras: tan(yfov / 2), the half-height of the image plane at unit distance;
@@ -332,6 +369,20 @@ pub struct FrameParams {
     pub pad0: u32,              // 4 bytes
     pub pad1: u32,              // 4 bytes
     pub pad2: u32,              // 4 bytes
+    /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
+    /// four entries per vec4): a uniform the shaders index, where a constant array of that size
+    /// costs lavapipe minutes of shader compilation. Every `FrameParams::default()` holds it.
+    pub sheen_albedo: [[f32; 4]; 256], // 4096 bytes
+}
+
+impl Default for FrameParams {
+    /// Every field 0, and the sheen albedo table.
+    fn default() -> Self {
+        FrameParams {
+            sheen_albedo: crate::bsdf::sheen::sheen_albedo_vec4s(),
+            ..Zeroable::zeroed()
+        }
+    }
 }
 
 /// `FrameParams::integrator`: paths from the camera (the wavefront's `shade`).
@@ -593,7 +644,21 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         metallic_roughness_texture,
         emissive_texture,
         normal_texture,
-        transmission_texture
+        transmission_texture,
+        specular_color,
+        specular_texture,
+        specular_color_texture,
+        clearcoat,
+        clearcoat_roughness,
+        clearcoat_texture,
+        clearcoat_roughness_texture,
+        clearcoat_normal_texture,
+        clearcoat_normal_scale,
+        sheen_roughness,
+        clearcoat_normal,
+        sheen_color_texture,
+        sheen_color,
+        sheen_roughness_texture
     }),
     struct_layout!(GpuVertex {
         tangent,
@@ -677,7 +742,8 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         integrator,
         pad0,
         pad1,
-        pad2
+        pad2,
+        sheen_albedo
     }),
     struct_layout!(DispatchParams {
         first_sample,

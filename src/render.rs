@@ -8,8 +8,9 @@ use crate::film::Film;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
     GpuTriangle, GpuVertex, LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK,
-    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, NO_TEXTURE, RR_THROUGHPUT, SAMPLER_SOBOL,
-    TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT, NO_TEXTURE, RR_THROUGHPUT,
+    SAMPLER_SOBOL, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA,
+    TRIANGLE_TEST_CULL,
 };
 use crate::layout::{
     LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SAMPLER_BVH, LIGHT_SAMPLER_POWER, LIGHT_SPOT,
@@ -178,6 +179,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         AlphaMode::Mask => flags |= MATERIAL_ALPHA_MASK,
         AlphaMode::Blend => flags |= MATERIAL_ALPHA_BLEND,
     }
+    if m.unlit {
+        flags |= MATERIAL_UNLIT;
+    }
     let t = &m.textures;
     if [
         t.base_color,
@@ -185,6 +189,13 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         t.emissive,
         t.normal,
         t.transmission,
+        t.specular,
+        t.specular_color,
+        t.clearcoat,
+        t.clearcoat_roughness,
+        t.clearcoat_normal,
+        t.sheen_color,
+        t.sheen_roughness,
     ]
     .iter()
     .any(Option::is_some)
@@ -209,6 +220,20 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         emissive_texture: slot(m.textures.emissive),
         normal_texture: slot(m.textures.normal),
         transmission_texture: slot(m.textures.transmission),
+        specular_color: m.specular_color.to_array(),
+        specular_texture: slot(m.textures.specular),
+        specular_color_texture: slot(m.textures.specular_color),
+        clearcoat: m.clearcoat,
+        clearcoat_roughness: m.clearcoat_roughness,
+        clearcoat_texture: slot(m.textures.clearcoat),
+        clearcoat_roughness_texture: slot(m.textures.clearcoat_roughness),
+        clearcoat_normal_texture: slot(m.textures.clearcoat_normal),
+        clearcoat_normal_scale: m.clearcoat_normal_scale,
+        sheen_color: m.sheen_color.to_array(),
+        sheen_roughness: m.sheen_roughness,
+        sheen_color_texture: slot(m.textures.sheen_color),
+        sheen_roughness_texture: slot(m.textures.sheen_roughness),
+        ..GpuMaterial::default()
     }
 }
 

@@ -5,7 +5,13 @@
 //! - Attributes are interpolated with the hit's barycentrics (u weights p1, v weights p2).
 //! - Textures modulate the factors as glTF says: base colour × texture (sRGB) × COLOR_0,
 //!   metallic × B and roughness × G of the metallic-roughness texture, emission × emissive
-//!   texture (sRGB), transmission × R. Occlusion maps are ignored: a path tracer computes the
+//!   texture (sRGB), transmission × R, KHR_materials_specular's specular × A of its
+//!   specularTexture and specularColor × RGB of its specularColorTexture (sRGB). An unlit
+//!   material (KHR_materials_unlit) emits base colour × texture × COLOR_0: the loader puts the
+//!   base colour's factor and texture in the emission slots, and `surface_emission` multiplies
+//!   in the vertex colour. KHR_materials_clearcoat: clearcoat × R, clearcoatRoughness × G of
+//!   their textures, and the coat's own normal (`GpuMaterial::clearcoat_normal`);
+//!   KHR_materials_sheen: sheenColor × RGB (sRGB), sheenRoughness × A. Occlusion maps are ignored: a path tracer computes the
 //!   occlusion they approximate.
 //! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
 //! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
@@ -16,8 +22,8 @@
 
 use crate::layout::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuVertex, INSTANCE_IDENTITY, INSTANCE_MIRRORED,
-    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, NO_TEXTURE, TRIANGLE_FLAT, TRIANGLE_PLAIN,
-    TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_UNLIT, NO_TEXTURE, TRIANGLE_FLAT,
+    TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::sampling::{pcg4d, uint_to_unit_float};
 use crate::texture::{sample_texture_ref, TextureData};
@@ -150,20 +156,25 @@ pub fn surface_lod_base(sp: &SurfacePoint, cone_width: f32, cos_view: f32) -> [f
 /// A level of detail that always magnifies (alpha tests read level 0).
 pub const LOD_MAGNIFY: [f32; 2] = [-1e30, -1e30];
 
-/// Material `m` at the surface point: factors times textures times vertex colour.
-/// The emitted radiance factor at the point: emissive factor × texture (surface.glsl).
+/// The emitted radiance factor at the point: emissive factor × texture, × the vertex colour
+/// for an unlit material (its emission is its base colour term).
 pub fn surface_emission(
     data: &TextureData,
     m: &GpuMaterial,
     sp: &SurfacePoint,
     lod: [f32; 2],
 ) -> Vec3 {
-    let e = Vec3::from(m.emission);
+    let mut e = Vec3::from(m.emission);
+    if m.flags & MATERIAL_UNLIT != 0 {
+        e *= sp.color.truncate();
+    }
     if m.emissive_texture == NO_TEXTURE {
         return e;
     }
     e * sample_texture_ref(data, m.emissive_texture, sp.uv, lod).truncate()
 }
+
+/// Material `m` at the surface point: factors times textures times vertex colour.
 
 pub fn surface_material(
     data: &TextureData,
@@ -187,6 +198,36 @@ pub fn surface_material(
     if m.transmission_texture != NO_TEXTURE {
         out.transmission *= sample_texture_ref(data, m.transmission_texture, sp.uv, lod).x;
     }
+    if m.specular_texture != NO_TEXTURE {
+        out.specular *= sample_texture_ref(data, m.specular_texture, sp.uv, lod).w;
+    }
+    if m.specular_color_texture != NO_TEXTURE {
+        let c = sample_texture_ref(data, m.specular_color_texture, sp.uv, lod).truncate();
+        out.specular_color = (Vec3::from(m.specular_color) * c).to_array();
+    }
+    if m.clearcoat_texture != NO_TEXTURE {
+        out.clearcoat *= sample_texture_ref(data, m.clearcoat_texture, sp.uv, lod).x;
+    }
+    if m.clearcoat_roughness_texture != NO_TEXTURE {
+        out.clearcoat_roughness *=
+            sample_texture_ref(data, m.clearcoat_roughness_texture, sp.uv, lod).y;
+    }
+    if m.sheen_color_texture != NO_TEXTURE {
+        let c = sample_texture_ref(data, m.sheen_color_texture, sp.uv, lod).truncate();
+        out.sheen_color = (Vec3::from(m.sheen_color) * c).to_array();
+    }
+    if m.sheen_roughness_texture != NO_TEXTURE {
+        out.sheen_roughness *= sample_texture_ref(data, m.sheen_roughness_texture, sp.uv, lod).w;
+    }
+    // The coat's normal: its own map, else the interpolated normal even where the base is
+    // normal-mapped (KHR_materials_clearcoat); zero leaves the base's shading normal.
+    if out.clearcoat > 0.0
+        && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)
+    {
+        let scale = m.clearcoat_normal_scale;
+        let nc = surface_mapped_normal(data, m.clearcoat_normal_texture, scale, sp, lod);
+        out.clearcoat_normal = nc.to_array();
+    }
     out
 }
 
@@ -198,7 +239,19 @@ pub fn surface_normal(
     sp: &SurfacePoint,
     lod: [f32; 2],
 ) -> Vec3 {
-    if m.normal_texture == NO_TEXTURE {
+    surface_mapped_normal(data, m.normal_texture, m.normal_scale, sp, lod)
+}
+
+/// The interpolated normal perturbed by tangent-space normal map `texture` (or `NO_TEXTURE`)
+/// with XY scaled by `scale`: [`surface_normal`]'s rule, for the base's and the clearcoat's maps.
+pub fn surface_mapped_normal(
+    data: &TextureData,
+    texture: u32,
+    scale: f32,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> Vec3 {
+    if texture == NO_TEXTURE {
         return sp.ns;
     }
     let n = sp.ns;
@@ -210,9 +263,9 @@ pub fn surface_normal(
     }
     let t = t / t_length;
     let b = n.cross(t) * if sp.tangent.w < 0.0 { -1.0 } else { 1.0 };
-    let texel = sample_texture_ref(data, m.normal_texture, sp.uv, lod);
-    let x = (2.0 * texel.x - 1.0) * m.normal_scale;
-    let y = (2.0 * texel.y - 1.0) * m.normal_scale;
+    let texel = sample_texture_ref(data, texture, sp.uv, lod);
+    let x = (2.0 * texel.x - 1.0) * scale;
+    let y = (2.0 * texel.y - 1.0) * scale;
     let z = 2.0 * texel.z - 1.0;
     let mapped = t * x + b * y + n * z;
     let length = mapped.length();

@@ -22,7 +22,7 @@ use wavetrace::texture::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 6;
-const OUTPUTS_PER_CASE: usize = 9;
+const OUTPUTS_PER_CASE: usize = 14;
 
 struct Synthetic {
     textures: Vec<GpuTexture>,
@@ -167,7 +167,8 @@ fn synthetic() -> Synthetic {
             };
             GpuMaterial {
                 base_color: [0.9, 0.6, 0.3],
-                flags: [0, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_BLEND][k as usize % 3],
+                flags: [0, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_BLEND][k as usize % 3]
+                    | if k == 4 { MATERIAL_UNLIT } else { 0 },
                 emission: [2.0, 1.0, 0.5],
                 metallic: 0.7,
                 roughness: 0.4,
@@ -184,6 +185,20 @@ fn synthetic() -> Synthetic {
                     (k + 3) % refs.len() as u32
                 },
                 transmission_texture: slot(4),
+                specular: 0.8,
+                specular_color: [1.5, 0.5, 1.0],
+                specular_texture: slot(5),
+                specular_color_texture: slot(6),
+                clearcoat: 0.9,
+                clearcoat_roughness: 0.6,
+                clearcoat_texture: slot(7),
+                clearcoat_roughness_texture: slot(8),
+                clearcoat_normal_texture: if k == 2 { NO_TEXTURE } else { slot(9) },
+                clearcoat_normal_scale: 0.7,
+                sheen_color: [0.8, 0.5, 0.9],
+                sheen_roughness: 0.6,
+                sheen_color_texture: slot(10),
+                sheen_roughness_texture: slot(11),
                 ..Default::default()
             }
         })
@@ -391,6 +406,13 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             m.emissive_texture,
             m.normal_texture,
             m.transmission_texture,
+            m.specular_texture,
+            m.specular_color_texture,
+            m.clearcoat_texture,
+            m.clearcoat_roughness_texture,
+            m.clearcoat_normal_texture,
+            m.sheen_color_texture,
+            m.sheen_roughness_texture,
         ]
         .into_iter()
         .filter(|&k| k != NO_TEXTURE)
@@ -419,6 +441,36 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
                 6,
                 "surface_material (metallic, roughness, emission.x, transmission)",
                 Vec4::new(e.metallic, e.roughness, e.emission[0], e.transmission),
+                1e-4,
+            );
+            check(
+                9,
+                "surface_material (specular colour, specular)",
+                Vec3::from(e.specular_color).extend(e.specular),
+                1e-4,
+            );
+            check(
+                10,
+                "surface_material (emission)",
+                Vec3::from(e.emission).extend(0.0),
+                1e-4,
+            );
+            check(
+                11,
+                "surface_material (clearcoat, clearcoat roughness)",
+                Vec4::new(e.clearcoat, e.clearcoat_roughness, 0.0, 0.0),
+                1e-4,
+            );
+            check(
+                12,
+                "surface_material (clearcoat normal)",
+                Vec3::from(e.clearcoat_normal).extend(0.0),
+                1e-3,
+            );
+            check(
+                13,
+                "surface_material (sheen colour, sheen roughness)",
+                Vec3::from(e.sheen_color).extend(e.sheen_roughness),
                 1e-4,
             );
             let key = UVec4::new(in3.w.to_bits(), in4.w.to_bits(), 7, 11);

@@ -15,7 +15,7 @@ use wavetrace::bsdf::{
     bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, BsdfFrame, TransportMode,
 };
 use wavetrace::bvh::Ray;
-use wavetrace::layout::{FrameParams, GpuMaterial};
+use wavetrace::layout::{FrameParams, GpuMaterial, MATERIAL_UNLIT};
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
 use wavetrace::scene::{camera_ray, Camera, Projection, ThinLens};
@@ -56,7 +56,7 @@ fn cases() -> Vec<Case> {
         .collect()
 }
 
-/// The material of case `i` (twins.comp, twin_material).
+/// The material of case `i` (twins.comp, twin_material): the last 512 cases are unlit.
 fn twin_material(i: u32) -> GpuMaterial {
     let k = (i / 4) % 4;
     GpuMaterial {
@@ -66,6 +66,20 @@ fn twin_material(i: u32) -> GpuMaterial {
         transmission: [0.0, 0.0, 1.0, 0.5][k as usize],
         ior: 1.5,
         specular: if (i / 16).is_multiple_of(2) { 1.0 } else { 0.5 },
+        specular_color: [[1.0; 3], [0.3, 1.8, 0.9], [40.0, 0.0, 1.0]][((i / 128) % 3) as usize],
+        flags: if i / 512 == 7 { MATERIAL_UNLIT } else { 0 },
+        clearcoat: if (i / 1024) % 2 == 1 { 0.7 } else { 0.0 },
+        clearcoat_roughness: if (i / 256).is_multiple_of(2) {
+            0.0
+        } else {
+            0.35
+        },
+        sheen_color: if (i / 64) % 4 == 3 {
+            [0.9, 0.4, 0.7]
+        } else {
+            [0.0; 3]
+        },
+        sheen_roughness: if (i / 8).is_multiple_of(2) { 0.3 } else { 0.8 },
         ..Default::default()
     }
 }
@@ -228,7 +242,11 @@ fn glsl_functions_equal_their_rust_twins() {
         check(6, "offset_ray_origin", p.extend(0.0), &|a, b| {
             close(a, b, ULP_TOL)
         });
-        let m = twin_material(i as u32);
+        let mut m = twin_material(i as u32);
+        // Half the coated cases have a coat normal of their own (twins.comp).
+        if (i / 2048) % 2 == 1 {
+            m.clearcoat_normal = (c.n + 0.5 * c.wo).normalize().to_array();
+        }
         let wo = if i & 32 != 0 { -c.wo } else { c.wo };
         let radiance = TransportMode::Radiance;
         let s = bsdf_sample(&m, c.n, wo, c.u.truncate(), radiance);
@@ -237,8 +255,12 @@ fn glsl_functions_equal_their_rust_twins() {
         // magnify the angle tolerance). A lobe choice within rounding of a boundary is skipped.
         let gs = (g(7), g(8));
         let near_boundary = BsdfFrame::new(&m, c.n, wo).is_some_and(|f| {
-            let [p0, p1, _] = f.lobe_pmf;
-            (c.u.z - p0).abs() < 1e-5 || (c.u.z - p0 - p1).abs() < 1e-5
+            // Any cumulative sum of the lobe probabilities near u.z.
+            let mut cumulative = 0.0;
+            f.lobe_pmf.iter().any(|&p| {
+                cumulative += p;
+                p > 0.0 && (c.u.z - cumulative).abs() < 1e-5
+            })
         });
         match s {
             Some(s) if gs.1.w != 0.0 => {

@@ -1,5 +1,5 @@
-// The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission and
-// _specular's factor: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
+// _specular, _unlit, _clearcoat and _sheen: twin of src/bsdf/mod.rs, same names; the model and its conventions are
 // written down there. Direction convention: wo points towards where the light goes (previous
 // vertex), wi towards where it comes from; both point away from the surface; ng is the
 // front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
@@ -7,6 +7,7 @@
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
 #include "microfacet.glsl"
+#include "sheen.glsl"
 
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
@@ -14,6 +15,9 @@
 #define LOBE_DIFFUSE 0u
 #define LOBE_REFLECTION 1u
 #define LOBE_TRANSMISSION 2u
+#define LOBE_CLEARCOAT 3u
+#define LOBE_SHEEN 4u
+#define LOBE_COUNT 5u
 
 // A material seen from wo: local frame (+Z on wo's side), relative IOR, lobe probabilities.
 struct BsdfFrame {
@@ -26,12 +30,31 @@ struct BsdfFrame {
     float transmission;
     float alpha;
     float etap;        // eta on the far side / eta on wo's side
-    float f0;
+    vec3 f0;           // the dielectric Fresnel's RGB F0 (specular_f0) and F90 (specular)
     float f90;
-    vec3 lobe_pmf;     // diffuse, reflection, transmission
+    vec4 lobe_pmf;     // diffuse, reflection, transmission, clearcoat (bsdf_lobe_pmf: all five)
+    float sheen_pmf;   // the sheen lobe's
     float albedo_estimate;
     vec3 ng;           // geometric normal on wo's side, local
+    vec3 ng_world;     // the same, world space
+    float clearcoat;   // the coat's weight (0: none), alpha, world frame about N_c, wo in it
+    float cc_alpha;
+    vec3 cc_t;
+    vec3 cc_b;
+    vec3 cc_n;
+    vec3 cc_wo;
+    vec3 sheen_color;  // the sheen: colour, max component (0: none), alpha, roughness and the
+    float sheen_max;   // scaling 1 - max(colour) E(cos theta_o) of the layers below
+    float sheen_alpha;
+    float sheen_roughness;
+    float sheen_scale_o;
 };
+
+// The clearcoat's Fresnel weight, F0 = 0.04 (ior 1.5) (KHR_materials_clearcoat, fresnel_coat).
+float fresnel_coat(float cos_theta) {
+    float f0 = dielectric_f0(1.5);
+    return f0 + (1.0 - f0) * schlick_weight(abs(cos_theta));
+}
 
 // BsdfFrame::new_shading's minimum height of wo's reflection above the geometric surface.
 #define SHADING_NORMAL_MIN_COS 0.01
@@ -55,14 +78,23 @@ float average3(vec3 v) {
     return (v.x + v.y + v.z) / 3.0;
 }
 
+float max3(vec3 v) {
+    return max(max(v.x, v.y), v.z);
+}
+
 // The frame of shading normal ns flipped with ng to wo's side and bent (BsdfFrame::new_shading):
 // evaluated in the shading frame, zero where the geometric and shading sides of wi disagree.
 // False where wo lies in the surface's plane.
 bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFrame f) {
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
-    f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = 0.0; f.f90 = 0.0;
-    f.lobe_pmf = vec3(0.0); f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
+    f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
+    f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0;
+    f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
+    f.sheen_color = vec3(0.0); f.sheen_max = 0.0; f.sheen_alpha = 1.0; f.sheen_roughness = 0.0;
+    f.sheen_scale_o = 1.0;
+    f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = 0.0;
+    f.cc_t = vec3(0.0); f.cc_b = vec3(0.0); f.cc_n = vec3(0.0); f.cc_wo = vec3(0.0);
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
     vec3 ng_wo = front ? ng : -ng;
@@ -71,25 +103,64 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     build_frame(f.n, f.t, f.b);
     f.wo = vec3(dot(wo, f.t), dot(wo, f.b), geometric ? abs(cos_g) : dot(wo, f.n));
     if (!geometric) f.ng = vec3(dot(ng_wo, f.t), dot(ng_wo, f.b), dot(ng_wo, f.n));
-    f.transmission = m.metallic < 1.0 ? m.transmission : 0.0;
+    // An unlit surface scatters nothing: every lobe's weight is 0.
+    bool unlit = (m.flags & MATERIAL_UNLIT) != 0u;
+    f.transmission = (m.metallic < 1.0 && !unlit) ? m.transmission : 0.0;
     float ior = max(m.ior, 1.0);
     f.etap = (f.transmission > 0.0 && !front) ? 1.0 / ior : ior;
-    f.f0 = dielectric_f0(m.ior) * m.specular;
-    f.f90 = m.specular;
-    f.base = m.base_color;
-    f.metallic = m.metallic;
+    float specular = unlit ? 0.0 : m.specular;
+    f.base = unlit ? vec3(0.0) : m.base_color;
+    f.metallic = unlit ? 0.0 : m.metallic;
+    f.f0 = specular_f0(m.ior, m.specular_color, specular);
+    f.f90 = specular;
     f.alpha = m.roughness * m.roughness;
     // Lobe albedo estimates at the macro normal (Fresnel at cos theta_o).
-    float fe = fresnel_dielectric(f.wo.z, f.f0, f.f90, f.etap);
+    vec3 fe = fresnel_dielectric_color(f.wo.z, f.f0, f.f90, f.etap);
     float fm = average3(fresnel_conductor(f.base, f.wo.z));
-    float dielectric = 1.0 - m.metallic;
-    vec3 w = vec3(dielectric * (1.0 - f.transmission) * (1.0 - fe) * average3(f.base),
-                  dielectric * fe + m.metallic * fm,
-                  dielectric * f.transmission * (1.0 - fe) * average3(f.base));
-    float total = w.x + w.y + w.z;
-    f.lobe_pmf = total > 0.0 ? w / total : vec3(0.0);
+    float dielectric = 1.0 - f.metallic;
+    vec4 w = vec4(dielectric * (1.0 - f.transmission) * (1.0 - max3(fe)) * average3(f.base),
+                  dielectric * average3(fe) + f.metallic * fm,
+                  dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base),
+                  0.0);
+    float w_sheen = 0.0;
+    // The sheen: its albedo E(cos theta_o) taken from the layers below (albedo scaling).
+    f.sheen_color = unlit ? vec3(0.0) : m.sheen_color;
+    f.sheen_max = max3(f.sheen_color);
+    f.sheen_alpha = sheen_alpha(m.sheen_roughness);
+    f.sheen_roughness = m.sheen_roughness;
+    if (f.sheen_max > 0.0) {
+        float e = sheen_albedo(f.wo.z, m.sheen_roughness);
+        f.sheen_scale_o = max(1.0 - f.sheen_max * e, 0.0);
+        w.xyz *= f.sheen_scale_o;
+        w_sheen = average3(f.sheen_color) * e;
+    }
+    // The coat: its frame about N_c and its weight clearcoat * F_c(wo.N_c) taken from the base.
+    f.ng_world = ng_wo;
+    f.clearcoat = unlit ? 0.0 : m.clearcoat;
+    f.cc_alpha = m.clearcoat_roughness * m.clearcoat_roughness;
+    f.cc_t = f.t; f.cc_b = f.b; f.cc_n = f.n; f.cc_wo = f.wo;
+    if (f.clearcoat > 0.0) {
+        vec3 nc = m.clearcoat_normal;
+        if (any(notEqual(nc, vec3(0.0)))) {
+            f.cc_n = bend_shading_normal(front ? nc : -nc, ng_wo, wo);
+            build_frame(f.cc_n, f.cc_t, f.cc_b);
+            f.cc_wo = vec3(dot(wo, f.cc_t), dot(wo, f.cc_b), dot(wo, f.cc_n));
+        }
+        float wc = f.clearcoat * fresnel_coat(f.cc_wo.z);
+        w.xyz *= 1.0 - wc;
+        w_sheen *= 1.0 - wc;
+        w.w = wc;
+    }
+    float total = w.x + w.y + w.z + w.w + w_sheen;
+    f.lobe_pmf = total > 0.0 ? w / total : vec4(0.0);
+    f.sheen_pmf = total > 0.0 ? w_sheen / total : 0.0;
     f.albedo_estimate = total;
     return true;
+}
+
+// The probability of choosing lobe k (BsdfFrame::lobe_pmf[k]).
+float bsdf_lobe_pmf(BsdfFrame f, uint k) {
+    return k == LOBE_SHEEN ? f.sheen_pmf : f.lobe_pmf[k];
 }
 
 // The frame of the geometric normal alone (BsdfFrame::new).
@@ -127,6 +198,14 @@ bool refraction_half_vector(BsdfFrame f, vec3 wi, out vec3 m) {
     return finite && dot(f.wo, m) > 0.0 && dot(wi, m) < 0.0;
 }
 
+// The sheen's albedo scaling of the layers below for a direction of cosine cos_i:
+// min(1 - max(c) E(cos_o), 1 - max(c) E(cos_i)), at least 0; 1 without sheen.
+float bsdf_sheen_scale(BsdfFrame f, float cos_i) {
+    if (f.sheen_max <= 0.0) return 1.0;
+    float e = sheen_albedo(cos_i, f.sheen_roughness);
+    return min(f.sheen_scale_o, max(1.0 - f.sheen_max * e, 0.0));
+}
+
 // f of the non-delta lobes for local wi.
 vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     vec3 wo = f.wo;
@@ -135,11 +214,15 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     if (wi.z > 0.0) {
         vec3 h = normalize(wo + wi);
         float vh = dot(wo, h);
-        float fd = fresnel_dielectric(vh, f.f0, f.f90, f.etap);
-        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - fd) * INV_PI * f.base;
+        vec3 fd = fresnel_dielectric_color(vh, f.f0, f.f90, f.etap);
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - max3(fd)) * INV_PI * f.base;
         if (!bsdf_is_delta(f)) {
             float spec = ggx_d(h, f.alpha) * ggx_visibility(wo.z, wi.z, f.alpha);
-            value += (dielectric * fd * vec3(1.0) + f.metallic * fresnel_conductor(f.base, vh)) * spec;
+            value += (dielectric * fd + f.metallic * fresnel_conductor(f.base, vh)) * spec;
+        }
+        if (f.sheen_max > 0.0) {
+            value = value * bsdf_sheen_scale(f, wi.z)
+                  + f.sheen_color * (charlie_d(h.z, f.sheen_alpha) * sheen_visibility(wo.z, wi.z, f.sheen_alpha));
         }
         return value;
     }
@@ -148,13 +231,13 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         if (!refraction_half_vector(f, wi, m)) return vec3(0.0);
         float om = dot(wo, m);
         float im = dot(wi, m);
-        float fd = fresnel_dielectric(om, f.f0, f.f90, f.etap);
+        float fd = max3(fresnel_dielectric_color(om, f.f0, f.f90, f.etap));
         float denom = f.etap * im + om;
         // Walter et al. 2007, eq. 21, for radiance (the 1/eta^2 of refraction included).
         float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo.z, wi.z, f.alpha);
         float ft = ggx_d(m, f.alpha) * g2 * abs(im * om) / (wo.z * abs(wi.z) * denom * denom);
         if (mode == TRANSPORT_IMPORTANCE) ft *= f.etap * f.etap;
-        return dielectric * f.transmission * (1.0 - fd) * ft * f.base;
+        return dielectric * f.transmission * (1.0 - fd) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
     }
     return vec3(0.0);
 }
@@ -169,6 +252,7 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
             vec3 h = normalize(wo + wi);
             pdf += f.lobe_pmf.y * ggx_vndf_pdf(wo, h, f.alpha) / (4.0 * dot(wo, h));
         }
+        if (f.sheen_pmf > 0.0) pdf += f.sheen_pmf * uniform_cone_pdf(0.0);
         return pdf;
     }
     if (wi.z < 0.0 && !bsdf_is_delta(f) && f.lobe_pmf.z > 0.0) {
@@ -185,27 +269,66 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
 bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 value) {
     vec3 wo = f.wo;
     float dielectric = 1.0 - f.metallic;
-    float fd = fresnel_dielectric(wo.z, f.f0, f.f90, f.etap);
+    vec3 fd = fresnel_dielectric_color(wo.z, f.f0, f.f90, f.etap);
     if (lobe == LOBE_REFLECTION) {
         wi = vec3(-wo.x, -wo.y, wo.z);
-        value = dielectric * fd * vec3(1.0) + f.metallic * fresnel_conductor(f.base, wo.z);
+        value = (dielectric * fd + f.metallic * fresnel_conductor(f.base, wo.z)) * bsdf_sheen_scale(f, wo.z);
         return true;
     }
     value = vec3(0.0);
     if (!refract_through(wo, vec3(0.0, 0.0, 1.0), f.etap, wi)) return false;
-    value = dielectric * f.transmission * (1.0 - fd) * f.base;
+    value = dielectric * f.transmission * (1.0 - max3(fd)) * bsdf_sheen_scale(f, wi.z) * f.base;
     if (mode == TRANSPORT_RADIANCE) value /= f.etap * f.etap;
     return true;
 }
 
+bool bsdf_cc_is_delta(BsdfFrame f) {
+    return f.cc_alpha < ALPHA_DELTA;
+}
+
+vec3 bsdf_to_cc_local(BsdfFrame f, vec3 v) {
+    return vec3(dot(v, f.cc_t), dot(v, f.cc_b), dot(v, f.cc_n));
+}
+
+// The coat's weight clearcoat * F_c(|V.N_c|): V is wo for radiance, wi for importance.
+float bsdf_cc_weight(BsdfFrame f, vec3 wi, uint mode) {
+    float v = mode == TRANSPORT_RADIANCE ? f.cc_wo.z : dot(wi, f.cc_n);
+    return f.clearcoat * fresnel_coat(v);
+}
+
+// The coat's GGX lobe D.V at world wi, times |cos to N_c| / |cos to n| of the direction the
+// integrator multiplies by (BsdfFrame::eval_clearcoat).
+float bsdf_eval_clearcoat(BsdfFrame f, vec3 wi, uint mode) {
+    vec3 wc = bsdf_to_cc_local(f, wi);
+    if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
+    vec3 h = normalize(f.cc_wo + wc);
+    float spec = ggx_d(h, f.cc_alpha) * ggx_visibility(f.cc_wo.z, wc.z, f.cc_alpha);
+    if (all(equal(f.cc_n, f.n))) return spec;
+    float ratio = mode == TRANSPORT_RADIANCE ? wc.z / abs(dot(wi, f.n)) : f.cc_wo.z / f.wo.z;
+    return (isinf(ratio) || isnan(ratio)) ? 0.0 : spec * ratio;
+}
+
+// Solid-angle pdf of the coat's visible-normal sampling at world wi.
+float bsdf_pdf_clearcoat(BsdfFrame f, vec3 wi) {
+    vec3 wc = bsdf_to_cc_local(f, wi);
+    if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
+    vec3 h = normalize(f.cc_wo + wc);
+    return ggx_vndf_pdf(f.cc_wo, h, f.cc_alpha) / (4.0 * dot(f.cc_wo, h));
+}
+
 // f(wo, wi) of the non-delta lobes for world-space wi (BsdfFrame::eval).
 vec3 bsdf_frame_eval(BsdfFrame f, vec3 wi, uint mode) {
-    return bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+    vec3 base = bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
+    if (f.clearcoat <= 0.0) return base;
+    float wc = bsdf_cc_weight(f, wi, mode);
+    return (1.0 - wc) * base + vec3(wc * bsdf_eval_clearcoat(f, wi, mode));
 }
 
 // The mixture pdf at world-space wi (BsdfFrame::pdf).
 float bsdf_frame_pdf(BsdfFrame f, vec3 wi) {
-    return bsdf_pdf_local(f, bsdf_to_local(f, wi));
+    float base = bsdf_pdf_local(f, bsdf_to_local(f, wi));
+    if (f.clearcoat <= 0.0 || f.lobe_pmf.w <= 0.0) return base;
+    return base + f.lobe_pmf.w * bsdf_pdf_clearcoat(f, wi);
 }
 
 // f of the non-delta lobes (without the cosine).
@@ -222,6 +345,16 @@ float bsdf_pdf(GpuMaterial m, vec3 ng, vec3 wo, vec3 wi) {
     return bsdf_frame_pdf(f, wi);
 }
 
+// A non-delta sample at world wi: the mixture's pdf and f.|cos|/pdf there (BsdfFrame::weighed).
+bool bsdf_weighed(BsdfFrame f, vec3 world, uint mode, out vec3 wi, out vec3 weight, out float pdf) {
+    wi = world;
+    weight = vec3(0.0);
+    pdf = bsdf_frame_pdf(f, world);
+    if (!(pdf > 0.0) || isinf(pdf)) return false;
+    weight = bsdf_frame_eval(f, world, mode) * (bsdf_frame_cos(f, world) / pdf);
+    return true;
+}
+
 // Samples wi from a frame (BsdfFrame::sample): u.z picks the lobe, u.xy the direction in it.
 // Writes weight = f.|cos|/pdf, the pdf (a delta lobe: its probability) and whether the lobe is
 // a delta; false if no direction.
@@ -231,35 +364,60 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
     weight = vec3(0.0);
     pdf = 0.0;
     delta = false;
-    uint lobe = u.z < f.lobe_pmf.x ? LOBE_DIFFUSE
-              : (u.z < f.lobe_pmf.x + f.lobe_pmf.y ? LOBE_REFLECTION : LOBE_TRANSMISSION);
-    float lobe_p = lobe == LOBE_DIFFUSE ? f.lobe_pmf.x : (lobe == LOBE_REFLECTION ? f.lobe_pmf.y : f.lobe_pmf.z);
-    if (lobe_p <= 0.0) return false;
-    vec3 local;
-    if (lobe != LOBE_DIFFUSE && bsdf_is_delta(f)) {
-        vec3 value;
-        if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
-        wi = bsdf_to_world(f, local);
-        weight = value / lobe_p;
-        pdf = lobe_p;
-        delta = true;
-        return true;
+    // The first lobe whose cumulative probability exceeds u.z (rounding past the last sum: the
+    // last lobe that can be chosen).
+    uint lobe = LOBE_COUNT;
+    float cumulative = 0.0;
+    for (uint k = 0u; k < LOBE_COUNT; k++) {
+        float p = bsdf_lobe_pmf(f, k);
+        if (p > 0.0) {
+            lobe = k;
+            cumulative += p;
+            if (u.z < cumulative) break;
+        }
     }
-    if (lobe == LOBE_DIFFUSE) {
-        local = sample_cosine_hemisphere(u.xy);
-    } else if (lobe == LOBE_REFLECTION) {
-        local = reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy));
-    } else if (!refract_through(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy), f.etap, local)) {
-        return false;
+    if (lobe == LOBE_COUNT) return false;
+    float lobe_p = bsdf_lobe_pmf(f, lobe);
+    vec3 world;
+    if (lobe == LOBE_CLEARCOAT) {
+        vec3 wc = bsdf_cc_is_delta(f) ? vec3(-f.cc_wo.x, -f.cc_wo.y, f.cc_wo.z)
+                : reflect_about(f.cc_wo, sample_ggx_vndf(f.cc_wo, f.cc_alpha, u.xy));
+        world = f.cc_t * wc.x + f.cc_b * wc.y + f.cc_n * wc.z;
+        if (wc.z <= 0.0 || dot(world, f.ng_world) <= 0.0) return false;
+        if (bsdf_cc_is_delta(f)) {
+            wi = world;
+            weight = vec3(bsdf_cc_weight(f, world, mode) / lobe_p);
+            pdf = lobe_p;
+            delta = true;
+            return true;
+        }
+    } else {
+        vec3 local;
+        if (lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && bsdf_is_delta(f)) {
+            vec3 value;
+            if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
+            wi = bsdf_to_world(f, local);
+            float scale = f.clearcoat > 0.0 ? 1.0 - bsdf_cc_weight(f, wi, mode) : 1.0;
+            weight = value * (scale / lobe_p);
+            pdf = lobe_p;
+            delta = true;
+            return true;
+        }
+        if (lobe == LOBE_DIFFUSE) {
+            local = sample_cosine_hemisphere(u.xy);
+        } else if (lobe == LOBE_SHEEN) {
+            local = sample_uniform_cone(u.xy, 0.0);
+        } else if (lobe == LOBE_REFLECTION) {
+            local = reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy));
+        } else if (!refract_through(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy), f.etap, local)) {
+            return false;
+        }
+        // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
+        bool reflects = lobe != LOBE_TRANSMISSION;
+        if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
+        world = bsdf_to_world(f, local);
     }
-    // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
-    bool reflects = lobe != LOBE_TRANSMISSION;
-    if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
-    pdf = bsdf_pdf_local(f, local);
-    if (!(pdf > 0.0) || isinf(pdf)) return false;
-    wi = bsdf_to_world(f, local);
-    weight = bsdf_eval_local(f, local, mode) * (abs(local.z) / pdf);
-    return true;
+    return bsdf_weighed(f, world, mode, wi, weight, pdf);
 }
 
 // bsdf_frame_sample for material m seen from wo.

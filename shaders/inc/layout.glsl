@@ -38,11 +38,12 @@ struct GpuTriangle {
 #define MATERIAL_ALPHA_MASK 2u
 #define MATERIAL_ALPHA_BLEND 4u
 #define MATERIAL_TEXTURED 8u
+#define MATERIAL_UNLIT 16u
 #define NO_TEXTURE 0xffffffffu
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
 // texture references that modulate its factors at each surface point (surface.glsl).
-// Total: 80 bytes.
+// Total: 160 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -60,6 +61,20 @@ struct GpuMaterial {
     uint emissive_texture;            // 4 bytes
     uint normal_texture;              // 4 bytes
     uint transmission_texture;        // 4 bytes
+    vec3 specular_color;              // 12 bytes: KHR_materials_specular's specularColorFactor
+    uint specular_texture;            // 4 bytes: A x specular
+    uint specular_color_texture;      // 4 bytes: sRGB; RGB x specular_color
+    float clearcoat;                  // 4 bytes: KHR_materials_clearcoat's clearcoatFactor
+    float clearcoat_roughness;        // 4 bytes: alpha = roughness^2
+    uint clearcoat_texture;           // 4 bytes: R x clearcoat
+    uint clearcoat_roughness_texture; // 4 bytes: G x clearcoat_roughness
+    uint clearcoat_normal_texture;    // 4 bytes
+    float clearcoat_normal_scale;     // 4 bytes
+    float sheen_roughness;            // 4 bytes: KHR_materials_sheen's sheenRoughnessFactor
+    vec3 clearcoat_normal;            // 12 bytes: the coat's world normal at a hit (0: the shading normal)
+    uint sheen_color_texture;         // 4 bytes: sRGB; RGB x sheen_color
+    vec3 sheen_color;                 // 12 bytes: sheenColorFactor (0: no sheen)
+    uint sheen_roughness_texture;     // 4 bytes: A x sheen_roughness
 };
 
 // Shading attributes of one vertex, world space. Total: 64 bytes.
@@ -135,7 +150,7 @@ struct GpuPunctualLight {
 #define LIGHT_DIRECTIONAL 2u
 #define LIGHT_ENTRY_PUNCTUAL 0x80000000u
 
-// Constants of one render (std140 uniform). Total: 192 bytes.
+// Constants of one render (std140 uniform). Total: 4288 bytes.
 struct FrameParams {
     vec3 cam_position;    // 12 bytes
     float tan_half_fov_y; // 4 bytes: perspective: tan(yfov / 2); orthographic: 0
@@ -179,6 +194,7 @@ struct FrameParams {
     uint pad0;              // 4 bytes
     uint pad1;              // 4 bytes
     uint pad2;              // 4 bytes
+    vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
 };
 #define INTEGRATOR_PATH 0u
 #define INTEGRATOR_LIGHT 1u

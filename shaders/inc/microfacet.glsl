@@ -83,9 +83,25 @@ float fresnel_dielectric(float cos_i, float f0, float f90, float etap) {
     return f0 + (f90 - f0) * schlick_weight(c);
 }
 
+// fresnel_dielectric with an RGB F0 (KHR_materials_specular's specularColor).
+vec3 fresnel_dielectric_color(float cos_i, vec3 f0, float f90, float etap) {
+    float c = min(abs(cos_i), 1.0);
+    if (etap < 1.0) {
+        float sin2_t = (1.0 - c * c) / (etap * etap);
+        if (sin2_t >= 1.0) return vec3(1.0);
+        c = sqrt(1.0 - sin2_t);
+    }
+    return f0 + (vec3(f90) - f0) * schlick_weight(c);
+}
+
 float dielectric_f0(float ior) {
     float r = (ior - 1.0) / (ior + 1.0);
     return r * r;
+}
+
+// KHR_materials_specular's dielectric F0: min(((ior - 1)/(ior + 1))^2 specularColor, 1) specular.
+vec3 specular_f0(float ior, vec3 specular_color, float specular) {
+    return min(dielectric_f0(ior) * specular_color, vec3(1.0)) * specular;
 }
 
 vec3 reflect_about(vec3 wo, vec3 m) {

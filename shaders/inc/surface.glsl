@@ -85,12 +85,42 @@ vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
 
 #define LOD_MAGNIFY vec2(-1e30)
 
-// Material m at the surface point: factors times textures times vertex colour.
-// The emitted radiance factor at the point: emissive factor × texture (src/surface.rs).
+// The emitted radiance factor at the point: emissive factor × texture, × the vertex colour for
+// an unlit material (src/surface.rs).
 vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    if (m.emissive_texture == NO_TEXTURE) return m.emission;
-    return m.emission * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
+    vec3 e = m.emission;
+    if ((m.flags & MATERIAL_UNLIT) != 0u) e *= sp.color.xyz;
+    if (m.emissive_texture == NO_TEXTURE) return e;
+    return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
+
+
+// The interpolated normal perturbed by tangent-space normal map `tex` (or NO_TEXTURE), XY scaled
+// by `scale` (surface_mapped_normal): the base's and the clearcoat's maps.
+vec3 surface_mapped_normal(uint tex, float scale, SurfacePoint sp, vec2 lod) {
+    if (tex == NO_TEXTURE) return sp.ns;
+    vec3 n = sp.ns;
+    vec3 t = sp.tangent.xyz;
+    t = t - n * dot(n, t);
+    float t_len = length(t);
+    if (!(t_len > 1e-12) || isinf(t_len)) return n;
+    t /= t_len;
+    vec3 b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
+    vec4 texel = sample_texture_ref(tex, sp.uv0, sp.uv1, lod);
+    float x = (2.0 * texel.x - 1.0) * scale;
+    float y = (2.0 * texel.y - 1.0) * scale;
+    float z = 2.0 * texel.z - 1.0;
+    vec3 mapped = t * x + b * y + n * z;
+    float len = length(mapped);
+    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
+}
+
+// The shading normal with the normal map applied (unit, not flipped).
+vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    return surface_mapped_normal(m.normal_texture, m.normal_scale, sp, lod);
+}
+
+// Material m at the surface point: factors times textures times vertex colour.
 
 GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     GpuMaterial o = m;
@@ -107,26 +137,29 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     if (m.transmission_texture != NO_TEXTURE) {
         o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
     }
+    if (m.specular_texture != NO_TEXTURE) {
+        o.specular *= sample_texture_ref(m.specular_texture, sp.uv0, sp.uv1, lod).w;
+    }
+    if (m.specular_color_texture != NO_TEXTURE) {
+        o.specular_color = m.specular_color * sample_texture_ref(m.specular_color_texture, sp.uv0, sp.uv1, lod).xyz;
+    }
+    if (m.clearcoat_texture != NO_TEXTURE) {
+        o.clearcoat *= sample_texture_ref(m.clearcoat_texture, sp.uv0, sp.uv1, lod).x;
+    }
+    if (m.clearcoat_roughness_texture != NO_TEXTURE) {
+        o.clearcoat_roughness *= sample_texture_ref(m.clearcoat_roughness_texture, sp.uv0, sp.uv1, lod).y;
+    }
+    if (m.sheen_color_texture != NO_TEXTURE) {
+        o.sheen_color = m.sheen_color * sample_texture_ref(m.sheen_color_texture, sp.uv0, sp.uv1, lod).xyz;
+    }
+    if (m.sheen_roughness_texture != NO_TEXTURE) {
+        o.sheen_roughness *= sample_texture_ref(m.sheen_roughness_texture, sp.uv0, sp.uv1, lod).w;
+    }
+    // The coat's normal: its own map, else the interpolated normal (0: the base's shading normal).
+    if (o.clearcoat > 0.0 && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)) {
+        o.clearcoat_normal = surface_mapped_normal(m.clearcoat_normal_texture, m.clearcoat_normal_scale, sp, lod);
+    }
     return o;
-}
-
-// The shading normal with the normal map applied (unit, not flipped).
-vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    if (m.normal_texture == NO_TEXTURE) return sp.ns;
-    vec3 n = sp.ns;
-    vec3 t = sp.tangent.xyz;
-    t = t - n * dot(n, t);
-    float t_len = length(t);
-    if (!(t_len > 1e-12) || isinf(t_len)) return n;
-    t /= t_len;
-    vec3 b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
-    vec4 texel = sample_texture_ref(m.normal_texture, sp.uv0, sp.uv1, lod);
-    float x = (2.0 * texel.x - 1.0) * m.normal_scale;
-    float y = (2.0 * texel.y - 1.0) * m.normal_scale;
-    float z = 2.0 * texel.z - 1.0;
-    vec3 mapped = t * x + b * y + n * z;
-    float len = length(mapped);
-    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
 }
 
 float alpha_random(uvec4 key, uint triangle) {

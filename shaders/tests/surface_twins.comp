@@ -18,12 +18,15 @@ layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
 #include "sampling.glsl"
+// Only bend_shading_normal of the BSDF runs here: a one-entry stand-in for the sheen table.
+const vec4 SHEEN_TABLE_UNUSED[1] = vec4[](vec4(0.0));
+#define SHEEN_ALBEDO_TABLE SHEEN_TABLE_UNUSED
 #include "bsdf.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
 
 #define INPUTS_PER_CASE 6u
-#define OUTPUTS_PER_CASE 9u
+#define OUTPUTS_PER_CASE 14u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -73,4 +76,9 @@ void main() {
     vec3 ns_side = dot(ns, ng_wo) > 0.0 ? ns : -ns;
     outputs[o + 8u] = vec4(bend_shading_normal(ns_side, ng_wo, wo),
                            triangle_present(tri_index, in2.x, in2.y, key, vec3(0.0)) ? 1.0 : 0.0);
+    outputs[o + 9u] = vec4(e.specular_color, e.specular);
+    outputs[o + 10u] = vec4(e.emission, 0.0);
+    outputs[o + 11u] = vec4(e.clearcoat, e.clearcoat_roughness, 0.0, 0.0);
+    outputs[o + 12u] = vec4(e.clearcoat_normal, 0.0);
+    outputs[o + 13u] = vec4(e.sheen_color, e.sheen_roughness);
 }

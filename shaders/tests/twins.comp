@@ -15,6 +15,8 @@ layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
 #include "sampling.glsl"
+// The BSDF reads the sheen albedo table from the first camera set-up (FrameParams).
+#define SHEEN_ALBEDO_TABLE frames[0].sheen_albedo
 #include "bsdf.glsl"
 #include "mis.glsl"
 #include "bvh.glsl"
@@ -25,12 +27,12 @@ layout(push_constant) uniform Push { uint case_count; };
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-// The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission and
-// specular factors swept by the case index.
+// The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
+// specular factor and colour, clearcoat, sheen swept by the case index; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
-    m.flags = 0u;
+    m.flags = i / 512u == 7u ? MATERIAL_UNLIT : 0u;
     m.emission = vec3(0.0);
     uint r = i % 4u;
     m.roughness = r == 0u ? 0.0 : (r == 1u ? 0.05 : (r == 2u ? 0.3 : 0.8));
@@ -39,6 +41,22 @@ GpuMaterial twin_material(uint i) {
     m.transmission = k == 2u ? 1.0 : (k == 3u ? 0.5 : 0.0);
     m.ior = 1.5;
     m.specular = (i / 16u) % 2u == 0u ? 1.0 : 0.5;
+    uint c = (i / 128u) % 3u;
+    m.specular_color = c == 0u ? vec3(1.0) : (c == 1u ? vec3(0.3, 1.8, 0.9) : vec3(40.0, 0.0, 1.0));
+    m.specular_texture = NO_TEXTURE;
+    m.specular_color_texture = NO_TEXTURE;
+    m.clearcoat = (i / 1024u) % 2u == 1u ? 0.7 : 0.0;
+    m.clearcoat_roughness = (i / 256u) % 2u == 0u ? 0.0 : 0.35;
+    m.clearcoat_texture = NO_TEXTURE;
+    m.clearcoat_roughness_texture = NO_TEXTURE;
+    m.clearcoat_normal_texture = NO_TEXTURE;
+    m.clearcoat_normal_scale = 1.0;
+    m.clearcoat_normal = vec3(0.0);
+    bool sheen = (i / 64u) % 4u == 3u;
+    m.sheen_color = sheen ? vec3(0.9, 0.4, 0.7) : vec3(0.0);
+    m.sheen_roughness = (i / 8u) % 2u == 0u ? 0.3 : 0.8;
+    m.sheen_color_texture = NO_TEXTURE;
+    m.sheen_roughness_texture = NO_TEXTURE;
     return m;
 }
 
@@ -63,6 +81,8 @@ void main() {
     outputs[o + 5u] = vec4(bt, 0.0);
     outputs[o + 6u] = vec4(offset_ray_origin(wo * 10.0 * u.w, n), 0.0);
     GpuMaterial m = twin_material(i);
+    // Half the coated cases have a coat normal of their own.
+    if ((i / 2048u) % 2u == 1u) m.clearcoat_normal = normalize(n + 0.5 * wo);
     vec3 wo_side = (i & 32u) != 0u ? -wo : wo;
     vec3 wi, weight;
     float pdf;

@@ -116,6 +116,27 @@ pub fn fresnel_dielectric(cos_i: f32, f0: f32, f90: f32, etap: f32) -> f32 {
     f0 + (f90 - f0) * schlick_weight(c)
 }
 
+/// [`fresnel_dielectric`] with an RGB F0 (KHR_materials_specular's specularColor): each channel
+/// F0 + (F90 − F0)(1 − cos)⁵, the same transmitted-angle rule, and 1 on total internal
+/// reflection.
+pub fn fresnel_dielectric_color(cos_i: f32, f0: Vec3, f90: f32, etap: f32) -> Vec3 {
+    let mut c = cos_i.abs().min(1.0);
+    if etap < 1.0 {
+        let sin2_t = (1.0 - c * c) / (etap * etap);
+        if sin2_t >= 1.0 {
+            return Vec3::ONE;
+        }
+        c = (1.0 - sin2_t).sqrt();
+    }
+    f0 + (Vec3::splat(f90) - f0) * schlick_weight(c)
+}
+
+/// KHR_materials_specular's dielectric F0 (section "Interaction with other extensions"):
+/// min(((ior − 1)/(ior + 1))² · specularColor, 1) · specular.
+pub fn specular_f0(ior: f32, specular_color: Vec3, specular: f32) -> Vec3 {
+    (dielectric_f0(ior) * specular_color).min(Vec3::ONE) * specular
+}
+
 /// F0 of a dielectric of index `ior` against air: ((ior − 1)/(ior + 1))² (KHR_materials_ior).
 pub fn dielectric_f0(ior: f32) -> f32 {
     let r = (ior - 1.0) / (ior + 1.0);

@@ -1,5 +1,5 @@
 //! The glTF 2.0 metallic-roughness BSDF (specification, Appendix B) with KHR_materials_ior,
-//! KHR_materials_transmission and KHR_materials_specular's `specularFactor`: evaluation,
+//! KHR_materials_transmission, KHR_materials_specular and KHR_materials_unlit: evaluation,
 //! sampling and pdf. Twin of `shaders/inc/bsdf.glsl`, same names.
 //!
 //! Direction convention (here and in the GLSL twin, never swapped): `wo` points from the surface
@@ -13,10 +13,14 @@
 //! §5.2): with radiance, f_t carries 1/η² where η = η_wi / η_wo.
 //!
 //! The model, with c = baseColor, F_d the dielectric Fresnel and F_m the metal one (both on v·h):
-//!   f = (1 − metallic) · [(1 − F_d) · ((1 − transmission) · c/π + transmission · c · btdf)
+//!   f = (1 − metallic) · [(1 − max(F_d)) · ((1 − transmission) · c/π + transmission · c · btdf)
 //!                         + F_d · D·V]
 //!     + metallic · F_m · D·V
-//! exactly `mix(dielectric_brdf, metal_brdf, metallic)` with `fresnel_mix` of Appendix B; the
+//! exactly `mix(dielectric_brdf, metal_brdf, metallic)` with `fresnel_mix` of Appendix B as
+//! KHR_materials_specular redefines it: F_d is RGB, F0 = min(((ior − 1)/(ior + 1))² ·
+//! specularColor, 1) · specular, F90 = specular, and the layers below the specular one are
+//! scaled by 1 − max(F_d) (the extension's "Implementation" section; with the default
+//! specularColor 1 the three channels are equal and this is the core model). The
 //! transmission lobe is a rough dielectric (Walter et al. 2007, eq. 21) refracting by `ior`,
 //! tinted by c as KHR_materials_transmission says. No energy compensation: at grazing angles
 //! the spec's dielectric mix (1 − F)·diffuse + F·specular reflects a little more than it
@@ -27,15 +31,46 @@
 //! With α < [`microfacet::ALPHA_DELTA`] the specular lobes are Dirac deltas: `bsdf_eval` and
 //! `bsdf_pdf` leave them out (they are zero almost everywhere), and `bsdf_sample` returns them
 //! flagged `delta` with the ratio f·|cos|/pdf as `weight`.
+//!
+//! KHR_materials_clearcoat layers a GGX reflection over all of that exactly as the extension's
+//! `fresnel_coat` writes it:
+//!   f_coated = (1 − clearcoat · F_c(|V·N_c|)) · f + clearcoat · F_c(|V·N_c|) · D_c·V_c
+//! with F_c Schlick's Fresnel of ior 1.5 (F0 = 0.04) on the *view* direction V and the coat's
+//! normal N_c (its own normal map, else the interpolated normal even where the base is
+//! normal-mapped), D_c·V_c the GGX lobe of α = clearcoatRoughness² about N_c (a delta mirror
+//! below [`microfacet::ALPHA_DELTA`]), whose cosine is |L·N_c|: as f is multiplied by the
+//! cosine to the base's shading normal, the coat's term carries |L·N_c|/|L·N| (1 where the two
+//! normals agree). F_c on V makes the coated BSDF non-reciprocal; V is `wo` for radiance and
+//! `wi` for importance, so the importance BSDF is the radiance one transposed, as BDPT needs.
+//! Not modelled: the spec's darkening of emission under the coat (emission · (1 − clearcoat ·
+//! F_c)) — emission stays the direction-independent factor every integrator reads.
+//!
+//! KHR_materials_sheen layers the Charlie microfiber lobe (`sheen`) over the base with the
+//! extension's albedo scaling, below the coat:
+//!   f_sheen = sheenColor · D_s·ν_s + f · min(1 − max(sheenColor)·E(|V·N|), 1 − max(sheenColor)·E(|L·N|))
+//! (symmetric in V and L, so reciprocal), E tabulated by quadrature; the lobe is sampled
+//! uniformly over the hemisphere.
+//!
+//! KHR_materials_unlit: the surface shows its base colour term whatever the lighting. A path
+//! tracer gives it that look by making the surface an emitter of exactly that radiance
+//! (`surface::surface_emission`) whose BSDF is zero: seen directly it is its base colour, it
+//! reflects and transmits nothing, and like every emitter it lights the scene (a rasteriser's
+//! unlit surface lights nothing only because rasterisers have no indirect light).
 
 pub mod microfacet;
+pub mod sheen;
+mod sheen_table;
 #[cfg(test)]
 mod tests;
 
-use crate::layout::GpuMaterial;
-use crate::sampling::{build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use crate::layout::{GpuMaterial, MATERIAL_UNLIT};
+use crate::sampling::{
+    build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere, sample_uniform_cone,
+    uniform_cone_pdf,
+};
 use glam::{Vec2, Vec3};
 use microfacet::*;
+use sheen::{charlie_d, sheen_albedo, sheen_alpha, sheen_visibility};
 use std::f32::consts::FRAC_1_PI;
 
 /// Which quantity a path carries (`mode` of every BSDF function).
@@ -62,6 +97,10 @@ pub struct BsdfSample {
 pub const LOBE_DIFFUSE: usize = 0;
 pub const LOBE_REFLECTION: usize = 1;
 pub const LOBE_TRANSMISSION: usize = 2;
+pub const LOBE_CLEARCOAT: usize = 3;
+pub const LOBE_SHEEN: usize = 4;
+/// How many lobes [`BsdfFrame::lobe_pmf`] chooses among.
+pub const LOBE_COUNT: usize = 5;
 
 /// A material seen from `wo`: the local frame with +Z on `wo`'s side, the relative index of
 /// refraction and the lobe selection probabilities.
@@ -78,15 +117,41 @@ pub struct BsdfFrame {
     alpha: f32,
     /// η on the far side / η on `wo`'s side (1 for opaque surfaces' geometry).
     etap: f32,
-    f0: f32,
+    /// The dielectric Fresnel's RGB F0 ([`specular_f0`]) and F90 (specular).
+    f0: Vec3,
     f90: f32,
-    /// Probabilities of choosing the diffuse, reflection and transmission lobes.
-    pub lobe_pmf: [f32; 3],
+    /// Probabilities of choosing the diffuse, reflection, transmission, clearcoat and sheen
+    /// lobes.
+    pub lobe_pmf: [f32; LOBE_COUNT],
     /// Sum of the lobe albedo estimates (before normalising to `lobe_pmf`).
     pub albedo_estimate: f32,
     /// The geometric normal on `wo`'s side, in the local frame: a direction reflects or
     /// transmits by the side of the geometric surface it lies on.
     ng: Vec3,
+    /// The same in world space.
+    ng_world: Vec3,
+    /// The clearcoat layer: its weight (0: none), α, world frame about N_c (on `wo`'s side) and
+    /// `wo` in that frame.
+    clearcoat: f32,
+    cc_alpha: f32,
+    cc_t: Vec3,
+    cc_b: Vec3,
+    cc_n: Vec3,
+    cc_wo: Vec3,
+    /// The sheen layer: its colour, max component (0: none), α and roughness (the albedo
+    /// table's axis), and the scaling 1 − max(colour)·E(cos θo) of the layers below.
+    sheen_color: Vec3,
+    sheen_max: f32,
+    sheen_alpha: f32,
+    sheen_roughness: f32,
+    sheen_scale_o: f32,
+}
+
+/// The clearcoat's Fresnel weight F_c = F0 + (1 − F0)(1 − |cos|)⁵ with F0 = ((1.5 − 1)/(1.5 +
+/// 1))² = 0.04 (KHR_materials_clearcoat, `fresnel_coat`).
+pub fn fresnel_coat(cos: f32) -> f32 {
+    let f0 = dielectric_f0(1.5);
+    f0 + (1.0 - f0) * schlick_weight(cos.abs())
 }
 
 /// How far above the geometric surface the shading normal must reflect `wo`
@@ -150,7 +215,9 @@ impl BsdfFrame {
             wo.dot(b),
             if ns == ng { cos_g.abs() } else { wo.dot(n) },
         );
-        let transmission = if m.metallic < 1.0 {
+        // An unlit surface scatters nothing: every lobe's weight is 0.
+        let unlit = m.flags & MATERIAL_UNLIT != 0;
+        let transmission = if m.metallic < 1.0 && !unlit {
             m.transmission
         } else {
             0.0
@@ -161,23 +228,63 @@ impl BsdfFrame {
         } else {
             ior
         };
-        let f0 = dielectric_f0(m.ior) * m.specular;
-        let f90 = m.specular;
-        let base = Vec3::from(m.base_color);
-        // Lobe albedo estimates at the macro normal (Fresnel at cos θo).
-        let fe = fresnel_dielectric(wo_local.z, f0, f90, etap);
-        let fm = average(fresnel_conductor(base, wo_local.z));
-        let dielectric = 1.0 - m.metallic;
-        let w = [
-            dielectric * (1.0 - transmission) * (1.0 - fe) * average(base),
-            dielectric * fe + m.metallic * fm,
-            dielectric * transmission * (1.0 - fe) * average(base),
-        ];
-        let total = w[0] + w[1] + w[2];
-        let lobe_pmf = if total > 0.0 {
-            [w[0] / total, w[1] / total, w[2] / total]
+        let (base, metallic, specular) = if unlit {
+            (Vec3::ZERO, 0.0, 0.0)
         } else {
-            [0.0; 3]
+            (Vec3::from(m.base_color), m.metallic, m.specular)
+        };
+        let f0 = specular_f0(m.ior, Vec3::from(m.specular_color), specular);
+        let f90 = specular;
+        // Lobe albedo estimates at the macro normal (Fresnel at cos θo).
+        let fe = fresnel_dielectric_color(wo_local.z, f0, f90, etap);
+        let fm = average(fresnel_conductor(base, wo_local.z));
+        let dielectric = 1.0 - metallic;
+        let mut w = [
+            dielectric * (1.0 - transmission) * (1.0 - fe.max_element()) * average(base),
+            dielectric * average(fe) + metallic * fm,
+            dielectric * transmission * (1.0 - fe.max_element()) * average(base),
+            0.0,
+            0.0,
+        ];
+        // The sheen: its albedo E(cos θo) taken from the layers below (albedo scaling).
+        let sheen_color = if unlit {
+            Vec3::ZERO
+        } else {
+            Vec3::from(m.sheen_color)
+        };
+        let sheen_max = sheen_color.max_element();
+        let mut sheen_scale_o = 1.0;
+        if sheen_max > 0.0 {
+            let e = sheen_albedo(wo_local.z, m.sheen_roughness);
+            sheen_scale_o = (1.0 - sheen_max * e).max(0.0);
+            for x in &mut w[..3] {
+                *x *= sheen_scale_o;
+            }
+            w[LOBE_SHEEN] = average(sheen_color) * e;
+        }
+        // The coat: its frame about N_c (the base's normal unless the hit gave its own), and
+        // its weight clearcoat · F_c(wo·N_c) taken from the base lobes' estimates.
+        let clearcoat = if unlit { 0.0 } else { m.clearcoat };
+        let (mut cc_t, mut cc_b, mut cc_n, mut cc_wo) = (t, b, n, wo_local);
+        if clearcoat > 0.0 {
+            let nc = Vec3::from(m.clearcoat_normal);
+            if nc != Vec3::ZERO {
+                cc_n = bend_shading_normal(if front { nc } else { -nc }, ng_wo, wo);
+                (cc_t, cc_b) = build_frame(cc_n);
+                cc_wo = Vec3::new(wo.dot(cc_t), wo.dot(cc_b), wo.dot(cc_n));
+            }
+            let wc = clearcoat * fresnel_coat(cc_wo.z);
+            for x in &mut w[..3] {
+                *x *= 1.0 - wc;
+            }
+            w[LOBE_SHEEN] *= 1.0 - wc;
+            w[LOBE_CLEARCOAT] = wc;
+        }
+        let total = w[0] + w[1] + w[2] + w[3] + w[4];
+        let lobe_pmf = if total > 0.0 {
+            w.map(|x| x / total)
+        } else {
+            [0.0; LOBE_COUNT]
         };
         Some(BsdfFrame {
             t,
@@ -185,7 +292,7 @@ impl BsdfFrame {
             n,
             wo: wo_local,
             base,
-            metallic: m.metallic,
+            metallic,
             transmission,
             alpha: m.roughness * m.roughness,
             etap,
@@ -198,6 +305,18 @@ impl BsdfFrame {
             } else {
                 Vec3::new(ng_wo.dot(t), ng_wo.dot(b), ng_wo.dot(n))
             },
+            ng_world: ng_wo,
+            clearcoat,
+            cc_alpha: m.clearcoat_roughness * m.clearcoat_roughness,
+            cc_t,
+            cc_b,
+            cc_n,
+            cc_wo,
+            sheen_color,
+            sheen_max,
+            sheen_alpha: sheen_alpha(m.sheen_roughness),
+            sheen_roughness: m.sheen_roughness,
+            sheen_scale_o,
         })
     }
 
@@ -244,13 +363,21 @@ impl BsdfFrame {
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
             let vh = wo.dot(h);
-            let fd = fresnel_dielectric(vh, self.f0, self.f90, self.etap);
-            let mut f = dielectric * (1.0 - self.transmission) * (1.0 - fd) * FRAC_1_PI * self.base;
+            let fd = fresnel_dielectric_color(vh, self.f0, self.f90, self.etap);
+            let mut f = dielectric
+                * (1.0 - self.transmission)
+                * (1.0 - fd.max_element())
+                * FRAC_1_PI
+                * self.base;
             if !self.is_delta() {
                 let spec = ggx_d(h, self.alpha) * ggx_visibility(wo.z, wi.z, self.alpha);
-                f += (dielectric * fd * Vec3::ONE
-                    + self.metallic * fresnel_conductor(self.base, vh))
-                    * spec;
+                f += (dielectric * fd + self.metallic * fresnel_conductor(self.base, vh)) * spec;
+            }
+            if self.sheen_max > 0.0 {
+                f = f * self.sheen_scale(wi.z)
+                    + self.sheen_color
+                        * (charlie_d(h.z, self.sheen_alpha)
+                            * sheen_visibility(wo.z, wi.z, self.sheen_alpha));
             }
             f
         } else if wi.z < 0.0 && self.transmission > 0.0 && !self.is_delta() {
@@ -258,7 +385,7 @@ impl BsdfFrame {
                 return Vec3::ZERO;
             };
             let (om, im) = (wo.dot(m), wi.dot(m));
-            let fd = fresnel_dielectric(om, self.f0, self.f90, self.etap);
+            let fd = fresnel_dielectric_color(om, self.f0, self.f90, self.etap).max_element();
             let denom = self.etap * im + om;
             // Walter et al. 2007, eq. 21, for radiance (the 1/η² of refraction included).
             let g2 = 4.0 * wo.z * wi.z.abs() * ggx_visibility(wo.z, wi.z, self.alpha);
@@ -267,7 +394,7 @@ impl BsdfFrame {
             if mode == TransportMode::Importance {
                 ft *= self.etap * self.etap;
             }
-            dielectric * self.transmission * (1.0 - fd) * ft * self.base
+            dielectric * self.transmission * (1.0 - fd) * ft * self.sheen_scale(wi.z) * self.base
         } else {
             Vec3::ZERO
         }
@@ -279,13 +406,16 @@ impl BsdfFrame {
         if !self.consistent(wi) {
             return 0.0;
         }
-        let [p_diffuse, p_reflection, p_transmission] = self.lobe_pmf;
+        let [p_diffuse, p_reflection, p_transmission, _, p_sheen] = self.lobe_pmf;
         if wi.z > 0.0 {
             let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
             if !self.is_delta() && p_reflection > 0.0 {
                 let h = (wo + wi).normalize();
                 // dω_h/dω_i = 1 / (4 |wo·h|) (Walter et al. 2007, eq. 14).
                 pdf += p_reflection * ggx_vndf_pdf(wo, h, self.alpha) / (4.0 * wo.dot(h));
+            }
+            if p_sheen > 0.0 {
+                pdf += p_sheen * uniform_cone_pdf(0.0);
             }
             pdf
         } else if wi.z < 0.0 && !self.is_delta() && p_transmission > 0.0 {
@@ -309,14 +439,20 @@ impl BsdfFrame {
     fn delta_lobe(&self, lobe: usize, mode: TransportMode) -> Option<(Vec3, Vec3)> {
         let wo = self.wo;
         let dielectric = 1.0 - self.metallic;
-        let fd = fresnel_dielectric(wo.z, self.f0, self.f90, self.etap);
+        let fd = fresnel_dielectric_color(wo.z, self.f0, self.f90, self.etap);
         if lobe == LOBE_REFLECTION {
-            let value =
-                dielectric * fd * Vec3::ONE + self.metallic * fresnel_conductor(self.base, wo.z);
-            Some((Vec3::new(-wo.x, -wo.y, wo.z), value))
+            let value = dielectric * fd + self.metallic * fresnel_conductor(self.base, wo.z);
+            Some((
+                Vec3::new(-wo.x, -wo.y, wo.z),
+                value * self.sheen_scale(wo.z),
+            ))
         } else {
             let wi = refract_through(wo, Vec3::Z, self.etap)?;
-            let mut value = dielectric * self.transmission * (1.0 - fd) * self.base;
+            let mut value = dielectric
+                * self.transmission
+                * (1.0 - fd.max_element())
+                * self.sheen_scale(wi.z)
+                * self.base;
             if mode == TransportMode::Radiance {
                 value /= self.etap * self.etap;
             }
@@ -324,67 +460,176 @@ impl BsdfFrame {
         }
     }
 
+    /// The sheen's albedo scaling of the layers below for a direction of cosine `cos_i`:
+    /// min(1 − max(sheenColor)·E(cos θo), 1 − max(sheenColor)·E(cos θi)), at least 0; 1 without
+    /// sheen.
+    fn sheen_scale(&self, cos_i: f32) -> f32 {
+        if self.sheen_max <= 0.0 {
+            return 1.0;
+        }
+        let e = sheen_albedo(cos_i, self.sheen_roughness);
+        self.sheen_scale_o.min((1.0 - self.sheen_max * e).max(0.0))
+    }
+
+    fn cc_is_delta(&self) -> bool {
+        self.cc_alpha < ALPHA_DELTA
+    }
+
+    fn to_cc_local(self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.cc_t), v.dot(self.cc_b), v.dot(self.cc_n))
+    }
+
+    /// The coat's weight clearcoat · F_c(|V·N_c|) for world-space `wi`: V is `wo` for radiance,
+    /// `wi` for importance (the transposed BSDF).
+    fn cc_weight(&self, wi: Vec3, mode: TransportMode) -> f32 {
+        let v = match mode {
+            TransportMode::Radiance => self.cc_wo.z,
+            TransportMode::Importance => wi.dot(self.cc_n),
+        };
+        self.clearcoat * fresnel_coat(v)
+    }
+
+    /// The coat's GGX lobe D·V at world-space `wi` (0 for a delta coat or `wi` below the coat or
+    /// the geometric surface), times |cos| to N_c over |cos| to the shading normal of the
+    /// direction the integrator multiplies by (`wi` for radiance; `wo` for importance, the
+    /// transpose).
+    fn eval_clearcoat(&self, wi: Vec3, mode: TransportMode) -> f32 {
+        let wc = self.to_cc_local(wi);
+        if self.cc_is_delta() || wc.z <= 0.0 || wi.dot(self.ng_world) <= 0.0 {
+            return 0.0;
+        }
+        let h = (self.cc_wo + wc).normalize();
+        let spec = ggx_d(h, self.cc_alpha) * ggx_visibility(self.cc_wo.z, wc.z, self.cc_alpha);
+        if self.cc_n == self.n {
+            return spec;
+        }
+        let ratio = match mode {
+            TransportMode::Radiance => wc.z / wi.dot(self.n).abs(),
+            TransportMode::Importance => self.cc_wo.z / self.wo.z,
+        };
+        if ratio.is_finite() {
+            spec * ratio
+        } else {
+            0.0
+        }
+    }
+
+    /// Solid-angle pdf of the coat's visible-normal sampling at world-space `wi`.
+    fn pdf_clearcoat(&self, wi: Vec3) -> f32 {
+        let wc = self.to_cc_local(wi);
+        if self.cc_is_delta() || wc.z <= 0.0 || wi.dot(self.ng_world) <= 0.0 {
+            return 0.0;
+        }
+        let h = (self.cc_wo + wc).normalize();
+        ggx_vndf_pdf(self.cc_wo, h, self.cc_alpha) / (4.0 * self.cc_wo.dot(h))
+    }
+
     /// f(wo, wi) of the non-delta lobes for world-space `wi` ([`bsdf_eval`] with this frame).
     pub fn eval(self, wi: Vec3, mode: TransportMode) -> Vec3 {
-        self.eval_local(self.to_local(wi), mode)
+        let base = self.eval_local(self.to_local(wi), mode);
+        if self.clearcoat <= 0.0 {
+            return base;
+        }
+        let wc = self.cc_weight(wi, mode);
+        (1.0 - wc) * base + Vec3::splat(wc * self.eval_clearcoat(wi, mode))
     }
 
     /// The mixture pdf at world-space `wi` ([`bsdf_pdf`] with this frame).
     pub fn pdf(self, wi: Vec3) -> f32 {
-        self.pdf_local(self.to_local(wi))
+        let base = self.pdf_local(self.to_local(wi));
+        if self.clearcoat <= 0.0 || self.lobe_pmf[LOBE_CLEARCOAT] <= 0.0 {
+            return base;
+        }
+        base + self.lobe_pmf[LOBE_CLEARCOAT] * self.pdf_clearcoat(wi)
     }
 
     /// Samples one lobe with `u.z`, then a direction in it with `u.xy` ([`bsdf_sample`]).
     pub fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
-        let [p_diffuse, p_reflection, _] = self.lobe_pmf;
-        let lobe = if u.z < p_diffuse {
-            LOBE_DIFFUSE
-        } else if u.z < p_diffuse + p_reflection {
-            LOBE_REFLECTION
-        } else {
-            LOBE_TRANSMISSION
-        };
-        if self.lobe_pmf[lobe] <= 0.0 {
+        // The first lobe whose cumulative probability exceeds u.z (rounding past the last
+        // sum: the last lobe that can be chosen).
+        let (mut lobe, mut cumulative) = (LOBE_COUNT, 0.0);
+        for (i, &p) in self.lobe_pmf.iter().enumerate() {
+            if p > 0.0 {
+                lobe = i;
+                cumulative += p;
+                if u.z < cumulative {
+                    break;
+                }
+            }
+        }
+        if lobe == LOBE_COUNT {
             return None;
         }
-        if lobe != LOBE_DIFFUSE && self.is_delta() {
-            let (wi, value) = self.delta_lobe(lobe, mode)?;
-            if !self.consistent(wi) {
+        let lobe_p = self.lobe_pmf[lobe];
+        let uv = Vec2::new(u.x, u.y);
+        let world = if lobe == LOBE_CLEARCOAT {
+            let wc = if self.cc_is_delta() {
+                Vec3::new(-self.cc_wo.x, -self.cc_wo.y, self.cc_wo.z)
+            } else {
+                reflect_about(self.cc_wo, sample_ggx_vndf(self.cc_wo, self.cc_alpha, uv))
+            };
+            let wi = self.cc_t * wc.x + self.cc_b * wc.y + self.cc_n * wc.z;
+            if wc.z <= 0.0 || wi.dot(self.ng_world) <= 0.0 {
                 return None;
             }
-            let pdf = self.lobe_pmf[lobe];
-            return Some(BsdfSample {
-                wi: self.to_world(wi),
-                weight: value / pdf,
-                pdf,
-                delta: true,
-            });
-        }
-        let wi = match lobe {
-            LOBE_DIFFUSE => sample_cosine_hemisphere(Vec2::new(u.x, u.y)),
-            LOBE_REFLECTION => reflect_about(
-                self.wo,
-                sample_ggx_vndf(self.wo, self.alpha, Vec2::new(u.x, u.y)),
-            ),
-            _ => refract_through(
-                self.wo,
-                sample_ggx_vndf(self.wo, self.alpha, Vec2::new(u.x, u.y)),
-                self.etap,
-            )?,
+            if self.cc_is_delta() {
+                // The mirror about N_c: f·|cos| = clearcoat · F_c, the same V·N_c either way.
+                return Some(BsdfSample {
+                    wi,
+                    weight: Vec3::splat(self.cc_weight(wi, mode) / lobe_p),
+                    pdf: lobe_p,
+                    delta: true,
+                });
+            }
+            wi
+        } else {
+            if lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && self.is_delta() {
+                let (wi, value) = self.delta_lobe(lobe, mode)?;
+                if !self.consistent(wi) {
+                    return None;
+                }
+                let world = self.to_world(wi);
+                let scale = if self.clearcoat > 0.0 {
+                    1.0 - self.cc_weight(world, mode)
+                } else {
+                    1.0
+                };
+                return Some(BsdfSample {
+                    wi: world,
+                    weight: value * (scale / lobe_p),
+                    pdf: lobe_p,
+                    delta: true,
+                });
+            }
+            let wi = match lobe {
+                LOBE_DIFFUSE => sample_cosine_hemisphere(uv),
+                // Charlie has no closed-form sampler: uniform directions, as Conty Estevez &
+                // Kulla 2017 suggest (the lobe peaks towards grazing, where cosine sampling is
+                // sparse).
+                LOBE_SHEEN => sample_uniform_cone(uv, 0.0),
+                LOBE_REFLECTION => reflect_about(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv)),
+                _ => refract_through(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv), self.etap)?,
+            };
+            // Each lobe keeps to its side: a reflection below or a refraction above the surface
+            // is no sample (the mixture pdf counts each lobe only on its own side).
+            let reflects = lobe != LOBE_TRANSMISSION;
+            if (wi.z > 0.0) != reflects || wi.z == 0.0 {
+                return None;
+            }
+            self.to_world(wi)
         };
-        // Each lobe keeps to its side: a reflection below or a refraction above the surface is
-        // no sample (the mixture pdf counts each lobe only on its own side).
-        let reflects = lobe != LOBE_TRANSMISSION;
-        if (wi.z > 0.0) != reflects || wi.z == 0.0 {
-            return None;
-        }
-        let pdf = self.pdf_local(wi);
+        self.weighed(world, mode)
+    }
+
+    /// A non-delta sample at world-space `wi`: the mixture's pdf and f·|cos|/pdf there.
+    fn weighed(&self, wi: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        let pdf = self.pdf(wi);
         if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
         Some(BsdfSample {
-            wi: self.to_world(wi),
-            weight: self.eval_local(wi, mode) * (wi.z.abs() / pdf),
+            wi,
+            weight: self.eval(wi, mode) * (self.cos_theta(wi) / pdf),
             pdf,
             delta: false,
         })
@@ -394,7 +639,7 @@ impl BsdfFrame {
 /// f(wo, wi) of the non-delta lobes (without the cosine).
 pub fn bsdf_eval(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
     match BsdfFrame::new(m, ng, wo) {
-        Some(frame) => frame.eval_local(frame.to_local(wi), mode),
+        Some(frame) => frame.eval(wi, mode),
         None => Vec3::ZERO,
     }
 }
@@ -402,7 +647,7 @@ pub fn bsdf_eval(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3, mode: TransportM
 /// Pdf of [`bsdf_sample`] with respect to solid angle, over its non-delta lobes.
 pub fn bsdf_pdf(m: &GpuMaterial, ng: Vec3, wo: Vec3, wi: Vec3) -> f32 {
     match BsdfFrame::new(m, ng, wo) {
-        Some(frame) => frame.pdf_local(frame.to_local(wi)),
+        Some(frame) => frame.pdf(wi),
         None => 0.0,
     }
 }

@@ -200,6 +200,14 @@ impl Commands {
         timeout_s: u64,
         before: impl FnOnce() -> std::result::Result<(), vk::Result>,
     ) -> Result<()> {
+        // A CPU Vulkan device (lavapipe) compiles each kernel at its first dispatch, inside the
+        // submission: minutes for the largest kernels on two cores. It has no watchdog to
+        // outrun, so it gets an hour before a submission counts as hung.
+        let timeout_s = if ctx.is_cpu() {
+            timeout_s.max(3600)
+        } else {
+            timeout_s
+        };
         let explain = |e: vk::Result| match e {
             vk::Result::ERROR_DEVICE_LOST => {
                 anyhow!("the GPU was lost during {what} (VK_ERROR_DEVICE_LOST)")

@@ -54,6 +54,9 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_specular",
+    "KHR_materials_unlit",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -152,7 +155,7 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
             );
         }
     }
-    let document = Document::from_json(root).map_err(validation_message)?;
+    let document = validated_document(root)?;
 
     let base = path.parent().unwrap_or(Path::new("."));
     let base = if base.as_os_str().is_empty() {
@@ -173,7 +176,7 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
     let (materials, needs): (Vec<Material>, Vec<MaterialNeeds>) = document
         .materials()
         .enumerate()
-        .map(|(i, m)| convert_material(i, &m, &mut textures))
+        .map(|(i, m)| convert_material(i, &m, &document, &mut textures))
         .collect::<Result<Vec<_>>>()?
         .into_iter()
         .unzip();
@@ -247,25 +250,27 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
     })
 }
 
+/// The `gltf` crate's validation of the typed model, less its refusal of required extensions
+/// it does not know itself (it lists only those it parses): every required extension was
+/// checked against [`SUPPORTED_EXTENSIONS`] before, so an "unsupported extension" error here
+/// names one that wavetrace reads from the raw JSON (KHR_materials_unlit, …).
+fn validated_document(root: gltf::json::Root) -> Result<Document> {
+    use gltf::json::validation::{Error, Validate};
+    let mut errors = Vec::new();
+    root.validate(&root, gltf::json::Path::new, &mut |path, error| {
+        if error != Error::Unsupported {
+            errors.push((path(), error));
+        }
+    });
+    if !errors.is_empty() {
+        return Err(validation_message(gltf::Error::Validation(errors)));
+    }
+    Ok(Document::from_json_without_validation(root))
+}
+
 /// What the file holds that the render will not show, said once each (`Scene::notes`).
 fn notes(document: &Document, builder: &Builder) -> Vec<String> {
     let mut notes = Vec::new();
-    let ignored_textures: Vec<String> = document
-        .materials()
-        .enumerate()
-        .filter(|(_, m)| {
-            m.specular().is_some_and(|t| {
-                t.specular_texture().is_some() || t.specular_color_texture().is_some()
-            })
-        })
-        .map(|(i, m)| label("material", i, m.name()))
-        .collect();
-    if !ignored_textures.is_empty() {
-        notes.push(format!(
-            "KHR_materials_specular's specularTexture and specularColorTexture are ignored: {} use the specular factors only",
-            ignored_textures.join(", ")
-        ));
-    }
     notes.extend(builder.repairs.notes());
     let ignored: Vec<&str> = document
         .extensions_used()
@@ -385,9 +390,82 @@ fn untyped_transform(
     )))
 }
 
+/// A number of a material extension's raw JSON object `ext` (`what` is the object's JSON path
+/// and owner): `default` when absent, an error unless it is a number in [0, 1].
+fn raw_unit_factor(
+    ext: &serde_json::Value,
+    key: &str,
+    default: f32,
+    what: &str,
+    owner: &str,
+) -> Result<f32> {
+    let Some(v) = ext.get(key) else {
+        return Ok(default);
+    };
+    match v.as_f64() {
+        Some(x) if (0.0..=1.0 + 1e-4).contains(&x) => Ok((x as f32).min(1.0)),
+        _ => bail!("{what}.{key}{owner}: {v} must be a number in [0, 1]"),
+    }
+}
+
+/// A textureInfo or normalTextureInfo inside a material extension's raw JSON (the `gltf`
+/// crate types only the extensions it knows): its texture, texCoord, KHR_texture_transform and
+/// `scale` (1 when absent; a normalTextureInfo's). `what` is its JSON path.
+fn raw_texture_info<'a>(
+    document: &'a Document,
+    value: &serde_json::Value,
+    what: &str,
+    owner: &str,
+) -> Result<(TextureInfo<'a>, f32)> {
+    let index = value
+        .get("index")
+        .and_then(|v| v.as_u64())
+        .ok_or_else(|| anyhow!("{what}.index{owner}: expected a texture index"))?;
+    let texture = usize::try_from(index)
+        .ok()
+        .and_then(|i| document.textures().nth(i))
+        .ok_or_else(|| {
+            anyhow!(
+                "{what}.index{owner}: texture {index} does not exist (the file has {})",
+                document.textures().len()
+            )
+        })?;
+    let tex_coord = match value.get("texCoord") {
+        None => 0,
+        Some(v) => v
+            .as_u64()
+            .filter(|&c| c <= u32::MAX as u64)
+            .ok_or_else(|| anyhow!("{what}.texCoord{owner}: expected a non-negative integer"))?
+            as u32,
+    };
+    let scale = match value.get("scale") {
+        None => 1.0,
+        Some(v) => match v.as_f64() {
+            Some(x) if x.is_finite() => x as f32,
+            _ => bail!("{what}.scale{owner}: expected a finite number"),
+        },
+    };
+    let transform = untyped_transform(
+        value
+            .get("extensions")
+            .and_then(|e| e.get("KHR_texture_transform")),
+        what,
+        owner,
+    )?;
+    Ok((
+        TextureInfo {
+            texture,
+            tex_coord,
+            transform,
+        },
+        scale,
+    ))
+}
+
 fn convert_material(
     index: usize,
     material: &gltf::Material,
+    document: &Document,
     builder: &mut TextureBuilder,
 ) -> Result<(Material, MaterialNeeds)> {
     // The JSON path of one property of this material, and the material's name to follow it.
@@ -434,6 +512,17 @@ fn convert_material(
             s.specular_factor(),
         )
     })?;
+    // specularColorFactor may exceed 1 (the spec clamps F0, not the factor).
+    let specular_color = material
+        .specular()
+        .map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor()));
+    if !(specular_color.is_finite() && specular_color.min_element() >= 0.0) {
+        bail!(
+            "{}: {specular_color} must be finite and non-negative",
+            at("extensions.KHR_materials_specular.specularColorFactor")
+        );
+    }
+    let unlit = material.extension_value("KHR_materials_unlit").is_some();
     // KHR_materials_ior: ior ≥ 1, or exactly 0 (f0 = 1, a specular-glossiness conversion).
     let ior = material.ior().unwrap_or(1.5);
     if !(ior.is_finite() && (ior >= 1.0 || ior == 0.0)) {
@@ -503,7 +592,7 @@ fn convert_material(
             false,
         )?);
     }
-    if let Some(info) = material.emissive_texture() {
+    if let Some(info) = material.emissive_texture().filter(|_| !unlit) {
         textures.emissive = Some(reference("emissiveTexture", texture_info(info), true)?);
     }
     if let Some(info) = material
@@ -515,6 +604,96 @@ fn convert_material(
             texture_info(info),
             false,
         )?);
+    }
+    if let Some(specular) = material.specular() {
+        if let Some(info) = specular.specular_texture() {
+            textures.specular = Some(reference(
+                "extensions.KHR_materials_specular.specularTexture",
+                texture_info(info),
+                false,
+            )?);
+        }
+        if let Some(info) = specular.specular_color_texture() {
+            textures.specular_color = Some(reference(
+                "extensions.KHR_materials_specular.specularColorTexture",
+                texture_info(info),
+                true,
+            )?);
+        }
+    }
+    // KHR_materials_unlit: the base colour term is what the surface shows, so it is emitted
+    // (factor × texture here, × vertex colour in `surface::surface_emission`); emissiveFactor
+    // and emissiveTexture are the fallback of viewers without the extension.
+    let emission = if unlit {
+        textures.emissive = textures.base_color;
+        base_color.min(Vec3::ONE)
+    } else {
+        emission
+    };
+    // KHR_materials_clearcoat, read from the raw JSON.
+    let (mut clearcoat, mut clearcoat_roughness, mut clearcoat_normal_scale) = (0.0, 0.0, 1.0);
+    if let Some(ext) = material.extension_value("KHR_materials_clearcoat") {
+        let what = path("extensions.KHR_materials_clearcoat");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        clearcoat = raw_unit_factor(ext, "clearcoatFactor", 0.0, &what, &owner)?;
+        clearcoat_roughness = raw_unit_factor(ext, "clearcoatRoughnessFactor", 0.0, &what, &owner)?;
+        for (key, slot) in [
+            ("clearcoatTexture", &mut textures.clearcoat),
+            (
+                "clearcoatRoughnessTexture",
+                &mut textures.clearcoat_roughness,
+            ),
+            ("clearcoatNormalTexture", &mut textures.clearcoat_normal),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_clearcoat.{key}");
+            let (info, scale) = raw_texture_info(document, value, &path(&property), &owner)?;
+            let r = reference(&property, info, false)?;
+            *slot = Some(r);
+            if key == "clearcoatNormalTexture" {
+                clearcoat_normal_scale = scale;
+            }
+        }
+    }
+    // KHR_materials_sheen, read from the raw JSON.
+    let (mut sheen_color, mut sheen_roughness) = (Vec3::ZERO, 0.0);
+    if let Some(ext) = material.extension_value("KHR_materials_sheen") {
+        let what = path("extensions.KHR_materials_sheen");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        if let Some(v) = ext.get("sheenColorFactor") {
+            let c: Option<Vec<f64>> = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+            match c {
+                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+                    sheen_color = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
+                }
+                _ => bail!("{what}.sheenColorFactor{owner}: {v} must be three numbers in [0, 1]"),
+            }
+        }
+        sheen_roughness = raw_unit_factor(ext, "sheenRoughnessFactor", 0.0, &what, &owner)?;
+        for (key, slot, srgb) in [
+            ("sheenColorTexture", &mut textures.sheen_color, true),
+            (
+                "sheenRoughnessTexture",
+                &mut textures.sheen_roughness,
+                false,
+            ),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_sheen.{key}");
+            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
+            *slot = Some(reference(&property, info, srgb)?);
+        }
     }
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
@@ -538,6 +717,10 @@ fn convert_material(
         textures.normal = Some(r);
         needs.normal_map = Some(builder.set.refs[r as usize].texcoord);
     }
+    // A coat's normal map needs tangents too (the base's set wins where both are mapped).
+    if let (None, Some(r)) = (needs.normal_map, textures.clearcoat_normal) {
+        needs.normal_map = Some(builder.set.refs[r as usize].texcoord);
+    }
     Ok((
         Material {
             name: material
@@ -549,6 +732,13 @@ fn convert_material(
             ior,
             transmission,
             specular,
+            specular_color,
+            unlit,
+            clearcoat,
+            clearcoat_roughness,
+            clearcoat_normal_scale,
+            sheen_color,
+            sheen_roughness,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),

@@ -171,12 +171,23 @@ pub struct MaterialTextures {
     pub emissive: Option<u32>,
     pub normal: Option<u32>,
     pub transmission: Option<u32>,
+    /// KHR_materials_specular's specularTexture (A) and specularColorTexture (RGB, sRGB).
+    pub specular: Option<u32>,
+    pub specular_color: Option<u32>,
+    /// KHR_materials_clearcoat's clearcoatTexture (R), clearcoatRoughnessTexture (G) and
+    /// clearcoatNormalTexture.
+    pub clearcoat: Option<u32>,
+    pub clearcoat_roughness: Option<u32>,
+    pub clearcoat_normal: Option<u32>,
+    /// KHR_materials_sheen's sheenColorTexture (RGB, sRGB) and sheenRoughnessTexture (A).
+    pub sheen_color: Option<u32>,
+    pub sheen_roughness: Option<u32>,
 }
 
 /// A glTF metallic-roughness material with emission: `pbrMetallicRoughness` factors,
-/// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`'s factor and
-/// `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the textures that modulate
-/// them.
+/// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`,
+/// `KHR_materials_unlit`, `KHR_materials_clearcoat`, `KHR_materials_sheen` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
+/// textures that modulate them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
@@ -191,6 +202,21 @@ pub struct Material {
     pub transmission: f32,
     /// KHR_materials_specular's specularFactor in [0, 1] (0: no dielectric specular lobe).
     pub specular: f32,
+    /// KHR_materials_specular's specularColorFactor: linear RGB, non-negative, may exceed 1
+    /// (F0 = min(((ior − 1)/(ior + 1))² · specularColor, 1) · specular).
+    pub specular_color: Vec3,
+    /// KHR_materials_unlit: the surface emits its base colour × texture × vertex colour and
+    /// scatters nothing; `emission` and `textures.emissive` then hold the base colour's.
+    pub unlit: bool,
+    /// KHR_materials_clearcoat: clearcoatFactor and clearcoatRoughnessFactor in [0, 1] (0: no
+    /// coat), clearcoatNormalTexture.scale.
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen: sheenColorFactor (linear RGB in [0, 1]; 0: no sheen) and
+    /// sheenRoughnessFactor in [0, 1].
+    pub sheen_color: Vec3,
+    pub sheen_roughness: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
@@ -216,6 +242,13 @@ impl Material {
             ior: 1.5,
             transmission: 0.0,
             specular: 1.0,
+            specular_color: Vec3::ONE,
+            unlit: false,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            clearcoat_normal_scale: 1.0,
+            sheen_color: Vec3::ZERO,
+            sheen_roughness: 0.0,
             emission: Vec3::ZERO,
             double_sided: false,
             alpha: 1.0,
