@@ -33,6 +33,18 @@ fn render(device: &str, size: u32, spp: u32, extra: &[&str], out: &Path) {
 }
 
 fn run_render(device: &str, size: u32, spp: u32, extra: &[&str], out: &Path) -> Output {
+    run_render_with(device, size, spp, extra, out, None)
+}
+
+/// `render` of the Cornell box, with the environment variable `env` (name, value) if given.
+fn run_render_with(
+    device: &str,
+    size: u32,
+    spp: u32,
+    extra: &[&str],
+    out: &Path,
+    env: Option<(&str, &str)>,
+) -> Output {
     let (size, spp) = (size.to_string(), spp.to_string());
     let mut args = vec![
         "render",
@@ -54,7 +66,12 @@ fn run_render(device: &str, size: u32, spp: u32, extra: &[&str], out: &Path) -> 
         args.push("--validate");
     }
     args.extend_from_slice(extra);
-    wavetrace(&args)
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_wavetrace"));
+    command.args(&args).current_dir(env!("CARGO_MANIFEST_DIR"));
+    if let Some((name, value)) = env {
+        command.env(name, value);
+    }
+    command.output().expect("the wavetrace binary runs")
 }
 
 fn merge(shards: &[&Path], out: &Path, extra: &[&str]) -> Output {
@@ -464,32 +481,16 @@ fn a_render_split_over_devices_is_the_single_render() {
     assert_same_samples(&two, &one);
 }
 
-/// `render` with `WAVETRACE_FAULT` set (src/gpu/fault.rs).
+/// `render` on the GPU with `WAVETRACE_FAULT` set (src/gpu/fault.rs).
 fn run_render_with_fault(fault: &str, size: u32, spp: u32, extra: &[&str], out: &Path) -> Output {
-    let (size, spp) = (size.to_string(), spp.to_string());
-    let mut args = vec![
-        "render",
-        "scenes/cornell-box.gltf",
-        "--device",
+    run_render_with(
         "gpu",
-        "--width",
-        &size,
-        "--height",
-        &size,
-        "--spp",
-        &spp,
-        "--max-depth",
-        "4",
-        "-o",
-        out.to_str().unwrap(),
-    ];
-    args.extend(extra);
-    std::process::Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-        .args(&args)
-        .env("WAVETRACE_FAULT", fault)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the wavetrace binary runs")
+        size,
+        spp,
+        extra,
+        out,
+        Some(("WAVETRACE_FAULT", fault)),
+    )
 }
 
 /// Faults end cleanly (issue 14, item 5): a device lost in the fourth batch (two passes each)

@@ -199,42 +199,44 @@ impl Recorder<'_> {
     /// Mid-batch: sets queue 0's counter to `first_queue` and empties queue 1 and the shadow
     /// queue, leaving the running totals.
     fn set_queue_counters(&self, first_queue: u32) {
-        let device = self.device;
-        let stages = |access| (vk::PipelineStageFlags::COMPUTE_SHADER, access);
+        const _: () = assert!(counter::RAYS_1 + 1 == counter::SHADOW);
         barrier(
-            device,
+            self.device,
             self.cmd,
-            stages(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE),
+            (
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+            ),
             (
                 vk::PipelineStageFlags::TRANSFER,
                 vk::AccessFlags::TRANSFER_WRITE,
             ),
         );
+        self.fill_counters(first_queue, counter::RAYS_1, 2);
+        self.transfers_to_kernels();
+    }
+
+    /// Sets queue 0's counter to `first_queue` and `count` counters from `from` to 0 (disjoint
+    /// bytes: no barrier between the two fills).
+    fn fill_counters(&self, first_queue: u32, from: u32, count: u32) {
+        let buffer = self.counters.buffer;
         unsafe {
-            device.cmd_fill_buffer(
+            self.device.cmd_fill_buffer(
                 self.cmd,
-                self.counters.buffer,
+                buffer,
                 4 * counter::RAYS_0 as u64,
                 4,
                 first_queue,
             );
-            device.cmd_fill_buffer(
-                self.cmd,
-                self.counters.buffer,
-                4 * counter::RAYS_1 as u64,
-                4,
-                0,
-            );
-            device.cmd_fill_buffer(
-                self.cmd,
-                self.counters.buffer,
-                4 * counter::SHADOW as u64,
-                4,
-                0,
-            );
+            self.device
+                .cmd_fill_buffer(self.cmd, buffer, 4 * from as u64, 4 * count as u64, 0);
         }
+    }
+
+    /// Makes transfers recorded so far visible to the kernels and to indirect arguments.
+    fn transfers_to_kernels(&self) {
         barrier(
-            device,
+            self.device,
             self.cmd,
             (
                 vk::PipelineStageFlags::TRANSFER,
@@ -244,6 +246,7 @@ impl Recorder<'_> {
                 vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::DRAW_INDIRECT,
                 vk::AccessFlags::SHADER_READ
                     | vk::AccessFlags::SHADER_WRITE
+                    | vk::AccessFlags::UNIFORM_READ
                     | vk::AccessFlags::INDIRECT_COMMAND_READ,
             ),
         );
@@ -266,42 +269,12 @@ impl Recorder<'_> {
 
     /// Sets queue 0's counter to `first_queue` and zeroes every other counter.
     fn reset_counters(&self, first_queue: u32) {
-        let device = self.device;
-        unsafe {
-            // Queue 0 starts full (generate writes every slot) or empty (generate_light appends);
-            // every other counter starts at 0.
-            // The two fills touch disjoint bytes, so they need no barrier between them.
-            device.cmd_fill_buffer(
-                self.cmd,
-                self.counters.buffer,
-                4 * counter::RAYS_0 as u64,
-                4,
-                first_queue,
-            );
-            device.cmd_fill_buffer(
-                self.cmd,
-                self.counters.buffer,
-                4,
-                4 * (counter::COUNT - 1) as u64,
-                0,
-            );
-        }
+        // Queue 0 starts full (generate writes every slot) or empty (generate_light appends);
+        // every other counter starts at 0.
+        self.fill_counters(first_queue, 1, counter::COUNT - 1);
         // Covers this batch's fills and every earlier submission's transfers (scene upload,
         // film clear).
-        barrier(
-            device,
-            self.cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::AccessFlags::SHADER_READ
-                    | vk::AccessFlags::SHADER_WRITE
-                    | vk::AccessFlags::UNIFORM_READ,
-            ),
-        );
+        self.transfers_to_kernels();
     }
 
     /// Camera rays and fresh path states for the whole batch.
