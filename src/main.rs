@@ -550,17 +550,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         bail!(
             "{fault}: {} holds the {held} finished before it{}",
             output.display(),
-            if output
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-            {
-                format!(
-                    "; continue with the same command and --resume {}",
-                    output.display()
-                )
-            } else {
-                String::new()
-            }
+            resume_hint(&output, "")
         );
     }
     if interrupted {
@@ -569,21 +559,30 @@ fn render(args: &RenderArgs) -> Result<()> {
             "stopped early: {} holds samples {held} of the {} asked for{}",
             output.display(),
             record.target.expect("fixed-range renders have a target"),
-            if output
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-            {
-                format!(
-                    "; continue with the same command and --resume {}",
-                    output.display()
-                )
-            } else {
-                " (write .exr to be able to continue it with --resume)".into()
-            }
+            resume_hint(
+                &output,
+                " (write .exr to be able to continue it with --resume)"
+            )
         );
         std::process::exit(shard_cmd::INTERRUPTED_EXIT);
     }
     Ok(())
+}
+
+/// How to continue a partial render written to `output`: `--resume` for an EXR, else
+/// `otherwise`.
+fn resume_hint(output: &Path, otherwise: &str) -> String {
+    if output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    {
+        format!(
+            "; continue with the same command and --resume {}",
+            output.display()
+        )
+    } else {
+        otherwise.to_owned()
+    }
 }
 
 /// The `--aov NAME=EXPR` layers: the image's samples 0..`samples` again with `--paths EXPR` in

@@ -7,6 +7,10 @@ use super::pipelines::Pipelines;
 use crate::layout::{args, counter, DispatchParams, WORKGROUP_SIZE};
 use ash::vk;
 
+/// Alpha-key offset of light subpaths' bounces (`src/cpu/bidir.rs`, `ALPHA_LIGHT_WALK`):
+/// `extend` reads it from params.depth, whose low bit still picks the queue.
+const ALPHA_LIGHT_WALK: u32 = 1 << 20;
+
 // reset_counters sets counter 0 to the batch size and zeroes every counter after it.
 const _: () = assert!(counter::RAYS_0 == 0);
 
@@ -116,15 +120,7 @@ impl Recorder<'_> {
     /// Light rays' alpha keys are ALPHA_LIGHT_WALK + d: `extend` reads params.depth, whose low
     /// bit still picks the queue.
     pub fn record_light_batch(&mut self, batch: Batch, max_depth: u32, pass_done: bool) {
-        const ALPHA_LIGHT_WALK: u32 = 1 << 20;
-        // Queue 0 fills as generate_light finds emitters.
-        self.reset_counters(0);
-        self.start_timing(max_depth);
-        self.dispatch(
-            "generate_light",
-            params(batch, 0),
-            batch.size.div_ceil(WORKGROUP_SIZE),
-        );
+        self.generate_light(batch, max_depth);
         // connect_light's params.depth is the strategy's code 64 s + t (its alpha key).
         self.connect_kernel("connect_light", batch, 64 + 1);
         for depth in 0..max_depth {
@@ -132,13 +128,7 @@ impl Recorder<'_> {
             self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
             self.connect_kernel("connect_light", batch, 64 * (depth + 2) + 1);
         }
-        if pass_done {
-            self.dispatch(
-                "accumulate_splats",
-                params(batch, 0),
-                self.pixel_count.div_ceil(WORKGROUP_SIZE),
-            );
-        }
+        self.accumulate_splats(batch, pass_done);
     }
 
     /// One batch of bidirectional path tracing (`--integrator bdpt`): the light subpaths
@@ -148,14 +138,7 @@ impl Recorder<'_> {
     /// and splats its weighted contribution; at the end of a pass accumulate_splats makes the
     /// sums one film sample per pixel, as for light tracing.
     pub fn record_bdpt_batch(&mut self, batch: Batch, max_depth: u32, pass_done: bool) {
-        const ALPHA_LIGHT_WALK: u32 = 1 << 20;
-        self.reset_counters(0);
-        self.start_timing(max_depth);
-        self.dispatch(
-            "generate_light",
-            params(batch, 0),
-            batch.size.div_ceil(WORKGROUP_SIZE),
-        );
+        self.generate_light(batch, max_depth);
         for depth in 0..max_depth {
             self.extend(batch, ALPHA_LIGHT_WALK | depth);
             self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
@@ -177,6 +160,23 @@ impl Recorder<'_> {
             );
             self.connect_kernel("connect_light", batch, 64 * s + t);
         }
+        self.accumulate_splats(batch, pass_done);
+    }
+
+    /// The start of a splatting batch: counters reset (queue 0 fills as generate_light finds
+    /// emitters), timing, and the light subpaths' origins.
+    fn generate_light(&mut self, batch: Batch, max_depth: u32) {
+        self.reset_counters(0);
+        self.start_timing(max_depth);
+        self.dispatch(
+            "generate_light",
+            params(batch, 0),
+            batch.size.div_ceil(WORKGROUP_SIZE),
+        );
+    }
+
+    /// The end of a splatting batch that ends its passes: their splat sums into the film.
+    fn accumulate_splats(&mut self, batch: Batch, pass_done: bool) {
         if pass_done {
             self.dispatch(
                 "accumulate_splats",
