@@ -7,6 +7,7 @@
 // Densities are in area measure (delta: 1), as in the CPU twin's module docs.
 #ifndef BDPT_GLSL
 #define BDPT_GLSL
+#include "scene_arrays.glsl"
 // (Kernels that include it enable GL_EXT_control_flow_attributes for [[dont_unroll]].)
 
 uint bdpt_stride() { return 2u * frame.max_depth + 3u; }
@@ -58,8 +59,8 @@ BdptVertex bdpt_camera(uint path, uint k) {
 // The material of a surface vertex with its textures at level 0, or of an emitter's own point
 // (the factors with the emission resolved), rebuilt from the triangle it lies on.
 GpuMaterial bdpt_material(BdptVertex v) {
-    GpuTriangle tri = triangles[v.index];
-    SurfacePoint sp = surface_point(tri, triangle_vertices[v.index], v.bary.x, v.bary.y);
+    GpuTriangle tri = triangle_at(v.index);
+    SurfacePoint sp = surface_point(tri, triangle_vertices_at(v.index), v.bary.x, v.bary.y);
     GpuMaterial raw = materials[triangle_material(tri)];
     if (bdpt_kind(v) == BDPT_VERTEX_AREA_LIGHT) {
         raw.emission = surface_emission(raw, sp, LOD_MAGNIFY);
@@ -86,7 +87,7 @@ bool bdpt_sample_light_vertex(uint pixel, uint sample_index, float u, vec2 u_poi
         v = bdpt_endpoint(BDPT_VERTEX_POINT_LIGHT, l.position, l.direction, vec3(1.0 / pmf), pmf, index);
         return true;
     }
-    GpuTriangle tri = triangles[entry.triangle];
+    GpuTriangle tri = triangle_at(entry.triangle);
     vec2 b = sample_uniform_triangle(u_point);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, ALPHA_CONNECT - 1u, true);
     if (!triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))) return false;
@@ -123,7 +124,7 @@ float bdpt_emission_pdf(BdptVertex v, GpuMaterial mat, vec3 w) {
 
 // The area density with which light subpaths start at emitting surface vertex v.
 float bdpt_light_origin_pdf(BdptVertex v) {
-    GpuTriangle tri = triangles[v.index];
+    GpuTriangle tri = triangle_at(v.index);
     return (1.0 - frame.env_pmf) * tri.light_pmf / tri.area;
 }
 

@@ -48,6 +48,25 @@ layout(std430, set = 0, binding = 25) buffer Splats { uint splats[]; };
 layout(std430, set = 0, binding = 26) readonly buffer PathDfa { uint path_dfa[]; };
 // --integrator bdpt: both subpaths of every path of the batch (bdpt.glsl).
 layout(std430, set = 0, binding = 27) buffer BdptVertices { BdptVertex bdpt_vertices[]; };
+// Further bindings of the five large scene arrays, for scenes larger than one binding holds
+// (scene_arrays.glsl): chunks 1 to 3 of each, chunk 0 being the binding above.
+layout(std430, set = 0, binding = 28) readonly buffer BvhNodes1 { BvhNode bvh_nodes1[]; };
+layout(std430, set = 0, binding = 29) readonly buffer BvhNodes2 { BvhNode bvh_nodes2[]; };
+layout(std430, set = 0, binding = 30) readonly buffer BvhNodes3 { BvhNode bvh_nodes3[]; };
+layout(std430, set = 0, binding = 31) readonly buffer Triangles1 { GpuTriangle triangles1[]; };
+layout(std430, set = 0, binding = 32) readonly buffer Triangles2 { GpuTriangle triangles2[]; };
+layout(std430, set = 0, binding = 33) readonly buffer Triangles3 { GpuTriangle triangles3[]; };
+layout(std430, set = 0, binding = 34) readonly buffer TriangleVertices1 { uvec4 triangle_vertices1[]; };
+layout(std430, set = 0, binding = 35) readonly buffer TriangleVertices2 { uvec4 triangle_vertices2[]; };
+layout(std430, set = 0, binding = 36) readonly buffer TriangleVertices3 { uvec4 triangle_vertices3[]; };
+layout(std430, set = 0, binding = 37) readonly buffer Vertices1 { GpuVertex vertices1[]; };
+layout(std430, set = 0, binding = 38) readonly buffer Vertices2 { GpuVertex vertices2[]; };
+layout(std430, set = 0, binding = 39) readonly buffer Vertices3 { GpuVertex vertices3[]; };
+layout(std430, set = 0, binding = 40) readonly buffer Texels1 { uint texels1[]; };
+layout(std430, set = 0, binding = 41) readonly buffer Texels2 { uint texels2[]; };
+layout(std430, set = 0, binding = 42) readonly buffer Texels3 { uint texels3[]; };
+#define SCENE_SPLIT_BINDINGS
+#include "scene_arrays.glsl"
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #endif

@@ -6,6 +6,7 @@
 // scene is one node with inverted bounds (min > max), which every ray misses.
 #ifndef BVH_GLSL
 #define BVH_GLSL
+#include "scene_arrays.glsl"
 
 // Traversal stack entries; the build bounds leaf depth by it (bvh::MAX_DEPTH).
 #define BVH_STACK_SIZE 64
@@ -77,7 +78,7 @@ bool bvh_slab(BvhNode node, BvhSlabRay ray, float t_min, float t_max, out float 
 }
 
 bool bvh_is_empty() {
-    return bvh_nodes[0].bounds_min.x > bvh_nodes[0].bounds_max.x;
+    return bvh_node_at(0).bounds_min.x > bvh_node_at(0).bounds_max.x;
 }
 
 // Closest hit with t in (t_min, t_max). On a miss returns false with hit.triangle = NO_HIT.
@@ -91,7 +92,7 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
     float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
     uint index = root;
-    BvhNode node = bvh_nodes[root];
+    BvhNode node = bvh_node_at(root);
     float t_far = hit.t;
     bool found = false;
     float t_enter;
@@ -101,7 +102,7 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                GpuTriangle tri = triangles[i];
+                GpuTriangle tri = triangle_at(i);
                 // The top two material bits say whether the hit needs an any-hit test.
                 if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
                     && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) {
@@ -117,8 +118,8 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             // Both children: descend into the nearer, keep the farther for later.
             uint li = index + 1u;
             uint ri = bvh_node_right_child(node);
-            BvhNode left = bvh_nodes[li];
-            BvhNode right = bvh_nodes[ri];
+            BvhNode left = bvh_node_at(li);
+            BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_far, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
@@ -143,7 +144,7 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             --sp;
             if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= t_far) {
                 index = stack[sp];
-                node = bvh_nodes[index];
+                node = bvh_node_at(index);
                 popped = true;
                 break;
             }
@@ -168,7 +169,7 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
     uint index = root;
-    BvhNode node = bvh_nodes[root];
+    BvhNode node = bvh_node_at(root);
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
     for (;;) {
@@ -176,15 +177,15 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
             uint first = bvh_node_first_triangle(node);
             for (uint i = first; i < first + node.count; ++i) {
                 float t, u, v;
-                GpuTriangle tri = triangles[i];
+                GpuTriangle tri = triangle_at(i);
                 if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
                     && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) return true;
             }
         } else {
             uint li = index + 1u;
             uint ri = bvh_node_right_child(node);
-            BvhNode left = bvh_nodes[li];
-            BvhNode right = bvh_nodes[ri];
+            BvhNode left = bvh_node_at(li);
+            BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
@@ -197,7 +198,7 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
         }
         if (sp == 0u) return false;
         index = stack[--sp];
-        node = bvh_nodes[index];
+        node = bvh_node_at(index);
     }
     return false;
 }

@@ -3,6 +3,7 @@
 // vertex is joined to the pinhole; the contribution splats onto the pixel it lands in.
 #ifndef LIGHT_TRACING_GLSL
 #define LIGHT_TRACING_GLSL
+#include "scene_arrays.glsl"
 
 // Alpha-test keys of light subpaths and of their connections (src/cpu/bidir.rs).
 #define ALPHA_LIGHT_WALK (1u << 20)
@@ -67,7 +68,7 @@ vec3 phi(GpuMaterial mat, vec3 ng, vec3 ns, vec3 w_cam, vec3 w_light) {
 // sees the point: not on the back face of a single-sided triangle, which primary rays cull
 // (surface.glsl, culled; src/cpu/bidir.rs, camera_sees).
 bool camera_sees(uint index, vec3 ng, vec3 w) {
-    return (triangles[index].material & TRIANGLE_TEST_CULL) == 0u || dot(ng, w) >= 0.0;
+    return (triangle_at(index).material & TRIANGLE_TEST_CULL) == 0u || dot(ng, w) >= 0.0;
 }
 
 // A surface vertex can be joined to the camera if its material has a non-delta lobe.

@@ -3,6 +3,7 @@
 // Needs bindings.glsl, rng.glsl and texture.glsl.
 #ifndef SURFACE_GLSL
 #define SURFACE_GLSL
+#include "scene_arrays.glsl"
 #include "transform.glsl"
 
 struct SurfacePoint {
@@ -40,9 +41,9 @@ SurfacePoint surface_point(GpuTriangle tri, uvec4 tv, float u, float v) {
         sp.flags = tv.w;
         return sp;
     }
-    GpuVertex a = vertices[tv.x];
-    GpuVertex b = vertices[tv.y];
-    GpuVertex d = vertices[tv.z];
+    GpuVertex a = vertex_at(tv.x);
+    GpuVertex b = vertex_at(tv.y);
+    GpuVertex d = vertex_at(tv.z);
     float w = 1.0 - u - v;
     vec4 uv = w * a.uv + u * b.uv + v * d.uv;
     sp.ns = sp.ng;
@@ -194,11 +195,11 @@ bool culled(uvec4 key, vec3 dir, vec3 n) {
 // direction dir (triangle space): not where a TRIANGLE_TEST_CULL triangle is culled, alpha-
 // tested ones by their alpha.
 bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
-    GpuTriangle tri = triangles[index];
+    GpuTriangle tri = triangle_at(index);
     if ((tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL)) == 0u) return true;
     if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, cross(tri.e1, tri.e2))) return false;
     if ((tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
-    uvec4 tv = triangle_vertices[index];
+    uvec4 tv = triangle_vertices_at(index);
     GpuMaterial m = materials[triangle_material(tri)];
     SurfacePoint sp = surface_point(tri, tv, u, v);
     float alpha = m.alpha * sp.color.w;

@@ -2,6 +2,7 @@
 // wrap, filter and level-of-detail rules are written down there). Needs bindings.glsl.
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
+#include "scene_arrays.glsl"
 
 // The sRGB transfer function's inverse (IEC 61966-2-1), per channel.
 float srgb_to_linear(float c) {
@@ -46,37 +47,45 @@ uvec3 texture_level(GpuTexture t, uint level) {
 }
 
 vec4 texture_fetch(GpuTexture t, uint offset, uint w, int x, int y) {
-    return unpack_texel(texels[offset + uint(y) * w + uint(x)], t.srgb != 0u);
+    return unpack_texel(texel_at(offset + uint(y) * w + uint(x)), t.srgb != 0u);
 }
 
-// One mip level, nearest or bilinear.
+// One mip level, nearest or bilinear. The texel reads are one loop, kept rolled: every texture
+// a kernel samples then compiles to one read site (llvmpipe turns each site into eight per-lane
+// loads, four times over in a scene whose texels span several bindings). The weights are those
+// of src/texture.rs, in the same order.
 vec4 texture_sample_level(GpuTexture t, uint level, vec2 uv, bool linear) {
     uvec3 l = texture_level(t, level);
     int wi = int(l.x);
     int hi = int(l.y);
     float x = reduce_coordinate(uv.x, t.wrap_s) * float(l.x);
     float y = reduce_coordinate(uv.y, t.wrap_t) * float(l.y);
+    ivec2 i;  // columns of the taps
+    ivec2 j;  // rows of the taps
+    float fx = 0.0;
+    float fy = 0.0;
+    uint taps = 1u;
     if (!linear) {
-        int i = wrap_texel(int(floor(x)), wi, t.wrap_s);
-        int j = wrap_texel(int(floor(y)), hi, t.wrap_t);
-        return texture_fetch(t, l.z, l.x, i, j);
+        i = ivec2(wrap_texel(int(floor(x)), wi, t.wrap_s));
+        j = ivec2(wrap_texel(int(floor(y)), hi, t.wrap_t));
+    } else {
+        x -= 0.5;
+        y -= 0.5;
+        float x0 = floor(x);
+        float y0 = floor(y);
+        fx = x - x0;
+        fy = y - y0;
+        i = ivec2(wrap_texel(int(x0), wi, t.wrap_s), wrap_texel(int(x0) + 1, wi, t.wrap_s));
+        j = ivec2(wrap_texel(int(y0), hi, t.wrap_t), wrap_texel(int(y0) + 1, hi, t.wrap_t));
+        taps = 4u;
     }
-    x -= 0.5;
-    y -= 0.5;
-    float x0 = floor(x);
-    float y0 = floor(y);
-    float fx = x - x0;
-    float fy = y - y0;
-    int i0 = wrap_texel(int(x0), wi, t.wrap_s);
-    int i1 = wrap_texel(int(x0) + 1, wi, t.wrap_s);
-    int j0 = wrap_texel(int(y0), hi, t.wrap_t);
-    int j1 = wrap_texel(int(y0) + 1, hi, t.wrap_t);
-    vec4 a = texture_fetch(t, l.z, l.x, i0, j0);
-    vec4 b = texture_fetch(t, l.z, l.x, i1, j0);
-    vec4 c = texture_fetch(t, l.z, l.x, i0, j1);
-    vec4 d = texture_fetch(t, l.z, l.x, i1, j1);
-    vec4 top = a + (b - a) * fx;
-    vec4 bottom = c + (d - c) * fx;
+    vec4 tap[4];
+    [[dont_unroll]] for (uint k = 0u; k < taps; ++k) {
+        tap[k] = texture_fetch(t, l.z, l.x, i[k & 1u], j[k >> 1u]);
+    }
+    if (taps == 1u) return tap[0];
+    vec4 top = tap[0] + (tap[1] - tap[0]) * fx;
+    vec4 bottom = tap[2] + (tap[3] - tap[2]) * fx;
     return top + (bottom - top) * fy;
 }
 
@@ -86,24 +95,37 @@ float texture_lod(GpuTexture t, GpuTextureRef r, float lod_base) {
     return lod_base + 0.5 * log2(max(float(t.width) * float(t.height) * det, 1e-30));
 }
 
-// The texture at uv with level of detail lod (magnification where lod <= 0 or NaN).
+// The texture at uv with level of detail lod (magnification where lod <= 0 or NaN): one or two
+// levels, read by one rolled loop (see texture_sample_level).
 vec4 texture_sample_lod(GpuTexture t, vec2 uv, float lod) {
     uint mag = t.filters & 15u;
     uint minf = (t.filters >> 4u) & 15u;
-    if (isnan(lod) || lod <= 0.0) return texture_sample_level(t, 0u, uv, mag == FILTER_LINEAR);
-    if (minf == MIN_NEAREST || minf == MIN_LINEAR) return texture_sample_level(t, 0u, uv, minf == MIN_LINEAR);
-    bool linear = minf == MIN_LINEAR_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_LINEAR;
-    float top = float(t.levels - 1u);
-    if (minf == MIN_NEAREST_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_NEAREST) {
-        float level = min(floor(lod + 0.5), top);
-        return texture_sample_level(t, uint(level), uv, linear);
+    uvec2 level = uvec2(0u);
+    uint count = 1u;
+    float f = 0.0;
+    bool linear;
+    if (isnan(lod) || lod <= 0.0) {
+        linear = mag == FILTER_LINEAR;
+    } else if (minf == MIN_NEAREST || minf == MIN_LINEAR) {
+        linear = minf == MIN_LINEAR;
+    } else {
+        linear = minf == MIN_LINEAR_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_LINEAR;
+        float top = float(t.levels - 1u);
+        if (minf == MIN_NEAREST_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_NEAREST) {
+            level.x = uint(min(floor(lod + 0.5), top));
+        } else {
+            float l0 = min(floor(lod), top);
+            float l1 = min(l0 + 1.0, top);
+            f = clamp(lod - l0, 0.0, 1.0);
+            level = uvec2(uint(l0), uint(l1));
+            count = 2u;
+        }
     }
-    float l0 = min(floor(lod), top);
-    float l1 = min(l0 + 1.0, top);
-    float f = clamp(lod - l0, 0.0, 1.0);
-    vec4 a = texture_sample_level(t, uint(l0), uv, linear);
-    vec4 b = texture_sample_level(t, uint(l1), uv, linear);
-    return a + (b - a) * f;
+    vec4 r[2];
+    [[dont_unroll]] for (uint k = 0u; k < count; ++k) {
+        r[k] = texture_sample_level(t, level[k], uv, linear);
+    }
+    return count == 1u ? r[0] : r[0] + (r[1] - r[0]) * f;
 }
 
 // The coordinate a reference reads: its set, through its KHR_texture_transform.

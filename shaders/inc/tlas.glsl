@@ -3,6 +3,7 @@
 // frame.tlas_root. A scene with one identity instance (no instancing) skips the top level.
 #ifndef TLAS_GLSL
 #define TLAS_GLSL
+#include "scene_arrays.glsl"
 #include "transform.glsl"
 
 // The alpha key of a ray inside instance k (the same triangle in two instances decides apart).
@@ -35,7 +36,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
     float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
     uint index = frame.tlas_root;
-    BvhNode node = bvh_nodes[index];
+    BvhNode node = bvh_node_at(index);
     float t_enter;
     if (!bvh_slab(node, ray, t_min, hit.t, t_enter)) return false;
     for (;;) {
@@ -50,8 +51,8 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         } else {
             uint li = index + 1u;
             uint ri = bvh_node_right_child(node);
-            BvhNode left = bvh_nodes[li];
-            BvhNode right = bvh_nodes[ri];
+            BvhNode left = bvh_node_at(li);
+            BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, hit.t, dl);
             bool hit_right = bvh_slab(right, ray, t_min, hit.t, dr);
@@ -75,7 +76,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
             --sp;
             if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= hit.t) {
                 index = stack[sp];
-                node = bvh_nodes[index];
+                node = bvh_node_at(index);
                 popped = true;
                 break;
             }
@@ -95,7 +96,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
     uint index = frame.tlas_root;
-    BvhNode node = bvh_nodes[index];
+    BvhNode node = bvh_node_at(index);
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
     for (;;) {
@@ -110,8 +111,8 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         } else {
             uint li = index + 1u;
             uint ri = bvh_node_right_child(node);
-            BvhNode left = bvh_nodes[li];
-            BvhNode right = bvh_nodes[ri];
+            BvhNode left = bvh_node_at(li);
+            BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
@@ -124,7 +125,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         }
         if (sp == 0u) return false;
         index = stack[--sp];
-        node = bvh_nodes[index];
+        node = bvh_node_at(index);
     }
     return false;
 }

@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 // Runs the GLSL twins of src/texture.rs, src/surface.rs and bend_shading_normal on a synthetic
 // textured scene the test builds, so tests/surface_twins.rs can compare each with its Rust twin.
 // One invocation per case; inputs and output slots are listed in tests/surface_twins.rs.
@@ -62,8 +63,8 @@ void main() {
                            float(wrap_texel(int(floor(uv0.y * 7.0)), 5, t.wrap_t)),
                            texture_ref_uv(r, uv0, uv1).x);
 
-    GpuTriangle tri = triangles[tri_index];
-    SurfacePoint sp = surface_point(tri, triangle_vertices[tri_index], in2.x, in2.y);
+    GpuTriangle tri = triangle_at(tri_index);
+    SurfacePoint sp = surface_point(tri, triangle_vertices_at(tri_index), in2.x, in2.y);
     outputs[o + 3u] = vec4(sp.ns, surface_lod_base(sp, 1.0, 1.0).x);
     outputs[o + 4u] = vec4(sp.uv0, sp.uv1);
     GpuMaterial m = materials[mat_index];

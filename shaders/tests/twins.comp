@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 // Runs the GLSL twins of src/sampling.rs, src/sobol.rs, src/bsdf/, src/mis.rs, src/bvh.rs and
 // src/scene/camera.rs on inputs the test chooses, so tests/twins.rs can compare each function
 // with its Rust twin and name the one that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.

@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 // Stage 3: at each hit add MIS-weighted emission, queue one shadow ray (next event estimation),
 // sample the BSDF for the continuation ray and apply Russian roulette. Twin of src/cpu/path.rs.
 #include "layout.glsl"
@@ -87,7 +88,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
         ls.pdf = pmf;
         return true;
     }
-    GpuTriangle light = triangles[entry.triangle];
+    GpuTriangle light = triangle_at(entry.triangle);
     vec2 b = sample_uniform_triangle(u_point);
     vec3 y = light.p0 + b.x * light.e1 + b.y * light.e2;
     vec3 light_n = normalize(cross(light.e1, light.e2));
@@ -96,7 +97,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     ls.wi = to_light / sqrt(dist2);
     float cos_light = dot(light_n, -ls.wi);
     // The light point's emission (its textures at level 0) where its surface exists.
-    SurfacePoint light_sp = surface_point(light, triangle_vertices[entry.triangle], b.x, b.y);
+    SurfacePoint light_sp = surface_point(light, triangle_vertices_at(entry.triangle), b.x, b.y);
     GpuMaterial light_mat = materials[triangle_material(light)];
     light_mat.emission = surface_emission(light_mat, light_sp, LOD_MAGNIFY);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
@@ -139,8 +140,8 @@ void main() {
         paths[ray.path] = state;
         return;
     }
-    GpuTriangle tri = triangles[hit.triangle];
-    SurfacePoint sp = surface_point(tri, triangle_vertices[hit.triangle], hit.u, hit.v);
+    GpuTriangle tri = triangle_at(hit.triangle);
+    SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
     surface_to_world(sp, tri, instances[hit.instance]);
     vec3 p = sp.p;
     vec3 ng = sp.ng;

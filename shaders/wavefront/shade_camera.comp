@@ -36,8 +36,8 @@ void main() {
     uint k = depth + 1u;
     vec3 beta = state.throughput;
 
-    GpuTriangle tri = triangles[hit.triangle];
-    SurfacePoint sp = surface_point(tri, triangle_vertices[hit.triangle], hit.u, hit.v);
+    GpuTriangle tri = triangle_at(hit.triangle);
+    SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
     surface_to_world(sp, tri, instances[hit.instance]);
     vec3 p = sp.p;
     vec3 ng = sp.ng;

@@ -36,8 +36,8 @@ void main() {
         // A punctual light's range window, now that the distance is known.
         beta *= punctual_window(punctual_lights[state.pad0 - 1u], hit.t);
     }
-    GpuTriangle tri = triangles[hit.triangle];
-    SurfacePoint sp = surface_point(tri, triangle_vertices[hit.triangle], hit.u, hit.v);
+    GpuTriangle tri = triangle_at(hit.triangle);
+    SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
     surface_to_world(sp, tri, instances[hit.instance]);
     vec3 p = sp.p;
     vec3 ng = sp.ng;

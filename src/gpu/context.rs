@@ -3,8 +3,11 @@
 
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use gpu_allocator::AllocationSizes;
 use std::ffi::{c_void, CStr};
-use std::sync::Mutex;
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex};
 
 /// What to tell a user who has no Vulkan.
 pub const INSTALL_HINT: &str = "install a Vulkan driver (on Debian/Ubuntu: `sudo tools/install-vulkan.sh` \
@@ -37,6 +40,9 @@ pub struct Context {
     pub queue_family: u32,
     pub timestamp_valid_bits: u32,
     pub info: DeviceInfo,
+    /// Sub-allocates every buffer's memory from a few large blocks (`memory.rs`); dropped
+    /// before the device.
+    pub allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
     /// Error messages from the validation layer (boxed: the callback holds its address).
     validation_errors: Box<Mutex<Vec<String>>>,
 }
@@ -258,6 +264,28 @@ impl Context {
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let labels =
             has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        // Blocks of 64 MiB (device) and 16 MiB (host) at first, growing to 256 MiB; a buffer
+        // larger than a block gets a block of its own.
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: AllocationSizes::new(64 << 20, 16 << 20)
+                .with_max_device_memblock_size(256 << 20)
+                .with_max_host_memblock_size(256 << 20),
+        });
+        let allocator = match allocator {
+            Ok(a) => ManuallyDrop::new(Arc::new(Mutex::new(a))),
+            Err(e) => {
+                unsafe { device.destroy_device(None) };
+                bail!(
+                    "creating the memory allocator on {}: {e}",
+                    infos[chosen].name
+                );
+            }
+        };
         Ok(Context {
             _entry: entry,
             instance,
@@ -271,6 +299,7 @@ impl Context {
             queue_family,
             timestamp_valid_bits,
             info: infos[chosen].clone(),
+            allocator,
             validation_errors,
         })
     }
@@ -335,6 +364,8 @@ impl Drop for Context {
     fn drop(&mut self) {
         unsafe {
             let _ = self.device.device_wait_idle();
+            // Frees the allocator's blocks (every buffer is gone by now).
+            ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
             if let Some((loader, m)) = self.messenger.take() {
                 loader.destroy_debug_utils_messenger(m, None);

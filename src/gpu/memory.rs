@@ -2,8 +2,11 @@
 //! uploads and read-backs, and one-shot command submission to copy between them.
 
 use super::context::Context;
-use anyhow::{anyhow, Context as _, Result};
+use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
+use gpu_allocator::MemoryLocation;
+use std::sync::{Arc, Mutex};
 
 /// Where a buffer's memory lives.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,11 +17,13 @@ pub enum Location {
     Host,
 }
 
-/// A buffer and its dedicated memory, freed on drop.
+/// A buffer and its memory, a range of a block that `gpu-allocator` sub-allocates (so that a
+/// render holds a few device allocations however many buffers it has), freed on drop.
 pub struct Buffer {
     device: ash::Device,
+    allocator: Arc<Mutex<Allocator>>,
     pub buffer: vk::Buffer,
-    memory: vk::DeviceMemory,
+    allocation: Option<Allocation>,
     pub size: u64,
     mapped: *mut u8,
 }
@@ -39,36 +44,30 @@ impl Buffer {
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let buffer = unsafe { device.create_buffer(&info, None) }
             .with_context(|| format!("creating buffer '{name}' ({} MiB)", size >> 20))?;
-        let req = unsafe { device.get_buffer_memory_requirements(buffer) };
-        let want = match location {
-            Location::Device => vk::MemoryPropertyFlags::DEVICE_LOCAL,
-            Location::Host => {
-                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT
-            }
+        let requirements = unsafe { device.get_buffer_memory_requirements(buffer) };
+        let desc = AllocationCreateDesc {
+            name,
+            requirements,
+            location: match location {
+                Location::Device => MemoryLocation::GpuOnly,
+                // Staging, read-back and the frame constants: host-visible, coherent and, where
+                // the device has such memory, cached for the host's reads.
+                Location::Host => MemoryLocation::GpuToCpu,
+            },
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
         };
-        let mp = &ctx.memory_properties;
-        let allowed = |i: u32| req.memory_type_bits & (1 << i) != 0;
-        let type_index = (0..mp.memory_type_count)
-            .find(|&i| allowed(i) && mp.memory_types[i as usize].property_flags.contains(want))
-            // A device without DEVICE_LOCAL memory for this buffer can still run from any memory.
-            .or_else(|| {
-                (0..mp.memory_type_count).find(|&i| allowed(i) && location == Location::Device)
-            })
-            .ok_or_else(|| anyhow!("no memory type for buffer '{name}'"));
-        let type_index = match type_index {
-            Ok(t) => t,
-            Err(e) => {
-                unsafe { device.destroy_buffer(buffer, None) };
-                return Err(e);
-            }
-        };
-        let alloc = vk::MemoryAllocateInfo::default()
-            .allocation_size(req.size)
-            .memory_type_index(type_index);
         let allocated = super::fault::before_allocation(name)
-            .and_then(|()| unsafe { device.allocate_memory(&alloc, None) });
-        let memory = match allocated {
-            Ok(m) => m,
+            .map_err(|e| anyhow!("{e}"))
+            .and_then(|()| {
+                let mut allocator = ctx
+                    .allocator
+                    .lock()
+                    .map_err(|_| anyhow!("allocator poisoned"))?;
+                allocator.allocate(&desc).map_err(|e| anyhow!("{e}"))
+            });
+        let allocation = match allocated {
+            Ok(a) => a,
             Err(e) => {
                 unsafe { device.destroy_buffer(buffer, None) };
                 return Err(anyhow!(
@@ -77,20 +76,22 @@ impl Buffer {
                 ));
             }
         };
-        let mut result = Buffer {
+        let mapped = allocation
+            .mapped_ptr()
+            .map_or(std::ptr::null_mut(), |p| p.as_ptr() as *mut u8);
+        let bound =
+            unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) };
+        let result = Buffer {
             device: device.clone(),
+            allocator: Arc::clone(&ctx.allocator),
             buffer,
-            memory,
+            allocation: Some(allocation),
             size,
-            mapped: std::ptr::null_mut(),
+            mapped,
         };
-        unsafe { device.bind_buffer_memory(buffer, memory, 0) }.context("binding buffer memory")?;
-        if location == Location::Host {
-            result.mapped = unsafe {
-                device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
-            }
-            .with_context(|| format!("mapping buffer '{name}'"))?
-                as *mut u8;
+        bound.context("binding buffer memory")?;
+        if location == Location::Host && result.mapped.is_null() {
+            bail!("buffer '{name}': its host-visible memory is not mapped");
         }
         if let Some(labels) = &ctx.labels {
             let cname = std::ffi::CString::new(name).unwrap_or_default();
@@ -120,6 +121,14 @@ impl Buffer {
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
     }
 
+    /// Host buffers only: copies `data` to `offset` bytes into the buffer.
+    pub fn write_at(&self, offset: usize, data: &[u8]) {
+        assert!(!self.mapped.is_null() && (offset + data.len()) as u64 <= self.size);
+        unsafe {
+            std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped.add(offset), data.len())
+        };
+    }
+
     /// Host buffers only: the first `len` bytes.
     pub fn read(&self, len: usize) -> Vec<u8> {
         assert!(!self.mapped.is_null() && len as u64 <= self.size);
@@ -129,12 +138,11 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        unsafe {
-            if !self.mapped.is_null() {
-                self.device.unmap_memory(self.memory);
-            }
-            self.device.destroy_buffer(self.buffer, None);
-            self.device.free_memory(self.memory, None);
+        unsafe { self.device.destroy_buffer(self.buffer, None) };
+        if let (Some(allocation), Ok(mut allocator)) =
+            (self.allocation.take(), self.allocator.lock())
+        {
+            let _ = allocator.free(allocation);
         }
     }
 }
@@ -240,7 +248,22 @@ impl Commands {
     }
 
     pub fn copy(&self, src: &Buffer, dst: &Buffer, size: u64) {
-        let region = [vk::BufferCopy::default().size(size)];
+        self.copy_region(src, 0, dst, 0, size);
+    }
+
+    /// Copies `size` bytes from `src_offset` in `src` to `dst_offset` in `dst`.
+    pub fn copy_region(
+        &self,
+        src: &Buffer,
+        src_offset: u64,
+        dst: &Buffer,
+        dst_offset: u64,
+        size: u64,
+    ) {
+        let region = [vk::BufferCopy::default()
+            .src_offset(src_offset)
+            .dst_offset(dst_offset)
+            .size(size)];
         unsafe {
             self.device
                 .cmd_copy_buffer(self.cmd, src.buffer, dst.buffer, &region)

@@ -20,7 +20,7 @@ use ash::vk;
 use context::Context;
 use indicatif::ProgressBar;
 use memory::Commands;
-use pipelines::Pipelines;
+use pipelines::{Pipelines, SceneSplit};
 use resources::{RenderBuffers, SUBMIT_TIMEOUT_S};
 use std::mem::size_of;
 use std::time::Instant;
@@ -45,18 +45,22 @@ pub struct GpuRenderer {
     timing: bool,
     /// At most this many pixels in the GPU film at once (besides the device's storage range).
     band_pixel_limit: Option<u64>,
+    /// Per `SplitArray`, at most this many bytes in one of its bindings (besides the device's
+    /// range).
+    binding_limits: Option<[u64; 5]>,
 }
 
 impl GpuRenderer {
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer> {
         let ctx = Context::new(options.device_index, options.validation)?;
-        let pipelines = Pipelines::new(&ctx)?;
+        let pipelines = Pipelines::new(&ctx, &SceneSplit::NONE)?;
         let commands = Commands::new(&ctx)?;
         let timing = options.timing
             && ctx.timestamp_valid_bits > 0
             && ctx.properties.limits.timestamp_compute_and_graphics == vk::TRUE;
         Ok(GpuRenderer {
             band_pixel_limit: None,
+            binding_limits: None,
             commands,
             pipelines,
             ctx,
@@ -68,6 +72,38 @@ impl GpuRenderer {
     /// range allows more; `None` restores the default. Results do not depend on it.
     pub fn set_band_pixel_limit(&mut self, pixels: Option<u64>) {
         self.band_pixel_limit = pixels;
+    }
+
+    /// Splits the scene's large arrays (`SplitArray` order) across bindings of at most `bytes`
+    /// each even where the device's storage range allows more (`SceneSplit`); `None` restores
+    /// the default. Results do not depend on it.
+    pub fn set_binding_limits(&mut self, bytes: Option<[u64; 5]>) {
+        self.binding_limits = bytes;
+    }
+
+    /// How `scene`'s large arrays are laid over this device's bindings.
+    pub fn scene_split(&self, scene: &PreparedScene) -> Result<SceneSplit> {
+        let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
+        let len = |n: usize| n as u64;
+        SceneSplit::plan(
+            [
+                len(scene.bvh.nodes.len()),
+                len(scene.triangles.len()),
+                len(scene.triangle_vertices.len()),
+                len(scene.vertices.len()),
+                len(scene.texels.len()),
+            ],
+            [
+                size_of::<crate::layout::BvhNode>() as u64,
+                size_of::<crate::layout::GpuTriangle>() as u64,
+                16,
+                size_of::<crate::layout::GpuVertex>() as u64,
+                4,
+            ],
+            self.binding_limits
+                .unwrap_or([u64::MAX; 5])
+                .map(|b| b.min(range)),
+        )
     }
 
     pub fn device(&self) -> &DeviceInfo {
@@ -255,9 +291,16 @@ impl GpuRenderer {
         } else {
             0
         };
+        // A scene larger than one binding gets kernels specialised for its split.
+        let split = self.scene_split(scene)?;
+        let pipelines = match split == SceneSplit::NONE {
+            true => None,
+            false => Some(Pipelines::new(ctx, &split)?),
+        };
         let buffers = RenderBuffers::new(
             ctx,
-            &self.pipelines,
+            pipelines.as_ref().unwrap_or(&self.pipelines),
+            &split,
             &self.commands,
             scene,
             env,
@@ -281,6 +324,7 @@ impl GpuRenderer {
             band_rows,
             frame: scene.frame_params(settings),
             buffers,
+            pipelines,
             query_pool,
         })
     }
@@ -489,6 +533,7 @@ impl GpuRenderer {
         let first_sample = samples.start;
         let ctx = &self.ctx;
         let (capacity, buffers, query_pool) = (setup.capacity, &setup.buffers, setup.query_pool);
+        let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
         let (counters, counters_back, args) =
             (&buffers.counters, &buffers.counters_back, &buffers.args);
         for mut batch in batches(pixel_count, samples.len() as u32, capacity) {
@@ -501,7 +546,7 @@ impl GpuRenderer {
             let mut recorder = Recorder {
                 device: &ctx.device,
                 labels: ctx.labels.as_ref(),
-                pipelines: &self.pipelines,
+                pipelines,
                 cmd: self.commands.cmd,
                 args,
                 counters,
@@ -513,9 +558,9 @@ impl GpuRenderer {
                 ctx.device.cmd_bind_descriptor_sets(
                     self.commands.cmd,
                     vk::PipelineBindPoint::COMPUTE,
-                    self.pipelines.layout,
+                    pipelines.layout,
                     0,
-                    &[self.pipelines.set],
+                    &[pipelines.set],
                     &[],
                 );
             }
@@ -604,6 +649,8 @@ struct Setup {
     band_rows: u32,
     frame: FrameParams,
     buffers: RenderBuffers,
+    /// Kernels specialised for a scene split across bindings (else the renderer's own).
+    pipelines: Option<Pipelines>,
     query_pool: Option<vk::QueryPool>,
 }
 

@@ -4,7 +4,7 @@
 use super::context::Context;
 use crate::kernels::KERNELS;
 use crate::layout::DispatchParams;
-use anyhow::{anyhow, Context as _, Result};
+use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
 use std::collections::HashMap;
 
@@ -46,10 +46,27 @@ pub enum Binding {
     PathDfa = 26,
     /// `--integrator bdpt`: both subpaths of every path in flight (`bdpt.glsl`).
     BdptVertices = 27,
+    /// Chunks 1 to 3 of the five large scene arrays (`SplitArray`), for scenes one binding
+    /// does not hold (`scene_arrays.glsl`).
+    BvhNodes1 = 28,
+    BvhNodes2 = 29,
+    BvhNodes3 = 30,
+    Triangles1 = 31,
+    Triangles2 = 32,
+    Triangles3 = 33,
+    TriangleVertices1 = 34,
+    TriangleVertices2 = 35,
+    TriangleVertices3 = 36,
+    Vertices1 = 37,
+    Vertices2 = 38,
+    Vertices3 = 39,
+    Texels1 = 40,
+    Texels2 = 41,
+    Texels3 = 42,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 28] = [
+    pub const ALL: [Binding; 43] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -78,6 +95,21 @@ impl Binding {
         Binding::Splats,
         Binding::PathDfa,
         Binding::BdptVertices,
+        Binding::BvhNodes1,
+        Binding::BvhNodes2,
+        Binding::BvhNodes3,
+        Binding::Triangles1,
+        Binding::Triangles2,
+        Binding::Triangles3,
+        Binding::TriangleVertices1,
+        Binding::TriangleVertices2,
+        Binding::TriangleVertices3,
+        Binding::Vertices1,
+        Binding::Vertices2,
+        Binding::Vertices3,
+        Binding::Texels1,
+        Binding::Texels2,
+        Binding::Texels3,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
         if self == Binding::Frame {
@@ -85,6 +117,121 @@ impl Binding {
         } else {
             vk::DescriptorType::STORAGE_BUFFER
         }
+    }
+}
+
+/// Bindings each large scene array may span.
+pub const SPLIT_BINDINGS: usize = 4;
+
+/// The scene arrays that may span several bindings (`shaders/inc/scene_arrays.glsl`), in the
+/// order of their specialization constants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplitArray {
+    BvhNodes = 0,
+    Triangles = 1,
+    TriangleVertices = 2,
+    Vertices = 3,
+    Texels = 4,
+}
+
+impl SplitArray {
+    pub const ALL: [SplitArray; 5] = [
+        SplitArray::BvhNodes,
+        SplitArray::Triangles,
+        SplitArray::TriangleVertices,
+        SplitArray::Vertices,
+        SplitArray::Texels,
+    ];
+
+    /// The array's bindings, chunk 0 first.
+    pub fn bindings(self) -> [Binding; SPLIT_BINDINGS] {
+        use Binding as B;
+        match self {
+            SplitArray::BvhNodes => [B::BvhNodes, B::BvhNodes1, B::BvhNodes2, B::BvhNodes3],
+            SplitArray::Triangles => [B::Triangles, B::Triangles1, B::Triangles2, B::Triangles3],
+            SplitArray::TriangleVertices => [
+                B::TriangleVertices,
+                B::TriangleVertices1,
+                B::TriangleVertices2,
+                B::TriangleVertices3,
+            ],
+            SplitArray::Vertices => [B::Vertices, B::Vertices1, B::Vertices2, B::Vertices3],
+            SplitArray::Texels => [B::Texels, B::Texels1, B::Texels2, B::Texels3],
+        }
+    }
+
+    /// Its buffer's name (chunk 0; chunk c adds `[c]`), as `WAVETRACE_FAULT=oom@NAME` names it.
+    pub fn buffer_name(self) -> &'static str {
+        match self {
+            SplitArray::BvhNodes => "bvh_nodes",
+            SplitArray::Triangles => "triangles",
+            SplitArray::TriangleVertices => "triangle_vertices",
+            SplitArray::Vertices => "vertices",
+            SplitArray::Texels => "texels",
+        }
+    }
+
+    /// What the array holds, for messages.
+    pub fn what(self) -> &'static str {
+        match self {
+            SplitArray::BvhNodes => "BVH nodes",
+            SplitArray::Triangles => "triangles",
+            SplitArray::TriangleVertices => "triangle vertex indices",
+            SplitArray::Vertices => "vertices",
+            SplitArray::Texels => "texels",
+        }
+    }
+}
+
+/// How a scene's large arrays are laid over their bindings: per `SplitArray`, log2 of the
+/// elements one binding holds, or 32 where the first binding holds the whole array. The shifts
+/// are the kernels' specialization constants 0 to 4 (`scene_arrays.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneSplit {
+    pub shifts: [u32; 5],
+}
+
+impl SceneSplit {
+    /// Every array in one binding.
+    pub const NONE: SceneSplit = SceneSplit { shifts: [32; 5] };
+
+    /// The split of arrays of `lengths` elements of `sizes` bytes into bindings of at most
+    /// `binding_bytes` each: one binding where it holds the array, else the largest power of two
+    /// of elements that fits, or an error naming the array where four bindings are too few.
+    pub fn plan(lengths: [u64; 5], sizes: [u64; 5], binding_bytes: [u64; 5]) -> Result<SceneSplit> {
+        let mut shifts = [32; 5];
+        for (k, array) in SplitArray::ALL.into_iter().enumerate() {
+            let bytes = lengths[k] * sizes[k];
+            if bytes <= binding_bytes[k] {
+                continue;
+            }
+            let per_binding = binding_bytes[k] / sizes[k];
+            if per_binding == 0 {
+                bail!(
+                    "one of the scene's {} is larger than a storage binding",
+                    array.what()
+                );
+            }
+            let shift = 63 - per_binding.leading_zeros();
+            let capacity = (SPLIT_BINDINGS as u64) << shift;
+            if lengths[k] > capacity {
+                bail!(
+                    "the scene's {} take {} MiB, more than the {} MiB that {SPLIT_BINDINGS} storage \
+                     bindings of this device hold ({} of them); render it with --device cpu",
+                    array.what(),
+                    bytes >> 20,
+                    (capacity * sizes[k]) >> 20,
+                    capacity
+                );
+            }
+            shifts[k] = shift;
+        }
+        Ok(SceneSplit { shifts })
+    }
+
+    /// Elements of array `k` in one binding (all of them where it is not split).
+    pub fn per_binding(&self, k: usize) -> Option<u64> {
+        (self.shifts[k] < 32).then(|| 1u64 << self.shifts[k])
     }
 }
 
@@ -108,8 +255,21 @@ pub struct Pipelines {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &Context) -> Result<Pipelines> {
+    /// The descriptor set and every kernel's pipeline, specialised for scenes laid over their
+    /// bindings as `split` says.
+    pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
         let device = &ctx.device;
+        let storage = Binding::ALL.len() as u32 - 1;
+        let limit = ctx
+            .properties
+            .limits
+            .max_per_stage_descriptor_storage_buffers;
+        if storage > limit {
+            bail!(
+                "{} binds at most {limit} storage buffers per kernel; wavetrace needs {storage}",
+                ctx.info.name
+            );
+        }
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = Binding::ALL
             .iter()
             .map(|&b| {
@@ -146,7 +306,7 @@ impl Pipelines {
                 .descriptor_count(1),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(Binding::ALL.len() as u32 - 1),
+                .descriptor_count(storage),
         ];
         let pool = unsafe {
             device.create_descriptor_pool(
@@ -174,6 +334,17 @@ impl Pipelines {
             set,
             pipelines: HashMap::new(),
         };
+        let entries: Vec<vk::SpecializationMapEntry> = (0..split.shifts.len() as u32)
+            .map(|k| {
+                vk::SpecializationMapEntry::default()
+                    .constant_id(k)
+                    .offset(4 * k)
+                    .size(4)
+            })
+            .collect();
+        let specialization = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(&split.shifts));
         for (name, _) in KERNELS {
             let words = kernel_spirv(name)?;
             let module = unsafe {
@@ -184,7 +355,8 @@ impl Pipelines {
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
-                .name(c"main");
+                .name(c"main")
+                .specialization_info(&specialization);
             let info = [vk::ComputePipelineCreateInfo::default()
                 .stage(stage)
                 .layout(layout)];
@@ -238,5 +410,43 @@ impl Drop for Pipelines {
             self.device
                 .destroy_descriptor_set_layout(self.set_layout, None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SIZES: [u64; 5] = [32, 48, 16, 64, 4];
+
+    #[test]
+    fn a_scene_that_fits_is_not_split() {
+        let split = SceneSplit::plan([10, 10, 10, 10, 10], SIZES, [1 << 27; 5]).unwrap();
+        assert_eq!(split, SceneSplit::NONE);
+    }
+
+    #[test]
+    fn five_million_triangles_take_three_bindings_of_lavapipe() {
+        // 128 MiB bindings hold 2^21 triangles of 48 bytes (2^21 · 48 = 96 MiB; 2^22 would be
+        // 192 MiB): 5 M triangles need three.
+        let n = 5_000_000;
+        let split = SceneSplit::plan([n, n, n, n / 2, 0], SIZES, [1 << 27; 5]).unwrap();
+        assert_eq!(split.per_binding(1), Some(1 << 21));
+        assert_eq!(
+            split.per_binding(2),
+            None,
+            "80 MB of vertex indices fit one binding"
+        );
+        assert_eq!(split.per_binding(3), Some(1 << 21));
+        assert_eq!(split.per_binding(4), None);
+    }
+
+    #[test]
+    fn an_array_too_large_for_four_bindings_is_refused_by_name() {
+        let n = 9_000_000; // 4 · 2^21 = 8.4 M triangles fit
+        let err = SceneSplit::plan([1, n, 1, 1, 1], SIZES, [1 << 27; 5]).unwrap_err();
+        let msg = format!("{err:#}");
+        assert!(msg.contains("the scene's triangles take 411 MiB"), "{msg}");
+        assert!(msg.contains("--device cpu"), "{msg}");
     }
 }

@@ -4,7 +4,7 @@
 
 use super::context::Context;
 use super::memory::{Buffer, Commands, Location};
-use super::pipelines::{Binding, Pipelines};
+use super::pipelines::{Binding, Pipelines, SceneSplit, SplitArray};
 use crate::environment::EnvironmentMap;
 use crate::layout::{
     args, counter, BdptVertex, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
@@ -13,6 +13,9 @@ use crate::render::PreparedScene;
 use anyhow::{bail, Result};
 use ash::vk;
 use std::mem::{size_of, size_of_val};
+
+/// Largest staging buffer of the scene upload.
+const STAGING_BYTES: usize = 64 << 20;
 
 /// Longest a submission may run before the render is abandoned as hung.
 pub const SUBMIT_TIMEOUT_S: u64 = 300;
@@ -44,6 +47,7 @@ impl RenderBuffers {
     pub fn new(
         ctx: &Context,
         pipelines: &Pipelines,
+        split: &SceneSplit,
         commands: &Commands,
         scene: &PreparedScene,
         env: &EnvironmentMap,
@@ -64,13 +68,17 @@ impl RenderBuffers {
         let cap = capacity as usize;
         let film_bytes = band_pixels * size_of::<FilmPixel>() as u64;
         let range = ctx.properties.limits.max_storage_buffer_range as usize;
+        // (BVH nodes, triangles, vertices and texels may span several bindings: `split`.)
         for (what, bytes) in [
-            ("BVH nodes", size_of_val(scene.bvh.nodes.as_slice())),
-            ("triangles", size_of_val(scene.triangles.as_slice())),
             ("emitters", size_of_val(scene.lights.as_slice())),
             ("light BVH nodes", size_of_val(scene.light_nodes.as_slice())),
-            ("vertices", size_of_val(scene.vertices.as_slice())),
-            ("texels", size_of_val(scene.texels.as_slice())),
+            ("materials", size_of_val(scene.materials.as_slice())),
+            ("textures", size_of_val(scene.textures.as_slice())),
+            ("instances", size_of_val(scene.instances.as_slice())),
+            (
+                "emitting triangles' light trails",
+                size_of_val(scene.light_trails.as_slice()),
+            ),
             ("environment map", size_of_val(env.texels.as_slice())),
             ("environment CDFs", size_of_val(env.conditional.as_slice())),
         ] {
@@ -92,18 +100,44 @@ impl RenderBuffers {
             U::UNIFORM_BUFFER,
             Location::Host,
         )?;
-        let nodes = device("bvh_nodes", size_of_val(scene.bvh.nodes.as_slice()))?;
-        let triangles = device("triangles", size_of_val(scene.triangles.as_slice()))?;
+        // The large arrays, each in up to SPLIT_BINDINGS chunks of `split`'s size.
+        let split_data: [&[u8]; 5] = [
+            bytemuck::cast_slice(&scene.bvh.nodes),
+            bytemuck::cast_slice(&scene.triangles),
+            bytemuck::cast_slice(&scene.triangle_vertices),
+            bytemuck::cast_slice(&scene.vertices),
+            bytemuck::cast_slice(scene.texels.as_slice()),
+        ];
+        let element_bytes = [
+            size_of::<crate::layout::BvhNode>(),
+            size_of::<crate::layout::GpuTriangle>(),
+            size_of::<glam::UVec4>(),
+            size_of::<crate::layout::GpuVertex>(),
+            size_of::<u32>(),
+        ];
+        let mut chunks: Vec<(SplitArray, usize, Buffer, &[u8])> = Vec::new();
+        for array in SplitArray::ALL {
+            let k = array as usize;
+            let data = split_data[k];
+            let chunk_bytes = split
+                .per_binding(k)
+                .map_or(data.len().max(1), |n| n as usize * element_bytes[k]);
+            for (c, piece) in data
+                .chunks(chunk_bytes)
+                .chain(data.is_empty().then_some(data))
+                .enumerate()
+            {
+                let name = match c {
+                    0 => array.buffer_name().to_string(),
+                    c => format!("{}[{c}]", array.buffer_name()),
+                };
+                chunks.push((array, c, device(&name, piece.len())?, piece));
+            }
+        }
         let materials = device("materials", size_of_val(scene.materials.as_slice()))?;
         let lights = device("lights", size_of_val(scene.lights.as_slice()))?;
-        let triangle_vertices = device(
-            "triangle_vertices",
-            size_of_val(scene.triangle_vertices.as_slice()),
-        )?;
-        let vertices = device("vertices", size_of_val(scene.vertices.as_slice()))?;
         let textures = device("textures", size_of_val(scene.textures.as_slice()))?;
         let texture_refs = device("texture_refs", size_of_val(scene.texture_refs.as_slice()))?;
-        let texels = device("texels", size_of_val(scene.texels.as_slice()))?;
         let instances = device("instances", size_of_val(scene.instances.as_slice()))?;
         let punctual = device("punctual_lights", size_of_val(scene.punctual.as_slice()))?;
         let env_texels = device("env_texels", size_of_val(env.texels.as_slice()))?;
@@ -149,10 +183,18 @@ impl RenderBuffers {
             U::TRANSFER_SRC,
             Location::Host,
         )?;
+        // Chunks a scene does not use are bound to its first (the kernels never read them).
+        let mut split_bindings = Vec::new();
+        for array in SplitArray::ALL {
+            let mine: Vec<&(SplitArray, usize, Buffer, &[u8])> =
+                chunks.iter().filter(|c| c.0 == array).collect();
+            for (c, binding) in array.bindings().into_iter().enumerate() {
+                split_bindings.push((binding, mine.get(c).unwrap_or(&mine[0]).2.buffer));
+            }
+        }
+        pipelines.bind_buffers(&split_bindings);
         pipelines.bind_buffers(&[
             (Binding::Frame, frame.buffer),
-            (Binding::BvhNodes, nodes.buffer),
-            (Binding::Triangles, triangles.buffer),
             (Binding::Materials, materials.buffer),
             (Binding::Lights, lights.buffer),
             (Binding::Paths, paths.buffer),
@@ -162,11 +204,8 @@ impl RenderBuffers {
             (Binding::Film, film.buffer),
             (Binding::Counters, counters.buffer),
             (Binding::Args, args.buffer),
-            (Binding::TriangleVertices, triangle_vertices.buffer),
-            (Binding::Vertices, vertices.buffer),
             (Binding::Textures, textures.buffer),
             (Binding::TextureRefs, texture_refs.buffer),
-            (Binding::Texels, texels.buffer),
             (Binding::Instances, instances.buffer),
             (Binding::Punctual, punctual.buffer),
             (Binding::EnvTexels, env_texels.buffer),
@@ -180,20 +219,13 @@ impl RenderBuffers {
             (Binding::BdptVertices, bdpt.buffer),
         ]);
 
-        // Upload the scene through host-visible staging buffers.
-        let staged: Vec<(Buffer, &Buffer)> = [
-            (bytemuck::cast_slice::<_, u8>(&scene.bvh.nodes), &nodes),
-            (bytemuck::cast_slice(&scene.triangles), &triangles),
-            (bytemuck::cast_slice(&scene.materials), &materials),
+        // Upload the scene through one host-visible staging buffer of at most STAGING_BYTES,
+        // refilled as often as it takes.
+        let uploads: Vec<(&[u8], &Buffer)> = [
+            (bytemuck::cast_slice::<_, u8>(&scene.materials), &materials),
             (bytemuck::cast_slice(&scene.lights), &lights),
-            (
-                bytemuck::cast_slice(&scene.triangle_vertices),
-                &triangle_vertices,
-            ),
-            (bytemuck::cast_slice(&scene.vertices), &vertices),
             (bytemuck::cast_slice(&scene.textures), &textures),
             (bytemuck::cast_slice(&scene.texture_refs), &texture_refs),
-            (bytemuck::cast_slice(scene.texels.as_slice()), &texels),
             (bytemuck::cast_slice(&scene.instances), &instances),
             (bytemuck::cast_slice(&scene.punctual), &punctual),
             (bytemuck::cast_slice(&env.texels), &env_texels),
@@ -204,20 +236,36 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&dfa_table), &path_dfa),
         ]
         .into_iter()
+        .chain(chunks.iter().map(|(_, _, buffer, data)| (*data, buffer)))
         .filter(|(data, _)| !data.is_empty())
-        .map(|(data, dst)| {
-            Ok((
-                Buffer::with_data(ctx, "staging", data, U::TRANSFER_SRC)?,
-                dst,
-            ))
-        })
-        .collect::<Result<_>>()?;
+        .collect();
+        let total: usize = uploads.iter().map(|(data, _)| data.len()).sum();
+        let staging = Buffer::new(
+            ctx,
+            "staging",
+            total.min(STAGING_BYTES) as u64,
+            U::TRANSFER_SRC,
+            Location::Host,
+        )?;
+        let mut used = 0;
         commands.begin()?;
-        for (src, dst) in &staged {
-            commands.copy(src, dst, src.size.min(dst.size));
+        for (data, dst) in uploads {
+            let mut done = 0;
+            while done < data.len() {
+                if used as u64 == staging.size {
+                    commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)?;
+                    commands.begin()?;
+                    used = 0;
+                }
+                let n = (data.len() - done).min(staging.size as usize - used);
+                staging.write_at(used, &data[done..done + n]);
+                commands.copy_region(&staging, used as u64, dst, done as u64, n as u64);
+                used += n;
+                done += n;
+            }
         }
         commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)?;
-        drop(staged);
+        drop(staging);
 
         Ok(RenderBuffers {
             frame,
@@ -230,20 +278,15 @@ impl RenderBuffers {
             active_upload,
             splats,
             path_dfa,
-            _bound: vec![
-                nodes,
-                triangles,
+            _bound: [
                 materials,
                 lights,
                 paths,
                 rays,
                 hits,
                 shadows,
-                triangle_vertices,
-                vertices,
                 textures,
                 texture_refs,
-                texels,
                 instances,
                 punctual,
                 env_texels,
@@ -252,7 +295,10 @@ impl RenderBuffers {
                 light_nodes,
                 light_trails,
                 bdpt,
-            ],
+            ]
+            .into_iter()
+            .chain(chunks.into_iter().map(|(_, _, buffer, _)| buffer))
+            .collect(),
         })
     }
 }
