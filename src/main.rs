@@ -135,6 +135,9 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
         stats.shadow_rays,
         stats.dropped
     );
+    if let Some(memory) = stats.device_memory.as_ref().filter(|_| per_kernel) {
+        println!("{memory}");
+    }
     if per_kernel && !stats.kernel_seconds.is_empty() {
         let total: f64 = stats.kernel_seconds.iter().map(|(_, s)| s).sum();
         for (name, s) in &stats.kernel_seconds {

@@ -674,6 +674,45 @@ pub struct RenderStats {
     /// GPU only: the error that ended the render early (a lost device, exhausted memory); the
     /// film holds the samples finished before it.
     pub fault: Option<String>,
+    /// GPU only: the device memory the render held and how its scene lay over the bindings.
+    pub device_memory: Option<DeviceMemory>,
+}
+
+/// The device memory of one GPU render, once its buffers exist and the scene is uploaded.
+#[derive(Clone, Debug, Default)]
+pub struct DeviceMemory {
+    /// The render's buffers and the bytes they use.
+    pub buffers: usize,
+    pub allocated: u64,
+    /// Bytes of the memory blocks they are sub-allocated from, and how many blocks (device
+    /// allocations) that is.
+    pub reserved: u64,
+    pub blocks: usize,
+    /// The scene arrays spread over several bindings: (what, bindings).
+    pub split: Vec<(String, u32)>,
+}
+
+impl std::fmt::Display for DeviceMemory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+        write!(
+            f,
+            "GPU memory: {:.1} MiB in {} buffers, {:.1} MiB in {} allocations",
+            mib(self.allocated),
+            self.buffers,
+            mib(self.reserved),
+            self.blocks
+        )?;
+        if !self.split.is_empty() {
+            let parts: Vec<String> = self
+                .split
+                .iter()
+                .map(|(what, n)| format!("{what} over {n}"))
+                .collect();
+            write!(f, "; bindings: {}", parts.join(", "))?;
+        }
+        Ok(())
+    }
 }
 
 impl RenderStats {

@@ -232,6 +232,7 @@ fn cpu_stats(start: Instant, samples: u64, counts: &RayCounts, dropped: u64) -> 
         dropped,
         kernel_seconds: Vec::new(),
         fault: None,
+        device_memory: None,
     }
 }
 

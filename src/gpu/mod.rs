@@ -223,7 +223,10 @@ impl GpuRenderer {
     ) -> Result<(RenderOutput, ProgressiveReport)> {
         let setup = self.setup(scene, settings, wavefront, options.adaptive)?;
         let mut film = Film::new(settings.width, settings.height);
-        let mut stats = RenderStats::default();
+        let mut stats = RenderStats {
+            device_memory: Some(self.device_memory(&setup)),
+            ..RenderStats::default()
+        };
         let start = Instant::now();
         let result = progressive::run(settings, options, &mut film, progress, |pass, film| {
             self.render_pass(settings, &setup, pass, film, progress, &mut stats)
@@ -323,10 +326,32 @@ impl GpuRenderer {
             capacity,
             band_rows,
             frame: scene.frame_params(settings),
+            split_bindings: buffers.split_bindings,
             buffers,
             pipelines,
             query_pool,
         })
+    }
+
+    /// The device memory `setup` holds and how its scene lies over the bindings.
+    fn device_memory(&self, setup: &Setup) -> crate::render::DeviceMemory {
+        let report = match self.ctx.allocator.lock() {
+            Ok(a) => a.generate_report(),
+            Err(_) => return Default::default(),
+        };
+        let split = pipelines::SplitArray::ALL
+            .into_iter()
+            .zip(setup.split_bindings)
+            .filter(|(_, n)| *n > 1)
+            .map(|(array, n)| (array.what().to_string(), n))
+            .collect();
+        crate::render::DeviceMemory {
+            buffers: report.allocations.len(),
+            allocated: report.total_allocated_bytes,
+            reserved: report.total_capacity_bytes,
+            blocks: report.blocks.len(),
+            split,
+        }
     }
 
     /// The bands of the image: (first row, rows).
@@ -360,7 +385,10 @@ impl GpuRenderer {
         let ctx = &self.ctx;
         let buffers = &setup.buffers;
         let mut pixels = Vec::with_capacity(settings.pixel_count() as usize);
-        let mut stats = RenderStats::default();
+        let mut stats = RenderStats {
+            device_memory: Some(self.device_memory(setup)),
+            ..RenderStats::default()
+        };
         let start = Instant::now();
         let bands = Self::bands(settings, setup.band_rows);
         let never = std::sync::atomic::AtomicBool::new(false);
@@ -651,6 +679,8 @@ struct Setup {
     buffers: RenderBuffers,
     /// Kernels specialised for a scene split across bindings (else the renderer's own).
     pipelines: Option<Pipelines>,
+    /// Bindings each `SplitArray` uses.
+    split_bindings: [u32; 5],
     query_pool: Option<vk::QueryPool>,
 }
 

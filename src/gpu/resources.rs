@@ -33,6 +33,8 @@ pub struct RenderBuffers {
     /// Light tracing's splat sums over the whole image (`Binding::Splats`), 24 bytes a pixel.
     pub splats: Buffer,
     pub path_dfa: Buffer,
+    /// Bindings each `SplitArray` uses (1 where it is not split).
+    pub split_bindings: [u32; 5],
     /// Scene and queue buffers: only the descriptor set refers to them.
     _bound: Vec<Buffer>,
 }
@@ -278,6 +280,8 @@ impl RenderBuffers {
             active_upload,
             splats,
             path_dfa,
+            split_bindings: SplitArray::ALL
+                .map(|array| chunks.iter().filter(|c| c.0 == array).count() as u32),
             _bound: [
                 materials,
                 lights,
