@@ -370,6 +370,10 @@ pub struct RenderArgs {
     /// Test-only: stop as a signal would once N samples per pixel are rendered.
     #[arg(long, value_name = "N", hide = true)]
     pub stop_after: Option<u32>,
+    /// Test-only: the GPU film holds at most N pixels at a time (whole rows), as in an image
+    /// larger than one storage binding.
+    #[arg(long, value_name = "N", hide = true)]
+    pub band_pixels: Option<u64>,
     #[command(flatten)]
     pub opts: RenderOptions,
 }

@@ -431,7 +431,7 @@ fn render(args: &RenderArgs) -> Result<()> {
             out?
         }
         DeviceKind::Gpu => {
-            let gpu = GpuRenderer::new(&GpuOptions {
+            let mut gpu = GpuRenderer::new(&GpuOptions {
                 device_index: match &args.opts.gpu_index {
                     None => None,
                     Some(g) => Some(g.one().ok_or_else(|| {
@@ -441,6 +441,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 validation: args.opts.validate,
                 timing: true,
             })?;
+            gpu.set_band_pixel_limit(args.band_pixels);
             println!(
                 "rendering {width}×{height} {how}, max depth {}, on {} (Vulkan {}, {})",
                 args.opts.max_depth,

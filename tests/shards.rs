@@ -493,6 +493,48 @@ fn run_render_with_fault(fault: &str, size: u32, spp: u32, extra: &[&str], out: 
     )
 }
 
+/// The same for an image of several bands, as one larger than a storage binding is rendered
+/// (`--band-pixels`, test-only: 32 × 32 in bands of 10 rows). Such an image is rendered sample
+/// by sample over its bands, so it holds the same bits as one band, and a device lost in the
+/// tenth batch (the second band of the third sweep; one batch per band and sample) leaves the
+/// two whole sweeps before it, which --resume completes into what one render gives.
+#[test]
+fn gpu_faults_in_an_image_of_several_bands_keep_whole_samples() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let (whole, banded, partial) = (
+        temp("bands-whole.exr"),
+        temp("bands-full.exr"),
+        temp("bands-partial.exr"),
+    );
+    let bands = ["--wavefront", "2048", "--band-pixels", "320"];
+    render("gpu", 32, 6, &bands[..2], &whole);
+    render("gpu", 32, 6, &bands, &banded);
+    let o = run_render_with_fault("device-lost@10", 32, 6, &bands, &partial);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("(VK_ERROR_DEVICE_LOST)")
+            && err.contains("holds the samples 0..2 finished before it"),
+        "{err}"
+    );
+    let mut resume = bands.to_vec();
+    resume.extend(["--resume", partial.to_str().unwrap()]);
+    render("gpu", 32, 6, &resume, &partial);
+    let film = |p: &Path| read_exr_file(p).film.pixels;
+    for (i, (a, b)) in film(&whole).iter().zip(&film(&banded)).enumerate() {
+        assert_eq!(
+            bytemuck::bytes_of(a),
+            bytemuck::bytes_of(b),
+            "pixel {i} differs in bands"
+        );
+    }
+    // (A resumed film adds the partial's sums to the rest's, as a merge does.)
+    assert_same_samples(&partial, &whole);
+}
+
 /// Faults end cleanly (issue 14, item 5): a device lost in the fourth batch (two passes each)
 /// ends the render with a message naming it and an EXR of the six samples finished before it,
 /// which --resume completes into what one render gives; memory exhausted while the buffers are

@@ -169,11 +169,11 @@ impl GpuRenderer {
     }
 
     /// Renders samples `samples` of the `settings.spp` of every pixel (the samplers stratify
-    /// over all `settings.spp`). When `stop` is set it stops at the next whole sample pass of an
-    /// image of one band (an image of several bands renders to the end); returns the output
-    /// and the end of the samples rendered: every pixel holds samples [samples.start, end).
-    /// A device lost or memory exhausted during an image of one band returns the samples
-    /// finished before it (the last film copied back, at most a few seconds old) with the
+    /// over all `settings.spp`). When `stop` is set it stops at the next whole sample pass
+    /// (images of several bands: the next sample of every band, `render_sweeps`); returns the
+    /// output and the end of the samples rendered: every pixel holds samples
+    /// [samples.start, end). A device lost or memory exhausted returns the samples finished
+    /// before it (the last film copied back, at most a few seconds or one sweep old) with the
     /// error in `stats.fault`; the caller reports it.
     pub fn render_range_with_progress(
         &self,
@@ -391,9 +391,12 @@ impl GpuRenderer {
         };
         let start = Instant::now();
         let bands = Self::bands(settings, setup.band_rows);
-        let never = std::sync::atomic::AtomicBool::new(false);
-        let one_band = bands.len() == 1;
-        let stop = if one_band { stop } else { &never };
+        if bands.len() > 1 {
+            let result =
+                self.render_sweeps(settings, setup, &bands, samples, progress, &mut stats, stop);
+            stats.seconds = start.elapsed().as_secs_f64();
+            return result.map(|(pixels, end)| (pixels, stats, end));
+        }
         let mut end = samples.end;
         for band in bands {
             let frame = Self::band_frame(setup, settings.width, band);
@@ -419,9 +422,9 @@ impl GpuRenderer {
             self.commands
                 .submit_and_wait(ctx, "clearing the film", SUBMIT_TIMEOUT_S)?;
 
-            // An image of one band keeps a copy of its film at whole passes, so that a lost
-            // device or exhausted memory still leaves the samples finished (`RenderStats::fault`).
-            let mut checkpoint = one_band.then(|| Checkpoint {
+            // The film is copied back at whole passes, so that a lost device or exhausted memory
+            // still leaves the samples finished (`RenderStats::fault`).
+            let mut checkpoint = Some(Checkpoint {
                 pixels: vec![FilmPixel::default(); frame.band_pixel_count as usize],
                 end: samples.start,
                 taken: Instant::now(),
@@ -454,6 +457,76 @@ impl GpuRenderer {
         }
         stats.seconds = start.elapsed().as_secs_f64();
         Ok((pixels, stats, end))
+    }
+
+    /// An image of several bands, sample by sample: each sweep adds one sample to every band
+    /// in turn (uploading the band's sums, rendering, copying them back), so that after every
+    /// sweep the whole film holds the same samples. A lost device or exhausted memory returns
+    /// the film of the last whole sweep (with the error in `stats.fault`); `stop` ends the
+    /// render after the sweep it is set in. Each pixel's samples are added in sample order
+    /// either way, so the sums are those of a render band after band.
+    #[allow(clippy::too_many_arguments)]
+    fn render_sweeps(
+        &self,
+        settings: &RenderSettings,
+        setup: &Setup,
+        bands: &[(u32, u32)],
+        samples: std::ops::Range<u32>,
+        progress: &ProgressBar,
+        stats: &mut RenderStats,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(Vec<FilmPixel>, u32)> {
+        let ctx = &self.ctx;
+        let buffers = &setup.buffers;
+        let never = std::sync::atomic::AtomicBool::new(false);
+        let total = settings.pixel_count() as usize;
+        // `done`: the film after the last whole sweep; `next`: the sweep under way.
+        let mut done = vec![FilmPixel::default(); total];
+        let mut next = vec![FilmPixel::default(); total];
+        for sample in samples.clone() {
+            if sample > samples.start && stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return Ok((done, sample));
+            }
+            for &band in bands {
+                let frame = Self::band_frame(setup, settings.width, band);
+                let (first, count) = (
+                    frame.band_first_pixel as usize,
+                    frame.band_pixel_count as usize,
+                );
+                let film_bytes = count as u64 * size_of::<FilmPixel>() as u64;
+                let swept = (|| -> Result<Vec<FilmPixel>> {
+                    buffers.frame.write(bytemuck::bytes_of(&frame));
+                    buffers
+                        .film_back
+                        .write(bytemuck::cast_slice(&done[first..first + count]));
+                    self.commands.begin()?;
+                    self.commands
+                        .copy(&buffers.film_back, &buffers.film, film_bytes);
+                    self.commands
+                        .submit_and_wait(ctx, "the film upload", SUBMIT_TIMEOUT_S)?;
+                    self.run_batches(
+                        settings,
+                        setup,
+                        sample..sample + 1,
+                        frame.band_pixel_count,
+                        progress,
+                        stats,
+                        &never,
+                        None,
+                    )?;
+                    self.read_film(buffers, film_bytes)
+                })();
+                match swept {
+                    Ok(pixels) => next[first..first + count].copy_from_slice(&pixels),
+                    Err(e) => {
+                        stats.fault = Some(format!("{e:#}"));
+                        return Ok((done, sample));
+                    }
+                }
+            }
+            std::mem::swap(&mut done, &mut next);
+        }
+        Ok((done, samples.end))
     }
 
     /// The first `film_bytes` of the GPU film.
