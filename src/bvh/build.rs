@@ -48,13 +48,24 @@ impl PrimRef {
     }
 }
 
-/// A range of `refs` still to become a subtree; `patch` is the node whose `offset` must point to
-/// it (it is a right child), or `u32::MAX`.
+/// A range of `refs` still to become a subtree, with the bounds of its primitives and of their
+/// centroids; `patch` is the node whose `offset` must point to it (it is a right child), or
+/// `u32::MAX`.
 struct Task {
     start: usize,
     end: usize,
     depth: usize,
     patch: u32,
+    bounds: Aabb,
+    centroids: Aabb,
+}
+
+/// Where a range splits: the first `mid` primitives (after reordering) go left; the bounds of
+/// each side's primitives and centroids, as (left, right).
+struct Split {
+    mid: usize,
+    bounds: (Aabb, Aabb),
+    centroids: (Aabb, Aabb),
 }
 
 fn ceil_log2(n: usize) -> usize {
@@ -66,25 +77,45 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
     (((c - lo) * scale) as usize).min(SAH_BINS - 1)
 }
 
-/// Reorders `refs` so that those with `pred` come first; returns how many there are.
+/// Reorders `refs` so that those with `pred` come first; returns how many there are. Hoare's
+/// scheme from both ends: each misplaced pair costs one swap, so about half the swaps of a
+/// single forward scan.
 fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
-    let mut mid = 0;
-    for i in 0..refs.len() {
-        if pred(&refs[i]) {
-            refs.swap(i, mid);
-            mid += 1;
+    let (mut i, mut j) = (0, refs.len());
+    loop {
+        while i < j && pred(&refs[i]) {
+            i += 1;
         }
+        while i < j && !pred(&refs[j - 1]) {
+            j -= 1;
+        }
+        if i >= j {
+            return i;
+        }
+        refs.swap(i, j - 1);
+        i += 1;
+        j -= 1;
     }
-    mid
 }
 
-/// Where to split `refs` (0 < mid < len, after reordering them), or `None` for a leaf.
+/// Where to split `refs` (0 < mid < len, after reordering them), or `None` for a leaf. An SAH
+/// split takes both sides' bounds from its bins (the same unions of the same boxes, so the same
+/// bounds as a pass over each side, without the pass); a median split passes over them.
 fn choose_split(
     refs: &mut [PrimRef],
     bounds: &Aabb,
     centroids: &Aabb,
     depth: usize,
-) -> Option<usize> {
+) -> Option<Split> {
+    let measured = |refs: &[PrimRef], mid: usize| {
+        let (lb, lc) = range_bounds(&refs[..mid]);
+        let (rb, rc) = range_bounds(&refs[mid..]);
+        Split {
+            mid,
+            bounds: (lb, rb),
+            centroids: (lc, rc),
+        }
+    };
     let n = refs.len();
     if n <= 1 {
         return None;
@@ -99,7 +130,7 @@ fn choose_split(
     };
     // Identical centroids: the SAH cannot separate them; halve large sets in any order.
     if extent[axis].is_nan() || extent[axis] <= 0.0 {
-        return (n > MAX_LEAF_SIZE).then_some(n / 2);
+        return (n > MAX_LEAF_SIZE).then(|| measured(refs, n / 2));
     }
     // Near the depth limit: object median, which halves the set and so bounds the depth.
     if depth + ceil_log2(n) >= MAX_DEPTH {
@@ -109,17 +140,21 @@ fn choose_split(
         refs.select_nth_unstable_by(n / 2, |a, b| {
             a.centroid()[axis].total_cmp(&b.centroid()[axis])
         });
-        return Some(n / 2);
+        return Some(measured(refs, n / 2));
     }
 
     // Binned SAH: bounds and counts per bin, then sweep the 15 planes between bins.
     let lo = centroids.min[axis];
     let scale = SAH_BINS as f32 / extent[axis];
+    // Per bin: primitive bounds, count and centroid bounds.
     let mut bins = [(Aabb::EMPTY, 0usize); SAH_BINS];
+    let mut bin_centroids = [Aabb::EMPTY; SAH_BINS];
     for r in refs.iter() {
-        let b = &mut bins[bin_of(r.centroid()[axis], lo, scale)];
-        b.0.grow(r.min, r.max);
-        b.1 += 1;
+        let c = r.centroid();
+        let k = bin_of(c[axis], lo, scale);
+        bins[k].0.grow(r.min, r.max);
+        bins[k].1 += 1;
+        bin_centroids[k].grow(c, c);
     }
     let mut right_cost = [0.0f32; SAH_BINS];
     let (mut acc, mut count) = (Aabb::EMPTY, 0);
@@ -151,52 +186,122 @@ fn choose_split(
     }
     let mid = partition(refs, |r| bin_of(r.centroid()[axis], lo, scale) < plane);
     debug_assert!(mid > 0 && mid < n);
-    Some(mid)
+    let union = |range: std::ops::Range<usize>| {
+        let (mut b, mut c) = (Aabb::EMPTY, Aabb::EMPTY);
+        for k in range {
+            b.grow(bins[k].0.min, bins[k].0.max);
+            c.grow(bin_centroids[k].min, bin_centroids[k].max);
+        }
+        (b, c)
+    };
+    let ((lb, lc), (rb, rc)) = (union(0..plane), union(plane..SAH_BINS));
+    Some(Split {
+        mid,
+        bounds: (lb, rb),
+        centroids: (lc, rc),
+    })
 }
 
 /// Subtrees with at least this many primitives build their two children on separate threads.
 const PARALLEL_MIN: usize = 16384;
 
-/// Builds the subtree over `refs` (which start at `start` in the whole array) at `depth`:
-/// large ranges split here and build both halves in parallel (rayon::join), small ones with
-/// [`build_range`]. Node indices in the result are relative to it; the order is the same
-/// depth-first, left-first order as a sequential build, so the tree does not depend on threads.
-fn build_parallel(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode>, BvhStats) {
-    if refs.len() < PARALLEL_MIN {
-        return build_range(refs, start, depth);
+/// A subtree built in parallel, as pieces in depth-first order, assembled once at the end
+/// (`Subtree::assemble`) rather than copied into each parent.
+struct Subtree {
+    pieces: Vec<Piece>,
+    len: usize,
+    stats: BvhStats,
+}
+
+enum Piece {
+    /// A sequentially built subtree: interior offsets relative to its first node.
+    Range(Vec<BvhNode>),
+    /// An interior node whose right child is `right` nodes after it.
+    Interior(BvhNode, usize),
+}
+
+impl Subtree {
+    /// The flattened nodes, offsets absolute.
+    fn assemble(self) -> Vec<BvhNode> {
+        let mut nodes = Vec::with_capacity(self.len);
+        for piece in self.pieces {
+            let base = nodes.len() as u32;
+            match piece {
+                Piece::Range(range) => nodes.extend(range.into_iter().map(|mut n| {
+                    if !n.is_leaf() {
+                        n.offset += base;
+                    }
+                    n
+                })),
+                Piece::Interior(mut n, right) => {
+                    n.offset = base + right as u32;
+                    nodes.push(n);
+                }
+            }
+        }
+        nodes
     }
-    let (bounds, centroids) = range_bounds(refs);
-    let Some(mid) = choose_split(refs, &bounds, &centroids, depth) else {
-        return build_range(refs, start, depth);
+}
+
+/// Builds the subtree over `refs` (which start at `start` in the whole array) at `depth`, with
+/// the bounds of its primitives and centroids: large ranges split here and build both halves
+/// in parallel (rayon::join), small ones with [`build_range`]. The order is the same
+/// depth-first, left-first order as a sequential build, so the tree does not depend on threads.
+fn build_parallel(
+    refs: &mut [PrimRef],
+    start: usize,
+    depth: usize,
+    bounds: Aabb,
+    centroids: Aabb,
+) -> Subtree {
+    let sequential = |refs: &mut [PrimRef]| {
+        let (nodes, stats) = build_range(refs, start, depth, bounds, centroids);
+        Subtree {
+            len: nodes.len(),
+            pieces: vec![Piece::Range(nodes)],
+            stats,
+        }
     };
+    if refs.len() < PARALLEL_MIN {
+        return sequential(refs);
+    }
+    let Some(split) = choose_split(refs, &bounds, &centroids, depth) else {
+        return sequential(refs);
+    };
+    let mid = split.mid;
     let (left, right) = refs.split_at_mut(mid);
-    let ((left_nodes, left_stats), (right_nodes, right_stats)) = rayon::join(
-        || build_parallel(left, start, depth + 1),
-        || build_parallel(right, start + mid, depth + 1),
+    let (l, r) = rayon::join(
+        || build_parallel(left, start, depth + 1, split.bounds.0, split.centroids.0),
+        || {
+            build_parallel(
+                right,
+                start + mid,
+                depth + 1,
+                split.bounds.1,
+                split.centroids.1,
+            )
+        },
     );
-    let mut nodes = Vec::with_capacity(1 + left_nodes.len() + right_nodes.len());
-    nodes.push(BvhNode {
+    let node = BvhNode {
         bounds_min: bounds.min.into(),
-        offset: (1 + left_nodes.len()) as u32,
+        offset: 0,
         bounds_max: bounds.max.into(),
         count: 0,
-    });
-    let shift = |mut n: BvhNode, by: usize| {
-        if !n.is_leaf() {
-            n.offset += by as u32;
-        }
-        n
     };
-    nodes.extend(left_nodes.iter().map(|&n| shift(n, 1)));
-    let right_base = 1 + left_nodes.len();
-    nodes.extend(right_nodes.iter().map(|&n| shift(n, right_base)));
-    let stats = BvhStats {
-        leaves: left_stats.leaves + right_stats.leaves,
-        max_depth: left_stats.max_depth.max(right_stats.max_depth),
-        max_leaf_size: left_stats.max_leaf_size.max(right_stats.max_leaf_size),
-        ..BvhStats::default()
-    };
-    (nodes, stats)
+    let mut pieces = Vec::with_capacity(1 + l.pieces.len() + r.pieces.len());
+    pieces.push(Piece::Interior(node, 1 + l.len));
+    pieces.extend(l.pieces);
+    pieces.extend(r.pieces);
+    Subtree {
+        pieces,
+        len: 1 + l.len + r.len,
+        stats: BvhStats {
+            leaves: l.stats.leaves + r.stats.leaves,
+            max_depth: l.stats.max_depth.max(r.stats.max_depth),
+            max_leaf_size: l.stats.max_leaf_size.max(r.stats.max_leaf_size),
+            ..BvhStats::default()
+        },
+    }
 }
 
 /// Bounds of the primitives and of their centroids.
@@ -211,7 +316,13 @@ fn range_bounds(refs: &[PrimRef]) -> (Aabb, Aabb) {
 
 /// The sequential build of the subtree over `refs` (which start at `start` in the whole array)
 /// at `depth`, with a work stack: node indices relative to the result, leaf offsets absolute.
-fn build_range(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode>, BvhStats) {
+fn build_range(
+    refs: &mut [PrimRef],
+    start: usize,
+    depth: usize,
+    bounds: Aabb,
+    centroids: Aabb,
+) -> (Vec<BvhNode>, BvhStats) {
     let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
     let mut stats = BvhStats::default();
     let mut stack = vec![Task {
@@ -219,6 +330,8 @@ fn build_range(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode
         end: refs.len(),
         depth,
         patch: u32::MAX,
+        bounds,
+        centroids,
     }];
     while let Some(task) = stack.pop() {
         let index = nodes.len() as u32;
@@ -226,7 +339,7 @@ fn build_range(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode
             nodes[task.patch as usize].offset = index;
         }
         let range = &mut refs[task.start..task.end];
-        let (bounds, centroids) = range_bounds(range);
+        let (bounds, centroids) = (task.bounds, task.centroids);
         let mut node = BvhNode {
             bounds_min: bounds.min.into(),
             offset: 0,
@@ -234,20 +347,24 @@ fn build_range(refs: &mut [PrimRef], start: usize, depth: usize) -> (Vec<BvhNode
             count: 0,
         };
         match choose_split(range, &bounds, &centroids, task.depth) {
-            Some(mid) => {
-                let mid = task.start + mid;
+            Some(split) => {
+                let mid = task.start + split.mid;
                 // Right pushed first: the left subtree is built (and numbered) first.
                 stack.push(Task {
                     start: mid,
                     end: task.end,
                     depth: task.depth + 1,
                     patch: index,
+                    bounds: split.bounds.1,
+                    centroids: split.centroids.1,
                 });
                 stack.push(Task {
                     start: task.start,
                     end: mid,
                     depth: task.depth + 1,
                     patch: u32::MAX,
+                    bounds: split.bounds.0,
+                    centroids: split.centroids.0,
                 });
             }
             None => {
@@ -296,7 +413,10 @@ impl Bvh {
             };
             (vec![empty], BvhStats::default())
         } else {
-            build_parallel(&mut refs, 0, 0)
+            let (bounds, centroids) = range_bounds(&refs);
+            let tree = build_parallel(&mut refs, 0, 0, bounds, centroids);
+            let stats = tree.stats.clone();
+            (tree.assemble(), stats)
         };
 
         stats.nodes = nodes.len();
@@ -361,8 +481,11 @@ mod parallel_tests {
                 .collect()
         };
         let (mut a, mut b) = (make(), make());
-        let (pa, sa) = build_parallel(&mut a, 0, 0);
-        let (pb, sb) = build_range(&mut b, 0, 0);
+        let (bounds, centroids) = range_bounds(&a);
+        let tree = build_parallel(&mut a, 0, 0, bounds, centroids);
+        let sa = tree.stats.clone();
+        let pa = tree.assemble();
+        let (pb, sb) = build_range(&mut b, 0, 0, bounds, centroids);
         assert!(pa.len() > 2 * n / MAX_LEAF_SIZE);
         assert_eq!(pa, pb);
         assert_eq!(
