@@ -15,7 +15,7 @@ say (they are large and generated, so none is committed).
 - helmets: --count DamagedHelmets (Khronos sample model, CC BY 4.0: see the samples folder's
   README) on a square grid, all placements of the model's one mesh (15 452 triangles; 15.5 M
   as placed) and its 2048² textures, copied from the .glb given (its binary chunk is kept as it
-  is), seen from above at an angle under a sun. The emissive texture is left out unless
+  is), seen low over the front row under a sun. The emissive texture is left out unless
   --keep-emission: wavetrace stores every placement of an emitting mesh in world space (its
   emitter table samples world-space triangles), which would bake 1000 copies of the helmet
   (15.5 M triangles, 13 GB of host memory) instead of instancing one.
@@ -251,9 +251,10 @@ def helmets(out, helmet, count, keep_emission):
             node["rotation"] = upright["rotation"]
         nodes.append(node)
     extent = side * spacing
+    # Low over the front row, looking along the grid: near helmets large, the rest receding.
     nodes.append({"name": "camera", "camera": 0,
-                  "translation": [0.0, 0.55 * extent, 0.75 * extent],
-                  "rotation": [math.sin(-0.33), 0.0, 0.0, math.cos(-0.33)]})
+                  "translation": [0.0, 0.07 * extent, 0.5 * extent + 2.0],
+                  "rotation": [math.sin(-0.11), 0.0, 0.0, math.cos(-0.11)]})
     nodes.append({"name": "sun", "extensions": {"KHR_lights_punctual": {"light": 0}},
                   "rotation": quaternion_look((0.3, -0.8, -0.5))})
     doc["nodes"] = nodes
