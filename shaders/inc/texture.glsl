@@ -79,13 +79,21 @@ vec4 texture_sample_level(GpuTexture t, uint level, vec2 uv, bool linear) {
         j = ivec2(wrap_texel(int(y0), hi, t.wrap_t), wrap_texel(int(y0) + 1, hi, t.wrap_t));
         taps = 4u;
     }
-    vec4 tap[4];
+    // (Named taps, not an array: llvmpipe keeps a dynamically indexed array in memory.)
+    vec4 a = vec4(0.0);
+    vec4 b = vec4(0.0);
+    vec4 c = vec4(0.0);
+    vec4 d = vec4(0.0);
     [[dont_unroll]] for (uint k = 0u; k < taps; ++k) {
-        tap[k] = texture_fetch(t, l.z, l.x, i[k & 1u], j[k >> 1u]);
+        vec4 v = texture_fetch(t, l.z, l.x, (k & 1u) == 0u ? i.x : i.y, k < 2u ? j.x : j.y);
+        if (k == 0u) a = v;
+        else if (k == 1u) b = v;
+        else if (k == 2u) c = v;
+        else d = v;
     }
-    if (taps == 1u) return tap[0];
-    vec4 top = tap[0] + (tap[1] - tap[0]) * fx;
-    vec4 bottom = tap[2] + (tap[3] - tap[2]) * fx;
+    if (taps == 1u) return a;
+    vec4 top = a + (b - a) * fx;
+    vec4 bottom = c + (d - c) * fx;
     return top + (bottom - top) * fy;
 }
 
@@ -121,11 +129,14 @@ vec4 texture_sample_lod(GpuTexture t, vec2 uv, float lod) {
             count = 2u;
         }
     }
-    vec4 r[2];
+    vec4 a = vec4(0.0);
+    vec4 b = vec4(0.0);
     [[dont_unroll]] for (uint k = 0u; k < count; ++k) {
-        r[k] = texture_sample_level(t, level[k], uv, linear);
+        vec4 v = texture_sample_level(t, k == 0u ? level.x : level.y, uv, linear);
+        if (k == 0u) a = v;
+        else b = v;
     }
-    return count == 1u ? r[0] : r[0] + (r[1] - r[0]) * f;
+    return count == 1u ? a : a + (b - a) * f;
 }
 
 // The coordinate a reference reads: its set, through its KHR_texture_transform.
