@@ -223,6 +223,18 @@ pub fn assert_same_samples(a: &Path, b: &Path) {
 }
 
 /// Checks that two EXRs are the same bits: accumulators, layers and record.
+/// Fails naming the first pixel whose accumulators differ in a bit.
+pub fn assert_same_bits(a: &Film, b: &Film, what: &str) {
+    assert_eq!(a.pixels.len(), b.pixels.len(), "{what}: sizes");
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        assert_eq!(
+            bytemuck::bytes_of(p),
+            bytemuck::bytes_of(q),
+            "{what}: pixel {i} differs"
+        );
+    }
+}
+
 pub fn assert_bitwise_equal(a: &Path, b: &Path) {
     let (fa, fb) = (read_exr_file(a), read_exr_file(b));
     let what = format!("{} vs {}", a.display(), b.display());
