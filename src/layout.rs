@@ -92,7 +92,7 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 160 bytes.
+/// Total: 208 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -133,6 +133,24 @@ pub struct GpuMaterial {
     /// KHR_materials_sheen's sheenColorFactor (linear RGB; 0: no sheen).
     pub sheen_color: [f32; 3], // 12 bytes
     pub sheen_roughness_texture: u32, // 4 bytes: A × sheen_roughness
+    /// KHR_materials_anisotropy: the world-space direction of α_t at a hit
+    /// (`surface::surface_material` writes it from the tangent frame, the texture's RG and the
+    /// rotation); zero in the scene's material table and where the tangent frame is degenerate.
+    pub anisotropy_direction: [f32; 3], // 12 bytes
+    /// anisotropyStrength (× the texture's B at a hit; 0: isotropic).
+    pub anisotropy: f32, // 4 bytes
+    /// anisotropyRotation (radians, counter-clockwise from the tangent).
+    pub anisotropy_rotation: f32, // 4 bytes
+    pub anisotropy_texture: u32, // 4 bytes: RG direction, B × anisotropy
+    /// KHR_materials_iridescence: iridescenceFactor (0: no film) and iridescenceIor.
+    pub iridescence: f32, // 4 bytes
+    pub iridescence_ior: f32, // 4 bytes
+    /// iridescenceThicknessMinimum and the film's thickness (nm): iridescenceThicknessMaximum
+    /// in the scene's table, mix(minimum, maximum, texture G) at a hit with a thickness texture.
+    pub iridescence_thickness_min: f32, // 4 bytes
+    pub iridescence_thickness: f32, // 4 bytes
+    pub iridescence_texture: u32, // 4 bytes: R × iridescence
+    pub iridescence_thickness_texture: u32, // 4 bytes: G
 }
 
 impl Default for GpuMaterial {
@@ -169,6 +187,16 @@ impl Default for GpuMaterial {
             sheen_color_texture: NO_TEXTURE,
             sheen_color: [0.0; 3],
             sheen_roughness_texture: NO_TEXTURE,
+            anisotropy_direction: [0.0; 3],
+            anisotropy: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_texture: NO_TEXTURE,
+            iridescence: 0.0,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness: 400.0,
+            iridescence_texture: NO_TEXTURE,
+            iridescence_thickness_texture: NO_TEXTURE,
         }
     }
 }
@@ -658,7 +686,17 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         clearcoat_normal,
         sheen_color_texture,
         sheen_color,
-        sheen_roughness_texture
+        sheen_roughness_texture,
+        anisotropy_direction,
+        anisotropy,
+        anisotropy_rotation,
+        anisotropy_texture,
+        iridescence,
+        iridescence_ior,
+        iridescence_thickness_min,
+        iridescence_thickness,
+        iridescence_texture,
+        iridescence_thickness_texture
     }),
     struct_layout!(GpuVertex {
         tangent,

@@ -196,6 +196,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         t.clearcoat_normal,
         t.sheen_color,
         t.sheen_roughness,
+        t.anisotropy,
+        t.iridescence,
+        t.iridescence_thickness,
     ]
     .iter()
     .any(Option::is_some)
@@ -233,6 +236,15 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         sheen_roughness: m.sheen_roughness,
         sheen_color_texture: slot(m.textures.sheen_color),
         sheen_roughness_texture: slot(m.textures.sheen_roughness),
+        anisotropy: m.anisotropy,
+        anisotropy_rotation: m.anisotropy_rotation,
+        anisotropy_texture: slot(m.textures.anisotropy),
+        iridescence: m.iridescence,
+        iridescence_ior: m.iridescence_ior,
+        iridescence_thickness_min: m.iridescence_thickness_min,
+        iridescence_thickness: m.iridescence_thickness_max,
+        iridescence_texture: slot(m.textures.iridescence),
+        iridescence_thickness_texture: slot(m.textures.iridescence_thickness),
         ..GpuMaterial::default()
     }
 }

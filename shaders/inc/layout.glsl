@@ -43,7 +43,7 @@ struct GpuTriangle {
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
 // texture references that modulate its factors at each surface point (surface.glsl).
-// Total: 160 bytes.
+// Total: 208 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -75,6 +75,16 @@ struct GpuMaterial {
     uint sheen_color_texture;         // 4 bytes: sRGB; RGB x sheen_color
     vec3 sheen_color;                 // 12 bytes: sheenColorFactor (0: no sheen)
     uint sheen_roughness_texture;     // 4 bytes: A x sheen_roughness
+    vec3 anisotropy_direction;        // 12 bytes: KHR_materials_anisotropy's world direction at a hit (0: none)
+    float anisotropy;                 // 4 bytes: anisotropyStrength (x texture B at a hit)
+    float anisotropy_rotation;        // 4 bytes: anisotropyRotation, radians
+    uint anisotropy_texture;          // 4 bytes: RG direction, B x anisotropy
+    float iridescence;                // 4 bytes: KHR_materials_iridescence's iridescenceFactor
+    float iridescence_ior;            // 4 bytes
+    float iridescence_thickness_min;  // 4 bytes: nm
+    float iridescence_thickness;      // 4 bytes: nm, the maximum (at a hit: mix(min, max, texture G))
+    uint iridescence_texture;         // 4 bytes: R x iridescence
+    uint iridescence_thickness_texture; // 4 bytes: G
 };
 
 // Shading attributes of one vertex, world space. Total: 64 bytes.
