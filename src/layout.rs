@@ -92,7 +92,7 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 208 bytes.
+/// Total: 256 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -151,6 +151,20 @@ pub struct GpuMaterial {
     pub iridescence_thickness: f32, // 4 bytes
     pub iridescence_texture: u32, // 4 bytes: R × iridescence
     pub iridescence_thickness_texture: u32, // 4 bytes: G
+    /// KHR_materials_volume: the attenuation coefficient σ = −ln(attenuationColor) /
+    /// attenuationDistance (per metre, per channel) of the medium behind the back faces; 0 for
+    /// no volume (no extension, thicknessFactor 0: thin-walled, or an infinite distance).
+    pub attenuation: [f32; 3], // 12 bytes
+    /// thicknessFactor (only its being 0, thin-walled, matters to a path tracer).
+    pub thickness: f32, // 4 bytes
+    /// KHR_materials_diffuse_transmission: diffuseTransmissionColorFactor (linear RGB) and
+    /// diffuseTransmissionFactor (0: none).
+    pub diffuse_transmission_color: [f32; 3], // 12 bytes
+    pub diffuse_transmission: f32, // 4 bytes
+    pub diffuse_transmission_texture: u32, // 4 bytes: A × diffuse_transmission
+    pub diffuse_transmission_color_texture: u32, // 4 bytes: sRGB; RGB × the colour
+    pub pad0: u32,            // 4 bytes
+    pub pad1: u32,            // 4 bytes
 }
 
 impl Default for GpuMaterial {
@@ -197,6 +211,14 @@ impl Default for GpuMaterial {
             iridescence_thickness: 400.0,
             iridescence_texture: NO_TEXTURE,
             iridescence_thickness_texture: NO_TEXTURE,
+            attenuation: [0.0; 3],
+            thickness: 0.0,
+            diffuse_transmission_color: [1.0; 3],
+            diffuse_transmission: 0.0,
+            diffuse_transmission_texture: NO_TEXTURE,
+            diffuse_transmission_color_texture: NO_TEXTURE,
+            pad0: 0,
+            pad1: 0,
         }
     }
 }
@@ -486,7 +508,7 @@ pub struct DispatchParams {
     pub clear_mask: u32,   // 4 bytes
 }
 
-/// What carries between bounces for one path. Total: 64 bytes.
+/// What carries between bounces for one path. Total: 80 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathState {
@@ -503,6 +525,10 @@ pub struct PathState {
     pub cone_width: f32, // 4 bytes
     pub prev_normal: [f32; 3], // 12 bytes
     pub pad0: u32,            // 4 bytes
+    /// KHR_materials_volume: the attenuation coefficient of the medium the current ray enters
+    /// at its origin (`volume::volume_sigma`; 0 outside every volume).
+    pub medium: [f32; 3], // 12 bytes
+    pub pad1: u32,            // 4 bytes
 }
 
 /// A ray in the extension queue. Total: 32 bytes.
@@ -696,7 +722,15 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         iridescence_thickness_min,
         iridescence_thickness,
         iridescence_texture,
-        iridescence_thickness_texture
+        iridescence_thickness_texture,
+        attenuation,
+        thickness,
+        diffuse_transmission_color,
+        diffuse_transmission,
+        diffuse_transmission_texture,
+        diffuse_transmission_color_texture,
+        pad0,
+        pad1
     }),
     struct_layout!(GpuVertex {
         tangent,
@@ -801,7 +835,9 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         prev_position,
         cone_width,
         prev_normal,
-        pad0
+        pad0,
+        medium,
+        pad1
     }),
     struct_layout!(QueuedRay {
         origin,

@@ -14,7 +14,8 @@
 //!   KHR_materials_sheen: sheenColor × RGB (sRGB), sheenRoughness × A;
 //!   KHR_materials_anisotropy: strength × B, the direction from RG and the rotation in the
 //!   tangent frame (`surface_anisotropy`); KHR_materials_iridescence: iridescence × R, the
-//!   film's thickness mix(minimum, maximum, G) (the maximum without a texture). Occlusion maps are ignored: a path tracer computes the
+//!   film's thickness mix(minimum, maximum, G) (the maximum without a texture);
+//!   KHR_materials_diffuse_transmission: its factor × A, its colour × RGB (sRGB). Occlusion maps are ignored: a path tracer computes the
 //!   occlusion they approximate.
 //! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
 //! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
@@ -238,6 +239,15 @@ pub fn surface_material(
         let g = sample_texture_ref(data, m.iridescence_thickness_texture, sp.uv, lod).y;
         let (lo, hi) = (m.iridescence_thickness_min, m.iridescence_thickness);
         out.iridescence_thickness = lo + (hi - lo) * g;
+    }
+    if m.diffuse_transmission_texture != NO_TEXTURE {
+        out.diffuse_transmission *=
+            sample_texture_ref(data, m.diffuse_transmission_texture, sp.uv, lod).w;
+    }
+    if m.diffuse_transmission_color_texture != NO_TEXTURE {
+        let c = sample_texture_ref(data, m.diffuse_transmission_color_texture, sp.uv, lod);
+        out.diffuse_transmission_color =
+            (Vec3::from(m.diffuse_transmission_color) * c.truncate()).to_array();
     }
     if m.anisotropy > 0.0 {
         let (strength, direction) = surface_anisotropy(data, m, sp, lod);

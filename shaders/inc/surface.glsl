@@ -195,6 +195,12 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
         float g = sample_texture_ref(m.iridescence_thickness_texture, sp.uv0, sp.uv1, lod).y;
         o.iridescence_thickness = mix(m.iridescence_thickness_min, m.iridescence_thickness, g);
     }
+    if (m.diffuse_transmission_texture != NO_TEXTURE) {
+        o.diffuse_transmission *= sample_texture_ref(m.diffuse_transmission_texture, sp.uv0, sp.uv1, lod).w;
+    }
+    if (m.diffuse_transmission_color_texture != NO_TEXTURE) {
+        o.diffuse_transmission_color = m.diffuse_transmission_color * sample_texture_ref(m.diffuse_transmission_color_texture, sp.uv0, sp.uv1, lod).xyz;
+    }
     if (m.anisotropy > 0.0) o.anisotropy = surface_anisotropy(m, sp, lod, o.anisotropy_direction);
     return o;
 }

@@ -76,6 +76,7 @@ pub mod sheen;
 mod sheen_table;
 #[cfg(test)]
 mod tests;
+pub mod volume;
 
 use crate::layout::{GpuMaterial, MATERIAL_UNLIT};
 use crate::sampling::{

@@ -59,6 +59,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
     "KHR_materials_iridescence",
+    "KHR_materials_volume",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -755,6 +756,85 @@ fn convert_material(
             *slot = Some(reference(&property, info, false)?);
         }
     }
+    // KHR_materials_volume, read from the raw JSON (thicknessTexture is a rasteriser's estimate
+    // of the distance a path tracer measures: not read).
+    let (mut thickness, mut attenuation_color, mut attenuation_distance) =
+        (0.0, Vec3::ONE, f32::INFINITY);
+    if let Some(ext) = material.extension_value("KHR_materials_volume") {
+        let what = path("extensions.KHR_materials_volume");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        if let Some(v) = ext.get("thicknessFactor") {
+            match v.as_f64() {
+                Some(x) if x.is_finite() && x >= 0.0 => thickness = x as f32,
+                _ => bail!("{what}.thicknessFactor{owner}: {v} must be a non-negative number"),
+            }
+        }
+        if let Some(v) = ext.get("attenuationDistance") {
+            match v.as_f64() {
+                Some(x) if x > 0.0 => attenuation_distance = x as f32,
+                _ => bail!("{what}.attenuationDistance{owner}: {v} must be a positive number"),
+            }
+        }
+        if let Some(v) = ext.get("attenuationColor") {
+            let c: Option<Vec<f64>> = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+            match c {
+                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+                    attenuation_color =
+                        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
+                }
+                _ => bail!("{what}.attenuationColor{owner}: {v} must be three numbers in [0, 1]"),
+            }
+        }
+    }
+    // KHR_materials_diffuse_transmission, read from the raw JSON.
+    let (mut diffuse_transmission, mut diffuse_transmission_color) = (0.0, Vec3::ONE);
+    if let Some(ext) = material.extension_value("KHR_materials_diffuse_transmission") {
+        let what = path("extensions.KHR_materials_diffuse_transmission");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        diffuse_transmission =
+            raw_unit_factor(ext, "diffuseTransmissionFactor", 0.0, &what, &owner)?;
+        if let Some(v) = ext.get("diffuseTransmissionColorFactor") {
+            let c: Option<Vec<f64>> = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+            match c {
+                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+                    diffuse_transmission_color =
+                        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
+                }
+                _ => bail!(
+                    "{what}.diffuseTransmissionColorFactor{owner}: {v} must be three numbers in [0, 1]"
+                ),
+            }
+        }
+        for (key, slot, srgb) in [
+            (
+                "diffuseTransmissionTexture",
+                &mut textures.diffuse_transmission,
+                false,
+            ),
+            (
+                "diffuseTransmissionColorTexture",
+                &mut textures.diffuse_transmission_color,
+                true,
+            ),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_diffuse_transmission.{key}");
+            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
+            *slot = Some(reference(&property, info, srgb)?);
+        }
+    }
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
         normal_scale = normal.scale();
@@ -814,6 +894,11 @@ fn convert_material(
             iridescence_ior,
             iridescence_thickness_min: thickness_min,
             iridescence_thickness_max: thickness_max,
+            thickness,
+            attenuation_color,
+            attenuation_distance,
+            diffuse_transmission,
+            diffuse_transmission_color,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),
