@@ -22,7 +22,7 @@ use wavetrace::texture::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 6;
-const OUTPUTS_PER_CASE: usize = 16;
+const OUTPUTS_PER_CASE: usize = 17;
 
 struct Synthetic {
     textures: Vec<GpuTexture>,
@@ -208,6 +208,10 @@ fn synthetic() -> Synthetic {
                 iridescence_thickness: 500.0,
                 iridescence_texture: slot(13),
                 iridescence_thickness_texture: slot(14),
+                diffuse_transmission: 0.8,
+                diffuse_transmission_color: [0.4, 0.7, 0.9],
+                diffuse_transmission_texture: slot(15),
+                diffuse_transmission_color_texture: slot(16),
                 ..Default::default()
             }
         })
@@ -425,6 +429,8 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             m.anisotropy_texture,
             m.iridescence_texture,
             m.iridescence_thickness_texture,
+            m.diffuse_transmission_texture,
+            m.diffuse_transmission_color_texture,
         ]
         .into_iter()
         .filter(|&k| k != NO_TEXTURE)
@@ -495,6 +501,12 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
                 15,
                 "surface_material (iridescence, thickness)",
                 Vec4::new(e.iridescence, e.iridescence_thickness, 0.0, 0.0),
+                1e-4,
+            );
+            check(
+                16,
+                "surface_material (diffuse transmission colour, factor)",
+                Vec3::from(e.diffuse_transmission_color).extend(e.diffuse_transmission),
                 1e-4,
             );
             let key = UVec4::new(in3.w.to_bits(), in4.w.to_bits(), 7, 11);

@@ -85,6 +85,8 @@ fn twin_material(i: u32) -> GpuMaterial {
         iridescence: if (i / 3) % 3 == 2 { 0.9 } else { 0.0 },
         iridescence_ior: 1.6,
         iridescence_thickness: 350.0,
+        diffuse_transmission: if (i / 5) % 3 == 1 { 0.6 } else { 0.0 },
+        diffuse_transmission_color: [0.3, 0.9, 0.5],
         ..Default::default()
     }
 }

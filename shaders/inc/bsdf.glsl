@@ -1,5 +1,5 @@
 // The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
-// _specular, _unlit, _clearcoat, _sheen, _anisotropy and _iridescence: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// _specular, _unlit, _clearcoat, _sheen, _anisotropy, _iridescence and _diffuse_transmission: twin of src/bsdf/mod.rs, same names; the model and its conventions are
 // written down there. Direction convention: wo points towards where the light goes (previous
 // vertex), wi towards where it comes from; both point away from the surface; ng is the
 // front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
@@ -18,7 +18,8 @@
 #define LOBE_TRANSMISSION 2u
 #define LOBE_CLEARCOAT 3u
 #define LOBE_SHEEN 4u
-#define LOBE_COUNT 5u
+#define LOBE_DIFFUSE_TRANSMISSION 5u
+#define LOBE_COUNT 6u
 
 // A material seen from wo: local frame (+Z on wo's side), relative IOR, lobe probabilities.
 struct BsdfFrame {
@@ -36,8 +37,11 @@ struct BsdfFrame {
     float film;        // KHR_materials_iridescence's film: factor (0: none), index, thickness (nm)
     float film_ior;
     float film_thickness;
+    float dt;          // KHR_materials_diffuse_transmission: factor (0: none), colour
+    vec3 dt_color;
     vec4 lobe_pmf;     // diffuse, reflection, transmission, clearcoat (bsdf_lobe_pmf: all five)
     float sheen_pmf;   // the sheen lobe's
+    float dt_pmf;      // the diffuse transmission lobe's
     float albedo_estimate;
     vec3 ng;           // geometric normal on wo's side, local
     vec3 ng_world;     // the same, world space
@@ -141,7 +145,8 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
     f.metallic = 0.0; f.transmission = 0.0; f.alpha = vec2(0.0); f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
     f.film = 0.0; f.film_ior = 1.0; f.film_thickness = 0.0;
-    f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0;
+    f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0; f.dt_pmf = 0.0;
+    f.dt = 0.0; f.dt_color = vec3(0.0);
     f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
     f.sheen_color = vec3(0.0); f.sheen_max = 0.0; f.sheen_alpha = 1.0; f.sheen_roughness = 0.0;
     f.sheen_scale_o = 1.0;
@@ -176,11 +181,15 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     fresnel_layers(f.wo.z, f.f0, f.f90, f.etap, f.base, f.metallic, f.film, f.film_ior, f.film_thickness, fe, fm3);
     float fm = average3(fm3);
     float dielectric = 1.0 - f.metallic;
-    vec4 w = vec4(dielectric * (1.0 - f.transmission) * (1.0 - max3(fe)) * average3(f.base),
+    f.dt = unlit ? 0.0 : m.diffuse_transmission;
+    f.dt_color = m.diffuse_transmission_color;
+    float diffuse = dielectric * (1.0 - f.transmission) * (1.0 - max3(fe));
+    vec4 w = vec4(diffuse * (1.0 - f.dt) * average3(f.base),
                   dielectric * average3(fe) + f.metallic * fm,
                   dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base),
                   0.0);
     float w_sheen = 0.0;
+    float w_dt = diffuse * f.dt * average3(f.dt_color);
     // The sheen: its albedo E(cos theta_o) taken from the layers below (albedo scaling).
     f.sheen_color = unlit ? vec3(0.0) : m.sheen_color;
     f.sheen_max = max3(f.sheen_color);
@@ -190,6 +199,7 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
         float e = sheen_albedo(f.wo.z, m.sheen_roughness);
         f.sheen_scale_o = max(1.0 - f.sheen_max * e, 0.0);
         w.xyz *= f.sheen_scale_o;
+        w_dt *= f.sheen_scale_o;
         w_sheen = average3(f.sheen_color) * e;
     }
     // The coat: its frame about N_c and its weight clearcoat * F_c(wo.N_c) taken from the base.
@@ -207,11 +217,13 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
         float wc = f.clearcoat * fresnel_coat(f.cc_wo.z);
         w.xyz *= 1.0 - wc;
         w_sheen *= 1.0 - wc;
+        w_dt *= 1.0 - wc;
         w.w = wc;
     }
-    float total = w.x + w.y + w.z + w.w + w_sheen;
+    float total = w.x + w.y + w.z + w.w + w_sheen + w_dt;
     f.lobe_pmf = total > 0.0 ? w / total : vec4(0.0);
     f.sheen_pmf = total > 0.0 ? w_sheen / total : 0.0;
+    f.dt_pmf = total > 0.0 ? w_dt / total : 0.0;
     f.albedo_estimate = total;
     return true;
 }
@@ -223,7 +235,7 @@ void bsdf_fresnel(BsdfFrame f, float cos_theta, out vec3 fd, out vec3 fm) {
 
 // The probability of choosing lobe k (BsdfFrame::lobe_pmf[k]).
 float bsdf_lobe_pmf(BsdfFrame f, uint k) {
-    return k == LOBE_SHEEN ? f.sheen_pmf : f.lobe_pmf[k];
+    return k == LOBE_SHEEN ? f.sheen_pmf : (k == LOBE_DIFFUSE_TRANSMISSION ? f.dt_pmf : f.lobe_pmf[k]);
 }
 
 // The frame of the geometric normal alone (BsdfFrame::new).
@@ -269,6 +281,17 @@ float bsdf_sheen_scale(BsdfFrame f, float cos_i) {
     return min(f.sheen_scale_o, max(1.0 - f.sheen_max * e, 0.0));
 }
 
+// KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local wi (wi.z < 0), F on
+// the half vector of wo and wi mirrored to wo's side (BsdfFrame::eval_diffuse_transmission).
+vec3 bsdf_eval_diffuse_transmission(BsdfFrame f, vec3 wi) {
+    if (f.dt <= 0.0) return vec3(0.0);
+    vec3 h = normalize(f.wo + vec3(wi.xy, -wi.z));
+    vec3 fd, fm;
+    bsdf_fresnel(f, dot(f.wo, h), fd, fm);
+    return (1.0 - f.metallic) * (1.0 - f.transmission) * f.dt * (1.0 - max3(fd)) * INV_PI
+         * bsdf_sheen_scale(f, wi.z) * f.dt_color;
+}
+
 // f of the non-delta lobes for local wi.
 vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     vec3 wo = f.wo;
@@ -279,7 +302,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         float vh = dot(wo, h);
         vec3 fd, fm;
         bsdf_fresnel(f, vh, fd, fm);
-        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - max3(fd)) * INV_PI * f.base;
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
         if (!bsdf_is_delta(f)) {
             float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
             value += (dielectric * fd + f.metallic * fm) * spec;
@@ -290,9 +313,11 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         }
         return value;
     }
-    if (wi.z < 0.0 && f.transmission > 0.0 && !bsdf_is_delta(f)) {
+    if (wi.z < 0.0) {
+        vec3 diffuse = bsdf_eval_diffuse_transmission(f, wi);
+        if (f.transmission <= 0.0 || bsdf_is_delta(f)) return diffuse;
         vec3 m;
-        if (!refraction_half_vector(f, wi, m)) return vec3(0.0);
+        if (!refraction_half_vector(f, wi, m)) return diffuse;
         float om = dot(wo, m);
         float im = dot(wi, m);
         vec3 fd3, fm;
@@ -303,7 +328,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo, wi, f.alpha);
         float ft = ggx_d(m, f.alpha) * g2 * abs(im * om) / (wo.z * abs(wi.z) * denom * denom);
         if (mode == TRANSPORT_IMPORTANCE) ft *= f.etap * f.etap;
-        return dielectric * f.transmission * (1.0 - fd) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
+        return diffuse + dielectric * f.transmission * (1.0 - fd) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
     }
     return vec3(0.0);
 }
@@ -321,11 +346,13 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
         if (f.sheen_pmf > 0.0) pdf += f.sheen_pmf * uniform_cone_pdf(0.0);
         return pdf;
     }
-    if (wi.z < 0.0 && !bsdf_is_delta(f) && f.lobe_pmf.z > 0.0) {
+    if (wi.z < 0.0) {
+        float diffuse = f.dt_pmf * cosine_hemisphere_pdf(-wi.z);
+        if (bsdf_is_delta(f) || f.lobe_pmf.z <= 0.0) return diffuse;
         vec3 m;
-        if (!refraction_half_vector(f, wi, m)) return 0.0;
+        if (!refraction_half_vector(f, wi, m)) return diffuse;
         float denom = f.etap * dot(wi, m) + dot(wo, m);
-        return f.lobe_pmf.z * ggx_vndf_pdf(wo, m, f.alpha) * f.etap * f.etap * abs(dot(wi, m))
+        return diffuse + f.lobe_pmf.z * ggx_vndf_pdf(wo, m, f.alpha) * f.etap * f.etap * abs(dot(wi, m))
              / (denom * denom);
     }
     return 0.0;
@@ -460,7 +487,7 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
         }
     } else {
         vec3 local;
-        if (lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && bsdf_is_delta(f)) {
+        if ((lobe == LOBE_REFLECTION || lobe == LOBE_TRANSMISSION) && bsdf_is_delta(f)) {
             vec3 value;
             if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
             wi = bsdf_to_world(f, local);
@@ -472,6 +499,8 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
         }
         if (lobe == LOBE_DIFFUSE) {
             local = sample_cosine_hemisphere(u.xy);
+        } else if (lobe == LOBE_DIFFUSE_TRANSMISSION) {
+            local = sample_cosine_hemisphere(u.xy) * vec3(1.0, 1.0, -1.0);
         } else if (lobe == LOBE_SHEEN) {
             local = sample_uniform_cone(u.xy, 0.0);
         } else if (lobe == LOBE_REFLECTION) {
@@ -480,7 +509,7 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
             return false;
         }
         // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
-        bool reflects = lobe != LOBE_TRANSMISSION;
+        bool reflects = lobe != LOBE_TRANSMISSION && lobe != LOBE_DIFFUSE_TRANSMISSION;
         if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
         world = bsdf_to_world(f, local);
     }

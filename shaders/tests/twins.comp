@@ -28,7 +28,7 @@ layout(push_constant) uniform Push { uint case_count; };
 layout(local_size_x = WORKGROUP_SIZE) in;
 
 // The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
-// specular factor and colour, clearcoat, sheen, anisotropy, iridescence swept by the case index; the last 512 cases are unlit.
+// specular factor and colour, clearcoat, sheen, anisotropy, iridescence, diffuse transmission swept by the case index; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
@@ -67,6 +67,12 @@ GpuMaterial twin_material(uint i) {
     m.iridescence_thickness = 350.0;
     m.iridescence_texture = NO_TEXTURE;
     m.iridescence_thickness_texture = NO_TEXTURE;
+    m.attenuation = vec3(0.0);
+    m.thickness = 0.0;
+    m.diffuse_transmission = (i / 5u) % 3u == 1u ? 0.6 : 0.0;
+    m.diffuse_transmission_color = vec3(0.3, 0.9, 0.5);
+    m.diffuse_transmission_texture = NO_TEXTURE;
+    m.diffuse_transmission_color_texture = NO_TEXTURE;
     return m;
 }
 

@@ -64,6 +64,12 @@
 //! the core model's Fresnel ([`fresnel_layers`]); the layers below the dielectric specular are
 //! scaled by 1 − max(F) of the mixed F as KHR_materials_specular says.
 //!
+//! KHR_materials_diffuse_transmission splits the diffuse lobe as the extension's
+//! `mix(diffuse_brdf, diffuse_btdf, diffuseTransmission)` does: (1 − dt)·c/π on `wo`'s side
+//! and dt·dtColor/π on the far side (a thin surface: no refraction, no η), both under
+//! 1 − max(F) of the specular layer, the far side's F taken on the half vector of `wo` and `wi`
+//! mirrored to `wo`'s side (as the Khronos sample renderer does), which keeps f symmetric.
+//!
 //! KHR_materials_unlit: the surface shows its base colour term whatever the lighting. A path
 //! tracer gives it that look by making the surface an emitter of exactly that radiance
 //! (`surface::surface_emission`) whose BSDF is zero: seen directly it is its base colour, it
@@ -115,8 +121,9 @@ pub const LOBE_REFLECTION: usize = 1;
 pub const LOBE_TRANSMISSION: usize = 2;
 pub const LOBE_CLEARCOAT: usize = 3;
 pub const LOBE_SHEEN: usize = 4;
+pub const LOBE_DIFFUSE_TRANSMISSION: usize = 5;
 /// How many lobes [`BsdfFrame::lobe_pmf`] chooses among.
-pub const LOBE_COUNT: usize = 5;
+pub const LOBE_COUNT: usize = 6;
 
 /// A material seen from `wo`: the local frame with +Z on `wo`'s side, the relative index of
 /// refraction and the lobe selection probabilities.
@@ -139,6 +146,9 @@ pub struct BsdfFrame {
     f90: f32,
     /// KHR_materials_iridescence's thin film over the base ([`fresnel_layers`]).
     film: ThinFilm,
+    /// KHR_materials_diffuse_transmission: its factor (0: none) and colour.
+    dt: f32,
+    dt_color: Vec3,
     /// Probabilities of choosing the diffuse, reflection, transmission, clearcoat and sheen
     /// lobes.
     pub lobe_pmf: [f32; LOBE_COUNT],
@@ -349,12 +359,16 @@ impl BsdfFrame {
         let (fe, fm) = fresnel_layers(wo_local.z, f0, f90, etap, base, metallic, &film);
         let fm = average(fm);
         let dielectric = 1.0 - metallic;
+        let dt = if unlit { 0.0 } else { m.diffuse_transmission };
+        let dt_color = Vec3::from(m.diffuse_transmission_color);
+        let diffuse = dielectric * (1.0 - transmission) * (1.0 - fe.max_element());
         let mut w = [
-            dielectric * (1.0 - transmission) * (1.0 - fe.max_element()) * average(base),
+            diffuse * (1.0 - dt) * average(base),
             dielectric * average(fe) + metallic * fm,
             dielectric * transmission * (1.0 - fe.max_element()) * average(base),
             0.0,
             0.0,
+            diffuse * dt * average(dt_color),
         ];
         // The sheen: its albedo E(cos θo) taken from the layers below (albedo scaling).
         let sheen_color = if unlit {
@@ -367,8 +381,8 @@ impl BsdfFrame {
         if sheen_max > 0.0 {
             let e = sheen_albedo(wo_local.z, m.sheen_roughness);
             sheen_scale_o = (1.0 - sheen_max * e).max(0.0);
-            for x in &mut w[..3] {
-                *x *= sheen_scale_o;
+            for k in [0, 1, 2, LOBE_DIFFUSE_TRANSMISSION] {
+                w[k] *= sheen_scale_o;
             }
             w[LOBE_SHEEN] = average(sheen_color) * e;
         }
@@ -384,13 +398,13 @@ impl BsdfFrame {
                 cc_wo = Vec3::new(wo.dot(cc_t), wo.dot(cc_b), wo.dot(cc_n));
             }
             let wc = clearcoat * fresnel_coat(cc_wo.z);
-            for x in &mut w[..3] {
-                *x *= 1.0 - wc;
+            for k in [0, 1, 2, LOBE_DIFFUSE_TRANSMISSION] {
+                w[k] *= 1.0 - wc;
             }
             w[LOBE_SHEEN] *= 1.0 - wc;
             w[LOBE_CLEARCOAT] = wc;
         }
-        let total = w[0] + w[1] + w[2] + w[3] + w[4];
+        let total = w.iter().sum::<f32>();
         let lobe_pmf = if total > 0.0 {
             w.map(|x| x / total)
         } else {
@@ -409,6 +423,8 @@ impl BsdfFrame {
             f0,
             f90,
             film,
+            dt,
+            dt_color,
             lobe_pmf,
             albedo_estimate: total,
             ng: if ns == ng {
@@ -490,6 +506,7 @@ impl BsdfFrame {
             let (fd, fm) = self.fresnel(vh);
             let mut f = dielectric
                 * (1.0 - self.transmission)
+                * (1.0 - self.dt)
                 * (1.0 - fd.max_element())
                 * FRAC_1_PI
                 * self.base;
@@ -504,9 +521,13 @@ impl BsdfFrame {
                             * sheen_visibility(wo.z, wi.z, self.sheen_alpha));
             }
             f
-        } else if wi.z < 0.0 && self.transmission > 0.0 && !self.is_delta() {
+        } else if wi.z < 0.0 {
+            let diffuse = self.eval_diffuse_transmission(wi);
+            if self.transmission <= 0.0 || self.is_delta() {
+                return diffuse;
+            }
             let Some(m) = self.refraction_half_vector(wi) else {
-                return Vec3::ZERO;
+                return diffuse;
             };
             let (om, im) = (wo.dot(m), wi.dot(m));
             let fd = self.fresnel(om).0.max_element();
@@ -518,10 +539,35 @@ impl BsdfFrame {
             if mode == TransportMode::Importance {
                 ft *= self.etap * self.etap;
             }
-            dielectric * self.transmission * (1.0 - fd) * ft * self.sheen_scale(wi.z) * self.base
+            diffuse
+                + dielectric
+                    * self.transmission
+                    * (1.0 - fd)
+                    * ft
+                    * self.sheen_scale(wi.z)
+                    * self.base
         } else {
             Vec3::ZERO
         }
+    }
+
+    /// KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local `wi`
+    /// (wi.z < 0): (1 − metallic)(1 − transmission)·dt·(1 − max F)·dtColor/π, F on the half
+    /// vector of `wo` and `wi` mirrored to `wo`'s side (symmetric in the two, as the thin
+    /// surface is), under the sheen's scaling.
+    fn eval_diffuse_transmission(&self, wi: Vec3) -> Vec3 {
+        if self.dt <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = (self.wo + Vec3::new(wi.x, wi.y, -wi.z)).normalize();
+        let fd = self.fresnel(self.wo.dot(h)).0.max_element();
+        (1.0 - self.metallic)
+            * (1.0 - self.transmission)
+            * self.dt
+            * (1.0 - fd)
+            * FRAC_1_PI
+            * self.sheen_scale(wi.z)
+            * self.dt_color
     }
 
     /// Solid-angle pdf of the non-delta lobes' mixture at local `wi`.
@@ -530,7 +576,7 @@ impl BsdfFrame {
         if !self.consistent(wi) {
             return 0.0;
         }
-        let [p_diffuse, p_reflection, p_transmission, _, p_sheen] = self.lobe_pmf;
+        let [p_diffuse, p_reflection, p_transmission, _, p_sheen, p_dt] = self.lobe_pmf;
         if wi.z > 0.0 {
             let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
             if !self.is_delta() && p_reflection > 0.0 {
@@ -542,18 +588,23 @@ impl BsdfFrame {
                 pdf += p_sheen * uniform_cone_pdf(0.0);
             }
             pdf
-        } else if wi.z < 0.0 && !self.is_delta() && p_transmission > 0.0 {
+        } else if wi.z < 0.0 {
+            let diffuse = p_dt * cosine_hemisphere_pdf(-wi.z);
+            if self.is_delta() || p_transmission <= 0.0 {
+                return diffuse;
+            }
             let Some(m) = self.refraction_half_vector(wi) else {
-                return 0.0;
+                return diffuse;
             };
             let denom = self.etap * wi.dot(m) + wo.dot(m);
             // dω_m/dω_i = η² |wi·m| / (wo·m + η wi·m)² (Walter et al. 2007, eq. 17).
-            p_transmission
-                * ggx_vndf_pdf(wo, m, self.alpha)
-                * self.etap
-                * self.etap
-                * wi.dot(m).abs()
-                / (denom * denom)
+            diffuse
+                + p_transmission
+                    * ggx_vndf_pdf(wo, m, self.alpha)
+                    * self.etap
+                    * self.etap
+                    * wi.dot(m).abs()
+                    / (denom * denom)
         } else {
             0.0
         }
@@ -707,7 +758,7 @@ impl BsdfFrame {
             }
             wi
         } else {
-            if lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && self.is_delta() {
+            if matches!(lobe, LOBE_REFLECTION | LOBE_TRANSMISSION) && self.is_delta() {
                 let (wi, value) = self.delta_lobe(lobe, mode)?;
                 if !self.consistent(wi) {
                     return None;
@@ -727,6 +778,9 @@ impl BsdfFrame {
             }
             let wi = match lobe {
                 LOBE_DIFFUSE => sample_cosine_hemisphere(uv),
+                LOBE_DIFFUSE_TRANSMISSION => {
+                    sample_cosine_hemisphere(uv) * Vec3::new(1.0, 1.0, -1.0)
+                }
                 // Charlie has no closed-form sampler: uniform directions, as Conty Estevez &
                 // Kulla 2017 suggest (the lobe peaks towards grazing, where cosine sampling is
                 // sparse).
@@ -736,7 +790,7 @@ impl BsdfFrame {
             };
             // Each lobe keeps to its side: a reflection below or a refraction above the surface
             // is no sample (the mixture pdf counts each lobe only on its own side).
-            let reflects = lobe != LOBE_TRANSMISSION;
+            let reflects = lobe != LOBE_TRANSMISSION && lobe != LOBE_DIFFUSE_TRANSMISSION;
             if (wi.z > 0.0) != reflects || wi.z == 0.0 {
                 return None;
             }

@@ -1317,3 +1317,149 @@ fn iridescence_is_reciprocal_and_conserves_energy() {
     }
     println!("iridescent albedo: largest {largest:.4}");
 }
+
+/// KHR_materials_diffuse_transmission cases.
+fn translucent(base: f32, metallic: f32, roughness: f32, dt: f32, color: [f32; 3]) -> GpuMaterial {
+    GpuMaterial {
+        diffuse_transmission: dt,
+        diffuse_transmission_color: color,
+        ..material(base, metallic, roughness, 0.0)
+    }
+}
+
+#[test]
+fn diffuse_transmission_follows_the_extension_formula() {
+    // mix(c/π on wo's side, dtColor/π on the far side, dt) under 1 − max(F) of the specular
+    // layer (F on v·h; for the far side h of wo and wi mirrored), written out independently.
+    let m = translucent(0.6, 0.2, 0.5, 0.7, [0.5, 0.9, 0.2]);
+    let wo = direction(0.8, 0.2);
+    let f_at = |vh: f32| 0.04 + 0.96 * (1.0 - vh).powi(5);
+    // Far side.
+    let wi = direction(0.45, 2.5) * Vec3::new(1.0, 1.0, -1.0);
+    let h = (wo + wi * Vec3::new(1.0, 1.0, -1.0)).normalize();
+    let expected = 0.8 * 0.7 * (1.0 - f_at(wo.dot(h))) * Vec3::new(0.5, 0.9, 0.2) / PI;
+    let got = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+    assert!(
+        (got - expected).abs().max_element() <= 1e-5 * expected.max_element(),
+        "{got} vs {expected}"
+    );
+    // Near side: the diffuse part is (1 − dt) of the Lambertian one.
+    let wi = direction(0.45, 2.5);
+    let without = GpuMaterial {
+        diffuse_transmission: 0.0,
+        ..m
+    };
+    let h = (wo + wi).normalize();
+    let diffuse = 0.8 * (1.0 - f_at(wo.dot(h))) * 0.6 / PI;
+    let a = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+    let b = bsdf_eval(&without, NG, wo, wi, TransportMode::Radiance);
+    assert!(
+        ((b - a) - Vec3::splat(0.7 * diffuse)).abs().max_element() < 1e-5,
+        "{a} {b}"
+    );
+}
+
+fn translucent_cases() -> Vec<(GpuMaterial, Vec3, String)> {
+    let mut cases = Vec::new();
+    for (metallic, roughness, dt) in [(0.0, 0.5, 0.5), (0.0, 0.0, 1.0), (0.3, 0.8, 0.7)] {
+        for cos in [0.9, 0.3] {
+            for side in [1.0, -1.0] {
+                let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                let name = format!("dt {dt}, metallic {metallic}, roughness {roughness}, wo {wo}");
+                cases.push((
+                    translucent(0.7, metallic, roughness, dt, [0.4, 0.9, 0.6]),
+                    wo,
+                    name,
+                ));
+            }
+        }
+    }
+    cases
+}
+
+#[test]
+fn diffuse_transmission_sampling_matches_its_pdf_and_eval() {
+    let cases = translucent_cases();
+    let alpha = sidak(0.01, cases.len());
+    let mut smallest: f64 = 1.0;
+    for (m, wo, name) in &cases {
+        let p = chi_square_p(
+            &|u| {
+                bsdf_sample(m, NG, *wo, u, TransportMode::Radiance)
+                    .filter(|s| !s.delta)
+                    .map(|s| s.wi)
+            },
+            &|wi| bsdf_pdf(m, NG, *wo, wi),
+            1_000_000,
+        );
+        smallest = smallest.min(p);
+        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            for i in 0..5000 {
+                let Some(s) = bsdf_sample(m, NG, *wo, u3(2, i), mode) else {
+                    continue;
+                };
+                if s.delta {
+                    continue;
+                }
+                let pdf = bsdf_pdf(m, NG, *wo, s.wi);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                    "{name}: {} vs {pdf}",
+                    s.pdf
+                );
+                let expected = bsdf_eval(m, NG, *wo, s.wi, mode) * s.wi.z.abs() / pdf;
+                assert!(
+                    (s.weight - expected).abs().max_element()
+                        <= 1e-3 * expected.max_element().max(1e-3),
+                    "{name}: {} vs {expected}",
+                    s.weight
+                );
+            }
+        }
+    }
+    println!(
+        "diffuse transmission χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
+        cases.len()
+    );
+}
+
+#[test]
+fn diffuse_transmission_is_reciprocal_and_a_white_leaf_keeps_all_the_light() {
+    let dirs = [
+        direction(0.9, 0.1),
+        direction(0.4, 2.0),
+        direction(0.15, 4.0),
+    ];
+    for (m, _, name) in translucent_cases() {
+        for a in dirs {
+            for b in dirs {
+                let below = b * Vec3::new(1.0, 1.0, -1.0);
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let fab = bsdf_eval(&m, NG, a, below, mode);
+                    let fba = bsdf_eval(&m, NG, below, a, mode);
+                    assert!(
+                        (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
+                        "{name}: {fab} vs {fba}"
+                    );
+                }
+            }
+        }
+    }
+    // White furnace: a white Lambertian leaf without the specular layer (specular 0) splits
+    // every bit of light between its sides: each sample weighs exactly 1.
+    for dt in [0.0, 0.3, 1.0] {
+        let m = GpuMaterial {
+            specular: 0.0,
+            ..translucent(1.0, 0.0, 1.0, dt, [1.0; 3])
+        };
+        for cos in [1.0, 0.5, 0.05] {
+            let wo = direction(cos, 0.3);
+            let (a, se) = albedo(&m, wo, 20_000);
+            assert!(
+                (a - 1.0).abs() < 1e-5 && se < 1e-5,
+                "dt {dt}, cos {cos}: {a} ± {se}"
+            );
+        }
+    }
+}

@@ -60,6 +60,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_anisotropy",
     "KHR_materials_iridescence",
     "KHR_materials_volume",
+    "KHR_materials_diffuse_transmission",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
