@@ -302,7 +302,7 @@ pub fn surface_mapped_normal(
 /// degenerate (no TANGENT and no MikkTSpace tangents).
 pub fn surface_tangent_frame(sp: &SurfacePoint) -> Option<(Vec3, Vec3)> {
     let n = sp.ns;
-    let t = Vec3::from(sp.tangent.truncate());
+    let t = sp.tangent.truncate();
     let t = t - n * n.dot(t);
     let t_length = t.length();
     if !(t_length > 1e-12 && t_length.is_finite()) {

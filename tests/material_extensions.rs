@@ -170,7 +170,9 @@ fn anisotropy_factors_and_textures_are_read() {
     let m = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap();
     assert_eq!(m("Aniso Tangents").anisotropy, 0.5);
     assert_eq!(m("Aniso Tangents").anisotropy_rotation, 0.0);
-    assert!((m("Aniso Tan + Rotation").anisotropy_rotation - 0.523_598_8).abs() < 1e-6);
+    assert!(
+        (m("Aniso Tan + Rotation").anisotropy_rotation - std::f32::consts::FRAC_PI_6).abs() < 1e-6
+    );
     assert!(m("Aniso Tan + Texture").textures.anisotropy.is_some());
     assert!(m("Aniso Tan + Rotation + Texture")
         .textures

@@ -23,6 +23,9 @@ use wavetrace::scene::Scene;
 use wavetrace::stats::{normal_quantile_upper, sidak};
 
 const THICKNESS: f32 = 0.5;
+
+/// A renderer of films for the batch comparisons (None: no GPU).
+type Render<'a> = dyn Fn(&RenderSettings) -> Option<wavetrace::film::Film> + 'a;
 const ATTENUATION_COLOR: [f32; 3] = [0.2, 0.5, 0.9];
 const ATTENUATION_DISTANCE: f32 = 1.0;
 
@@ -105,7 +108,7 @@ fn write_gltf(
         ));
         let offset = bytes.len();
         bytes.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
-        while bytes.len() % 4 != 0 {
+        while !bytes.len().is_multiple_of(4) {
             bytes.push(0);
         }
         views.push(format!(
@@ -359,12 +362,7 @@ fn light_tracing_and_bdpt_attenuate_as_the_path_tracer_does() {
     let centre = &path[path.len() / 2];
     println!("path tracer, a centre tile: {centre:?}");
     assert!(centre[2].0 - centre[0].0 > 4.0 * (centre[2].1 + centre[0].1).sqrt());
-    let cases: [(
-        &str,
-        Integrator,
-        u32,
-        &dyn Fn(&RenderSettings) -> Option<wavetrace::film::Film>,
-    ); 4] = [
+    let cases: [(&str, Integrator, u32, &Render); 4] = [
         ("CPU light", Integrator::Light, 8, &cpu),
         ("CPU bdpt", Integrator::Bdpt, 4, &cpu),
         ("GPU light", Integrator::Light, 8, &gpu),
@@ -428,12 +426,7 @@ fn a_leaf_lit_from_behind_shines_through_on_every_integrator() {
     let centre = &path[path.len() / 2];
     println!("path tracer, the centre tile: {centre:?}");
     assert!(centre[1].0 - centre[0].0 > 4.0 * (centre[1].1 + centre[0].1).sqrt());
-    let cases: [(
-        &str,
-        Integrator,
-        u32,
-        &dyn Fn(&RenderSettings) -> Option<wavetrace::film::Film>,
-    ); 5] = [
+    let cases: [(&str, Integrator, u32, &Render); 5] = [
         ("GPU path", Integrator::Path, 8, &gpu),
         ("CPU light", Integrator::Light, 8, &cpu),
         ("CPU bdpt", Integrator::Bdpt, 4, &cpu),
