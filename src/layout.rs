@@ -92,7 +92,7 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A glTF metallic-roughness material (`bsdf` reads it) and its emitted radiance, with the
 /// texture references that modulate its factors at each surface point (`surface`).
-/// Total: 160 bytes.
+/// Total: 256 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -133,6 +133,38 @@ pub struct GpuMaterial {
     /// KHR_materials_sheen's sheenColorFactor (linear RGB; 0: no sheen).
     pub sheen_color: [f32; 3], // 12 bytes
     pub sheen_roughness_texture: u32, // 4 bytes: A × sheen_roughness
+    /// KHR_materials_anisotropy: the world-space direction of α_t at a hit
+    /// (`surface::surface_material` writes it from the tangent frame, the texture's RG and the
+    /// rotation); zero in the scene's material table and where the tangent frame is degenerate.
+    pub anisotropy_direction: [f32; 3], // 12 bytes
+    /// anisotropyStrength (× the texture's B at a hit; 0: isotropic).
+    pub anisotropy: f32, // 4 bytes
+    /// anisotropyRotation (radians, counter-clockwise from the tangent).
+    pub anisotropy_rotation: f32, // 4 bytes
+    pub anisotropy_texture: u32, // 4 bytes: RG direction, B × anisotropy
+    /// KHR_materials_iridescence: iridescenceFactor (0: no film) and iridescenceIor.
+    pub iridescence: f32, // 4 bytes
+    pub iridescence_ior: f32, // 4 bytes
+    /// iridescenceThicknessMinimum and the film's thickness (nm): iridescenceThicknessMaximum
+    /// in the scene's table, mix(minimum, maximum, texture G) at a hit with a thickness texture.
+    pub iridescence_thickness_min: f32, // 4 bytes
+    pub iridescence_thickness: f32, // 4 bytes
+    pub iridescence_texture: u32, // 4 bytes: R × iridescence
+    pub iridescence_thickness_texture: u32, // 4 bytes: G
+    /// KHR_materials_volume: the attenuation coefficient σ = −ln(attenuationColor) /
+    /// attenuationDistance (per metre, per channel) of the medium behind the back faces; 0 for
+    /// no volume (no extension, thicknessFactor 0: thin-walled, or an infinite distance).
+    pub attenuation: [f32; 3], // 12 bytes
+    /// thicknessFactor (only its being 0, thin-walled, matters to a path tracer).
+    pub thickness: f32, // 4 bytes
+    /// KHR_materials_diffuse_transmission: diffuseTransmissionColorFactor (linear RGB) and
+    /// diffuseTransmissionFactor (0: none).
+    pub diffuse_transmission_color: [f32; 3], // 12 bytes
+    pub diffuse_transmission: f32, // 4 bytes
+    pub diffuse_transmission_texture: u32, // 4 bytes: A × diffuse_transmission
+    pub diffuse_transmission_color_texture: u32, // 4 bytes: sRGB; RGB × the colour
+    pub pad0: u32,            // 4 bytes
+    pub pad1: u32,            // 4 bytes
 }
 
 impl Default for GpuMaterial {
@@ -169,6 +201,24 @@ impl Default for GpuMaterial {
             sheen_color_texture: NO_TEXTURE,
             sheen_color: [0.0; 3],
             sheen_roughness_texture: NO_TEXTURE,
+            anisotropy_direction: [0.0; 3],
+            anisotropy: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_texture: NO_TEXTURE,
+            iridescence: 0.0,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness: 400.0,
+            iridescence_texture: NO_TEXTURE,
+            iridescence_thickness_texture: NO_TEXTURE,
+            attenuation: [0.0; 3],
+            thickness: 0.0,
+            diffuse_transmission_color: [1.0; 3],
+            diffuse_transmission: 0.0,
+            diffuse_transmission_texture: NO_TEXTURE,
+            diffuse_transmission_color_texture: NO_TEXTURE,
+            pad0: 0,
+            pad1: 0,
         }
     }
 }
@@ -458,7 +508,7 @@ pub struct DispatchParams {
     pub clear_mask: u32,   // 4 bytes
 }
 
-/// What carries between bounces for one path. Total: 64 bytes.
+/// What carries between bounces for one path. Total: 80 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathState {
@@ -475,6 +525,10 @@ pub struct PathState {
     pub cone_width: f32, // 4 bytes
     pub prev_normal: [f32; 3], // 12 bytes
     pub pad0: u32,            // 4 bytes
+    /// KHR_materials_volume: the attenuation coefficient of the medium the current ray enters
+    /// at its origin (`volume::volume_sigma`; 0 outside every volume).
+    pub medium: [f32; 3], // 12 bytes
+    pub pad1: u32,            // 4 bytes
 }
 
 /// A ray in the extension queue. Total: 32 bytes.
@@ -658,7 +712,25 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         clearcoat_normal,
         sheen_color_texture,
         sheen_color,
-        sheen_roughness_texture
+        sheen_roughness_texture,
+        anisotropy_direction,
+        anisotropy,
+        anisotropy_rotation,
+        anisotropy_texture,
+        iridescence,
+        iridescence_ior,
+        iridescence_thickness_min,
+        iridescence_thickness,
+        iridescence_texture,
+        iridescence_thickness_texture,
+        attenuation,
+        thickness,
+        diffuse_transmission_color,
+        diffuse_transmission,
+        diffuse_transmission_texture,
+        diffuse_transmission_color_texture,
+        pad0,
+        pad1
     }),
     struct_layout!(GpuVertex {
         tangent,
@@ -763,7 +835,9 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         prev_position,
         cone_width,
         prev_normal,
-        pad0
+        pad0,
+        medium,
+        pad1
     }),
     struct_layout!(QueuedRay {
         origin,

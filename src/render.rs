@@ -196,6 +196,11 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         t.clearcoat_normal,
         t.sheen_color,
         t.sheen_roughness,
+        t.anisotropy,
+        t.iridescence,
+        t.iridescence_thickness,
+        t.diffuse_transmission,
+        t.diffuse_transmission_color,
     ]
     .iter()
     .any(Option::is_some)
@@ -233,6 +238,26 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         sheen_roughness: m.sheen_roughness,
         sheen_color_texture: slot(m.textures.sheen_color),
         sheen_roughness_texture: slot(m.textures.sheen_roughness),
+        anisotropy: m.anisotropy,
+        anisotropy_rotation: m.anisotropy_rotation,
+        anisotropy_texture: slot(m.textures.anisotropy),
+        iridescence: m.iridescence,
+        iridescence_ior: m.iridescence_ior,
+        iridescence_thickness_min: m.iridescence_thickness_min,
+        iridescence_thickness: m.iridescence_thickness_max,
+        iridescence_texture: slot(m.textures.iridescence),
+        iridescence_thickness_texture: slot(m.textures.iridescence_thickness),
+        attenuation: crate::bsdf::volume::attenuation_coefficient(
+            m.thickness,
+            m.attenuation_color,
+            m.attenuation_distance,
+        )
+        .to_array(),
+        thickness: m.thickness,
+        diffuse_transmission: m.diffuse_transmission,
+        diffuse_transmission_color: m.diffuse_transmission_color.to_array(),
+        diffuse_transmission_texture: slot(m.textures.diffuse_transmission),
+        diffuse_transmission_color_texture: slot(m.textures.diffuse_transmission_color),
         ..GpuMaterial::default()
     }
 }
@@ -347,11 +372,16 @@ impl PreparedScene {
         let mut triangles = Vec::new();
         let mut triangle_vertices = Vec::new();
         // glTF: doubleSided false enables back-face culling. Transmissive surfaces keep both
-        // faces: their back face is how light leaves a solid of glass.
+        // faces: their back face is how light leaves a solid of glass (or a translucent one).
         let cull: Vec<bool> = scene
             .materials
             .iter()
-            .map(|m| !m.double_sided && m.transmission == 0.0 && m.textures.transmission.is_none())
+            .map(|m| {
+                !m.double_sided
+                    && m.transmission == 0.0
+                    && m.textures.transmission.is_none()
+                    && m.diffuse_transmission == 0.0
+            })
             .collect();
         let mut add_blas = |nodes: &mut Vec<crate::layout::BvhNode>,
                             tris: &[crate::scene::Triangle]| {

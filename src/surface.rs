@@ -11,7 +11,11 @@
 //!   base colour's factor and texture in the emission slots, and `surface_emission` multiplies
 //!   in the vertex colour. KHR_materials_clearcoat: clearcoat × R, clearcoatRoughness × G of
 //!   their textures, and the coat's own normal (`GpuMaterial::clearcoat_normal`);
-//!   KHR_materials_sheen: sheenColor × RGB (sRGB), sheenRoughness × A. Occlusion maps are ignored: a path tracer computes the
+//!   KHR_materials_sheen: sheenColor × RGB (sRGB), sheenRoughness × A;
+//!   KHR_materials_anisotropy: strength × B, the direction from RG and the rotation in the
+//!   tangent frame (`surface_anisotropy`); KHR_materials_iridescence: iridescence × R, the
+//!   film's thickness mix(minimum, maximum, G) (the maximum without a texture);
+//!   KHR_materials_diffuse_transmission: its factor × A, its colour × RGB (sRGB). Occlusion maps are ignored: a path tracer computes the
 //!   occlusion they approximate.
 //! - Normal maps are tangent-space (glTF: B = w·cross(N, T)), their XY scaled by `scale`.
 //! - The level of detail is the ray cone's (`texture.rs`): `surface_lod_base`.
@@ -228,6 +232,28 @@ pub fn surface_material(
         let nc = surface_mapped_normal(data, m.clearcoat_normal_texture, scale, sp, lod);
         out.clearcoat_normal = nc.to_array();
     }
+    if m.iridescence_texture != NO_TEXTURE {
+        out.iridescence *= sample_texture_ref(data, m.iridescence_texture, sp.uv, lod).x;
+    }
+    if m.iridescence_thickness_texture != NO_TEXTURE {
+        let g = sample_texture_ref(data, m.iridescence_thickness_texture, sp.uv, lod).y;
+        let (lo, hi) = (m.iridescence_thickness_min, m.iridescence_thickness);
+        out.iridescence_thickness = lo + (hi - lo) * g;
+    }
+    if m.diffuse_transmission_texture != NO_TEXTURE {
+        out.diffuse_transmission *=
+            sample_texture_ref(data, m.diffuse_transmission_texture, sp.uv, lod).w;
+    }
+    if m.diffuse_transmission_color_texture != NO_TEXTURE {
+        let c = sample_texture_ref(data, m.diffuse_transmission_color_texture, sp.uv, lod);
+        out.diffuse_transmission_color =
+            (Vec3::from(m.diffuse_transmission_color) * c.truncate()).to_array();
+    }
+    if m.anisotropy > 0.0 {
+        let (strength, direction) = surface_anisotropy(data, m, sp, lod);
+        out.anisotropy = strength;
+        out.anisotropy_direction = direction.to_array();
+    }
     out
 }
 
@@ -255,14 +281,9 @@ pub fn surface_mapped_normal(
         return sp.ns;
     }
     let n = sp.ns;
-    let t = Vec3::from(sp.tangent.truncate());
-    let t = t - n * n.dot(t);
-    let t_length = t.length();
-    if !(t_length > 1e-12 && t_length.is_finite()) {
+    let Some((t, b)) = surface_tangent_frame(sp) else {
         return n;
-    }
-    let t = t / t_length;
-    let b = n.cross(t) * if sp.tangent.w < 0.0 { -1.0 } else { 1.0 };
+    };
     let texel = sample_texture_ref(data, texture, sp.uv, lod);
     let x = (2.0 * texel.x - 1.0) * scale;
     let y = (2.0 * texel.y - 1.0) * scale;
@@ -274,6 +295,45 @@ pub fn surface_mapped_normal(
     } else {
         n
     }
+}
+
+/// The unit tangent and bitangent of the point's tangent frame: TANGENT made orthogonal to the
+/// interpolated normal (Gram–Schmidt), B = w·cross(N, T) (glTF); None where the tangent is
+/// degenerate (no TANGENT and no MikkTSpace tangents).
+pub fn surface_tangent_frame(sp: &SurfacePoint) -> Option<(Vec3, Vec3)> {
+    let n = sp.ns;
+    let t = sp.tangent.truncate();
+    let t = t - n * n.dot(t);
+    let t_length = t.length();
+    if !(t_length > 1e-12 && t_length.is_finite()) {
+        return None;
+    }
+    let t = t / t_length;
+    Some((t, n.cross(t) * if sp.tangent.w < 0.0 { -1.0 } else { 1.0 }))
+}
+
+/// KHR_materials_anisotropy at the point: the strength (anisotropyStrength × the texture's B)
+/// and the world-space direction of α_t, T·d.x + B·d.y with d the texture's RG mapped to
+/// [−1, 1]² (else (1, 0)) rotated by anisotropyRotation counter-clockwise (the extension's
+/// "Implementation"); strength 0 where the tangent frame is degenerate.
+pub fn surface_anisotropy(
+    data: &TextureData,
+    m: &GpuMaterial,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> (f32, Vec3) {
+    let Some((t, b)) = surface_tangent_frame(sp) else {
+        return (0.0, Vec3::ZERO);
+    };
+    let (mut d, mut strength) = (Vec2::X, m.anisotropy);
+    if m.anisotropy_texture != NO_TEXTURE {
+        let texel = sample_texture_ref(data, m.anisotropy_texture, sp.uv, lod);
+        d = Vec2::new(2.0 * texel.x - 1.0, 2.0 * texel.y - 1.0);
+        strength *= texel.z;
+    }
+    let (sin, cos) = m.anisotropy_rotation.sin_cos();
+    let d = Vec2::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y);
+    (strength, t * d.x + b * d.y)
 }
 
 /// The uniform number that decides a BLEND surface's presence for one ray (`key`) and one

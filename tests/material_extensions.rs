@@ -21,6 +21,9 @@ const MODELS: &[(&str, &[&str])] = &[
     ("ClearCoatTest.glb", &["KHR_materials_clearcoat"]),
     ("ClearCoatCarPaint.glb", &["KHR_materials_clearcoat"]),
     ("SheenCloth/SheenCloth.gltf", &["KHR_materials_sheen"]),
+    ("AnisotropyStrengthTest.glb", &["KHR_materials_anisotropy"]),
+    ("AnisotropyRotationTest.glb", &["KHR_materials_anisotropy"]),
+    ("IridescenceSuzanne.glb", &["KHR_materials_iridescence"]),
 ];
 
 fn model(name: &str) -> Option<PathBuf> {
@@ -151,6 +154,58 @@ fn sheen_factors_and_textures_are_read() {
     );
     let refs = &scene.textures.refs;
     assert_ne!(refs[c as usize].texture, refs[r as usize].texture);
+}
+
+#[test]
+fn anisotropy_factors_and_textures_are_read() {
+    let Some(scene) = load("AnisotropyStrengthTest.glb") else {
+        return;
+    };
+    let strengths: Vec<f32> = scene.materials.iter().map(|m| m.anisotropy).collect();
+    assert!(strengths.contains(&0.0) && strengths.contains(&1.0));
+    assert!(strengths.iter().any(|&s| (s - 0.5).abs() < 1e-6));
+    let Some(scene) = load("AnisotropyRotationTest.glb") else {
+        return;
+    };
+    let m = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap();
+    assert_eq!(m("Aniso Tangents").anisotropy, 0.5);
+    assert_eq!(m("Aniso Tangents").anisotropy_rotation, 0.0);
+    assert!(
+        (m("Aniso Tan + Rotation").anisotropy_rotation - std::f32::consts::FRAC_PI_6).abs() < 1e-6
+    );
+    assert!(m("Aniso Tan + Texture").textures.anisotropy.is_some());
+    assert!(m("Aniso Tan + Rotation + Texture")
+        .textures
+        .anisotropy
+        .is_some());
+    assert!(m("Aniso Tangents").textures.anisotropy.is_none());
+}
+
+#[test]
+fn iridescence_factors_and_textures_are_read() {
+    // The model requires the extension: it loads only where wavetrace reads it.
+    let Some(scene) = load("IridescenceSuzanne.glb") else {
+        return;
+    };
+    assert!(scene.materials.iter().all(|m| m.iridescence == 1.0));
+    let ior: Vec<f32> = scene.materials.iter().map(|m| m.iridescence_ior).collect();
+    assert!(ior.contains(&1.33) && ior.contains(&1.8), "{ior:?}");
+    let textured = scene
+        .materials
+        .iter()
+        .find(|m| m.textures.iridescence_thickness.is_some())
+        .expect("a thickness texture");
+    assert_eq!(
+        (
+            textured.iridescence_thickness_min,
+            textured.iridescence_thickness_max
+        ),
+        (200.0, 600.0)
+    );
+    assert!(scene
+        .materials
+        .iter()
+        .any(|m| m.iridescence_thickness_max == 400.0 && m.iridescence_thickness_min == 100.0));
 }
 
 #[test]

@@ -52,6 +52,10 @@ const FORBIDDEN_NOTES: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
+    "KHR_materials_anisotropy",
+    "KHR_materials_iridescence",
+    "KHR_materials_volume",
+    "KHR_materials_diffuse_transmission",
 ];
 
 #[test]

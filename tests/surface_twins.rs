@@ -22,7 +22,7 @@ use wavetrace::texture::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 6;
-const OUTPUTS_PER_CASE: usize = 14;
+const OUTPUTS_PER_CASE: usize = 17;
 
 struct Synthetic {
     textures: Vec<GpuTexture>,
@@ -199,6 +199,19 @@ fn synthetic() -> Synthetic {
                 sheen_roughness: 0.6,
                 sheen_color_texture: slot(10),
                 sheen_roughness_texture: slot(11),
+                anisotropy: 0.6,
+                anisotropy_rotation: 0.3 * k as f32 - 0.5,
+                anisotropy_texture: slot(12),
+                iridescence: 0.7,
+                iridescence_ior: 1.4,
+                iridescence_thickness_min: 150.0,
+                iridescence_thickness: 500.0,
+                iridescence_texture: slot(13),
+                iridescence_thickness_texture: slot(14),
+                diffuse_transmission: 0.8,
+                diffuse_transmission_color: [0.4, 0.7, 0.9],
+                diffuse_transmission_texture: slot(15),
+                diffuse_transmission_color_texture: slot(16),
                 ..Default::default()
             }
         })
@@ -413,6 +426,11 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             m.clearcoat_normal_texture,
             m.sheen_color_texture,
             m.sheen_roughness_texture,
+            m.anisotropy_texture,
+            m.iridescence_texture,
+            m.iridescence_thickness_texture,
+            m.diffuse_transmission_texture,
+            m.diffuse_transmission_color_texture,
         ]
         .into_iter()
         .filter(|&k| k != NO_TEXTURE)
@@ -471,6 +489,24 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
                 13,
                 "surface_material (sheen colour, sheen roughness)",
                 Vec3::from(e.sheen_color).extend(e.sheen_roughness),
+                1e-4,
+            );
+            check(
+                14,
+                "surface_material (anisotropy direction, strength)",
+                Vec3::from(e.anisotropy_direction).extend(e.anisotropy),
+                1e-3,
+            );
+            check(
+                15,
+                "surface_material (iridescence, thickness)",
+                Vec4::new(e.iridescence, e.iridescence_thickness, 0.0, 0.0),
+                1e-4,
+            );
+            check(
+                16,
+                "surface_material (diffuse transmission colour, factor)",
+                Vec3::from(e.diffuse_transmission_color).extend(e.diffuse_transmission),
                 1e-4,
             );
             let key = UVec4::new(in3.w.to_bits(), in4.w.to_bits(), 7, 11);

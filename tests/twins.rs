@@ -80,6 +80,13 @@ fn twin_material(i: u32) -> GpuMaterial {
             [0.0; 3]
         },
         sheen_roughness: if (i / 8).is_multiple_of(2) { 0.3 } else { 0.8 },
+        anisotropy: if (i / 3) % 3 == 1 { 0.8 } else { 0.0 },
+        anisotropy_direction: [0.48, 0.6, -0.64],
+        iridescence: if (i / 3) % 3 == 2 { 0.9 } else { 0.0 },
+        iridescence_ior: 1.6,
+        iridescence_thickness: 350.0,
+        diffuse_transmission: if (i / 5) % 3 == 1 { 0.6 } else { 0.0 },
+        diffuse_transmission_color: [0.3, 0.9, 0.5],
         ..Default::default()
     }
 }
@@ -384,8 +391,16 @@ fn glsl_functions_equal_their_rust_twins() {
                     )
             },
         );
-        // Microfacet pieces in the local frame: wo = the cosine-sampled w.
-        let alpha = 0.02 + c.u.w;
+        // Microfacet pieces in the local frame: wo = the cosine-sampled w; anisotropic α in
+        // half the cases.
+        let alpha = Vec2::new(
+            0.02 + c.u.w,
+            if i & 2 != 0 {
+                0.02 + c.u.x
+            } else {
+                0.02 + c.u.w
+            },
+        );
         let h = sample_ggx_vndf(w, alpha, Vec2::new(c.u.z, c.u.w));
         check(13, "sample_ggx_vndf", h.extend(0.0), &|a, b| {
             close(a.truncate().extend(0.0), b, ANGLE_TOL)
@@ -404,7 +419,7 @@ fn glsl_functions_equal_their_rust_twins() {
             Vec4::new(
                 ggx_d(gh, alpha),
                 ggx_lambda(w, alpha),
-                ggx_visibility(w.z, gh.z, alpha),
+                ggx_visibility(w, gh, alpha),
                 fresnel_dielectric(c.u.x, dielectric_f0(1.5), c.u.y, etap),
             ),
             &|a, b| close(a, b, 1e-4),

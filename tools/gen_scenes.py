@@ -30,6 +30,7 @@ KHR_materials_emissive_strength.
   fig. 9.2), see veach_mis().
 - many-lights.gltf: 10,240 small emissive triangles of 16 colours and strengths in a canopy
   above a floor with a few diffuse boxes, for many-light sampling, see many_lights().
+- leaf.gltf: a leaf lit from behind (KHR_materials_diffuse_transmission), see leaf().
 """
 
 import base64
@@ -546,9 +547,44 @@ def many_lights():
     return g
 
 
+def leaf():
+    """A leaf lit from behind: KHR_materials_diffuse_transmission. The leaf is a flat outline of
+    24 points (a fan about its centre, counter-clockwise seen from +Z, in the XY plane, 1.8
+    tall), double-sided, dark green (baseColor (0.15, 0.35, 0.05), roughness 0.6) with
+    diffuseTransmissionFactor 0.7 and a yellow-green diffuseTransmissionColorFactor
+    (0.5, 0.9, 0.2); a 0.8 x 0.8 light (strength 6) 1.5 behind it faces it and the camera, which
+    looks at the leaf's front from 3.2 in front; a grey floor 1.2 below.
+    """
+    g = Gltf()
+    grey = g.lambertian("floor", (0.5, 0.5, 0.5))
+    light = g.lambertian("light", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 6.0)
+    green = g.material("leaf", (0.15, 0.35, 0.05), metallic=0.0, roughness=0.6, extensions={
+        "KHR_materials_diffuse_transmission": {
+            "diffuseTransmissionFactor": 0.7, "diffuseTransmissionColorFactor": [0.5, 0.9, 0.2]}})
+    g.doc["materials"][green]["doubleSided"] = True
+    outline = []
+    for k in range(24):
+        t = 2.0 * math.pi * k / 24
+        # Narrower towards the tip (+Y) than the stem.
+        width = 0.55 * math.sin(t) * (1.0 - 0.35 * math.cos(t))
+        outline.append((round(width, 6), round(0.9 * math.cos(t), 6), 0.0))
+    positions = [(0.0, 0.0, 0.0)] + outline
+    # The outline runs clockwise seen from +Z (x = sin t): fan it the other way round.
+    triangles = [(0, 1 + (k + 1) % 24, 1 + k) for k in range(24)]
+    check_winding(positions, triangles, lambda centroid: (0.0, 0.0, 1.0))
+    g.node({"name": "leaf", "mesh": g.mesh("leaf", g.geometry(positions, triangles), green)})
+    rect = g.geometry(*rectangle())
+    g.node({"name": "light", "mesh": g.mesh("light", rect, light),
+            "matrix": column_major([[0.4, 0, 0, 0], [0, 0.4, 0, 0], [0, 0, 1, -1.5]])})
+    g.node({"name": "floor", "mesh": g.mesh("floor", rect, grey),
+            "matrix": column_major([[4, 0, 0, 0], [0, 0, 4, -1.2], [0, -4, 0, 0]])})
+    g.camera("camera", math.radians(45.0), (0.0, 0.0, 3.2))
+    return g
+
+
 SCENES = [("cornell-box.gltf", cornell_box), ("cornell-materials.gltf", cornell_materials),
           ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis), ("instances.gltf", instances),
-          ("many-lights.gltf", many_lights), ("caustic.gltf", caustic)]
+          ("many-lights.gltf", many_lights), ("caustic.gltf", caustic), ("leaf.gltf", leaf)]
 
 
 def main():

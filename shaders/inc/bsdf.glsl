@@ -1,5 +1,5 @@
 // The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
-// _specular, _unlit, _clearcoat and _sheen: twin of src/bsdf/mod.rs, same names; the model and its conventions are
+// _specular, _unlit, _clearcoat, _sheen, _anisotropy, _iridescence and _diffuse_transmission: twin of src/bsdf/mod.rs, same names; the model and its conventions are
 // written down there. Direction convention: wo points towards where the light goes (previous
 // vertex), wi towards where it comes from; both point away from the surface; ng is the
 // front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
@@ -8,6 +8,7 @@
 #define BSDF_GLSL
 #include "microfacet.glsl"
 #include "sheen.glsl"
+#include "iridescence.glsl"
 
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
@@ -17,7 +18,8 @@
 #define LOBE_TRANSMISSION 2u
 #define LOBE_CLEARCOAT 3u
 #define LOBE_SHEEN 4u
-#define LOBE_COUNT 5u
+#define LOBE_DIFFUSE_TRANSMISSION 5u
+#define LOBE_COUNT 6u
 
 // A material seen from wo: local frame (+Z on wo's side), relative IOR, lobe probabilities.
 struct BsdfFrame {
@@ -28,17 +30,23 @@ struct BsdfFrame {
     vec3 base;
     float metallic;
     float transmission;
-    float alpha;
+    vec2 alpha;        // GGX (alpha_t, alpha_b) along t and b (anisotropic_alpha)
     float etap;        // eta on the far side / eta on wo's side
     vec3 f0;           // the dielectric Fresnel's RGB F0 (specular_f0) and F90 (specular)
     float f90;
+    float film;        // KHR_materials_iridescence's film: factor (0: none), index, thickness (nm)
+    float film_ior;
+    float film_thickness;
+    float dt;          // KHR_materials_diffuse_transmission: factor (0: none), colour
+    vec3 dt_color;
     vec4 lobe_pmf;     // diffuse, reflection, transmission, clearcoat (bsdf_lobe_pmf: all five)
     float sheen_pmf;   // the sheen lobe's
+    float dt_pmf;      // the diffuse transmission lobe's
     float albedo_estimate;
     vec3 ng;           // geometric normal on wo's side, local
     vec3 ng_world;     // the same, world space
     float clearcoat;   // the coat's weight (0: none), alpha, world frame about N_c, wo in it
-    float cc_alpha;
+    vec2 cc_alpha;
     vec3 cc_t;
     vec3 cc_b;
     vec3 cc_n;
@@ -74,6 +82,53 @@ vec3 bend_shading_normal(vec3 ns, vec3 ng, vec3 wo) {
     return normalize(wo + lifted);
 }
 
+// KHR_materials_anisotropy's (alpha_t, alpha_b) = (mix(alpha, 1, strength^2), alpha); a delta
+// where alpha_t < ALPHA_DELTA, else alpha_b at least ALPHA_DELTA (bsdf/mod.rs, anisotropic_alpha).
+vec2 anisotropic_alpha(float alpha, float strength) {
+    if (strength <= 0.0) return vec2(alpha);
+    float at = alpha + (1.0 - alpha) * strength * strength;
+    return vec2(at, at < ALPHA_DELTA ? alpha : max(alpha, ALPHA_DELTA));
+}
+
+// The tangent frame about n: the anisotropy direction made orthogonal to n where strength > 0,
+// else (and where it is degenerate) build_frame's (bsdf/mod.rs, anisotropic_frame).
+void anisotropic_frame(vec3 n, float strength, vec3 direction, out vec3 t, out vec3 b) {
+    if (strength > 0.0) {
+        t = direction - n * dot(n, direction);
+        float len = length(t);
+        if (len > 1e-12 && !isinf(len)) {
+            t /= len;
+            b = cross(n, t);
+            return;
+        }
+    }
+    build_frame(n, t, b);
+}
+
+// The dielectric (RGB) and metal Fresnel terms at cosine cos to the microfacet normal on wo's
+// side, each mixed with the thin film's by its factor (bsdf/mod.rs, fresnel_layers).
+void fresnel_layers(float cos_theta, vec3 f0, float f90, float etap, vec3 base, float metallic,
+                    float film, float film_ior, float film_thickness, out vec3 fd, out vec3 fm) {
+    fd = fresnel_dielectric_color(cos_theta, f0, f90, etap);
+    fm = fresnel_conductor(base, cos_theta);
+    if (film <= 0.0) return;
+    float c = min(abs(cos_theta), 1.0);
+    bool tir = false;
+    if (etap < 1.0) {
+        float sin2_t = (1.0 - c * c) / (etap * etap);
+        tir = sin2_t >= 1.0;
+        c = sqrt(max(1.0 - sin2_t, 0.0));
+    }
+    if (!tir && metallic < 1.0) {
+        vec3 thin = min(fresnel_iridescence(1.0, film_ior, c, film_thickness, f0), vec3(1.0));
+        fd += (thin - fd) * film;
+    }
+    if (metallic > 0.0) {
+        vec3 thin = min(fresnel_iridescence(1.0, film_ior, min(abs(cos_theta), 1.0), film_thickness, base), vec3(1.0));
+        fm += (thin - fm) * film;
+    }
+}
+
 float average3(vec3 v) {
     return (v.x + v.y + v.z) / 3.0;
 }
@@ -88,23 +143,27 @@ float max3(vec3 v) {
 bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFrame f) {
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
-    f.metallic = 0.0; f.transmission = 0.0; f.alpha = 0.0; f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
-    f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0;
+    f.metallic = 0.0; f.transmission = 0.0; f.alpha = vec2(0.0); f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
+    f.film = 0.0; f.film_ior = 1.0; f.film_thickness = 0.0;
+    f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0; f.dt_pmf = 0.0;
+    f.dt = 0.0; f.dt_color = vec3(0.0);
     f.albedo_estimate = 0.0; f.ng = vec3(0.0, 0.0, 1.0);
     f.sheen_color = vec3(0.0); f.sheen_max = 0.0; f.sheen_alpha = 1.0; f.sheen_roughness = 0.0;
     f.sheen_scale_o = 1.0;
-    f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = 0.0;
+    f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = vec2(0.0);
     f.cc_t = vec3(0.0); f.cc_b = vec3(0.0); f.cc_n = vec3(0.0); f.cc_wo = vec3(0.0);
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
     vec3 ng_wo = front ? ng : -ng;
     bool geometric = all(equal(ns, ng));
     f.n = geometric ? ng_wo : bend_shading_normal(front ? ns : -ns, ng_wo, wo);
-    build_frame(f.n, f.t, f.b);
+    // The tangent: the anisotropy direction where the material has one, else any.
+    bool unlit = (m.flags & MATERIAL_UNLIT) != 0u;
+    float anisotropy = unlit ? 0.0 : m.anisotropy;
+    anisotropic_frame(f.n, anisotropy, m.anisotropy_direction, f.t, f.b);
     f.wo = vec3(dot(wo, f.t), dot(wo, f.b), geometric ? abs(cos_g) : dot(wo, f.n));
     if (!geometric) f.ng = vec3(dot(ng_wo, f.t), dot(ng_wo, f.b), dot(ng_wo, f.n));
     // An unlit surface scatters nothing: every lobe's weight is 0.
-    bool unlit = (m.flags & MATERIAL_UNLIT) != 0u;
     f.transmission = (m.metallic < 1.0 && !unlit) ? m.transmission : 0.0;
     float ior = max(m.ior, 1.0);
     f.etap = (f.transmission > 0.0 && !front) ? 1.0 / ior : ior;
@@ -113,16 +172,24 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.metallic = unlit ? 0.0 : m.metallic;
     f.f0 = specular_f0(m.ior, m.specular_color, specular);
     f.f90 = specular;
-    f.alpha = m.roughness * m.roughness;
+    f.alpha = anisotropic_alpha(m.roughness * m.roughness, anisotropy);
+    f.film = unlit ? 0.0 : m.iridescence;
+    f.film_ior = m.iridescence_ior;
+    f.film_thickness = m.iridescence_thickness;
     // Lobe albedo estimates at the macro normal (Fresnel at cos theta_o).
-    vec3 fe = fresnel_dielectric_color(f.wo.z, f.f0, f.f90, f.etap);
-    float fm = average3(fresnel_conductor(f.base, f.wo.z));
+    vec3 fe, fm3;
+    fresnel_layers(f.wo.z, f.f0, f.f90, f.etap, f.base, f.metallic, f.film, f.film_ior, f.film_thickness, fe, fm3);
+    float fm = average3(fm3);
     float dielectric = 1.0 - f.metallic;
-    vec4 w = vec4(dielectric * (1.0 - f.transmission) * (1.0 - max3(fe)) * average3(f.base),
+    f.dt = unlit ? 0.0 : m.diffuse_transmission;
+    f.dt_color = m.diffuse_transmission_color;
+    float diffuse = dielectric * (1.0 - f.transmission) * (1.0 - max3(fe));
+    vec4 w = vec4(diffuse * (1.0 - f.dt) * average3(f.base),
                   dielectric * average3(fe) + f.metallic * fm,
                   dielectric * f.transmission * (1.0 - max3(fe)) * average3(f.base),
                   0.0);
     float w_sheen = 0.0;
+    float w_dt = diffuse * f.dt * average3(f.dt_color);
     // The sheen: its albedo E(cos theta_o) taken from the layers below (albedo scaling).
     f.sheen_color = unlit ? vec3(0.0) : m.sheen_color;
     f.sheen_max = max3(f.sheen_color);
@@ -132,12 +199,13 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
         float e = sheen_albedo(f.wo.z, m.sheen_roughness);
         f.sheen_scale_o = max(1.0 - f.sheen_max * e, 0.0);
         w.xyz *= f.sheen_scale_o;
+        w_dt *= f.sheen_scale_o;
         w_sheen = average3(f.sheen_color) * e;
     }
     // The coat: its frame about N_c and its weight clearcoat * F_c(wo.N_c) taken from the base.
     f.ng_world = ng_wo;
     f.clearcoat = unlit ? 0.0 : m.clearcoat;
-    f.cc_alpha = m.clearcoat_roughness * m.clearcoat_roughness;
+    f.cc_alpha = vec2(m.clearcoat_roughness * m.clearcoat_roughness);
     f.cc_t = f.t; f.cc_b = f.b; f.cc_n = f.n; f.cc_wo = f.wo;
     if (f.clearcoat > 0.0) {
         vec3 nc = m.clearcoat_normal;
@@ -149,18 +217,25 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
         float wc = f.clearcoat * fresnel_coat(f.cc_wo.z);
         w.xyz *= 1.0 - wc;
         w_sheen *= 1.0 - wc;
+        w_dt *= 1.0 - wc;
         w.w = wc;
     }
-    float total = w.x + w.y + w.z + w.w + w_sheen;
+    float total = w.x + w.y + w.z + w.w + w_sheen + w_dt;
     f.lobe_pmf = total > 0.0 ? w / total : vec4(0.0);
     f.sheen_pmf = total > 0.0 ? w_sheen / total : 0.0;
+    f.dt_pmf = total > 0.0 ? w_dt / total : 0.0;
     f.albedo_estimate = total;
     return true;
 }
 
+// The dielectric and metal Fresnel terms at cosine cos_theta (BsdfFrame::fresnel).
+void bsdf_fresnel(BsdfFrame f, float cos_theta, out vec3 fd, out vec3 fm) {
+    fresnel_layers(cos_theta, f.f0, f.f90, f.etap, f.base, f.metallic, f.film, f.film_ior, f.film_thickness, fd, fm);
+}
+
 // The probability of choosing lobe k (BsdfFrame::lobe_pmf[k]).
 float bsdf_lobe_pmf(BsdfFrame f, uint k) {
-    return k == LOBE_SHEEN ? f.sheen_pmf : f.lobe_pmf[k];
+    return k == LOBE_SHEEN ? f.sheen_pmf : (k == LOBE_DIFFUSE_TRANSMISSION ? f.dt_pmf : f.lobe_pmf[k]);
 }
 
 // The frame of the geometric normal alone (BsdfFrame::new).
@@ -187,7 +262,7 @@ vec3 bsdf_to_world(BsdfFrame f, vec3 v) {
 }
 
 bool bsdf_is_delta(BsdfFrame f) {
-    return f.alpha < ALPHA_DELTA;
+    return f.alpha.x < ALPHA_DELTA;
 }
 
 // Generalised half vector of a refraction (Walter et al. 2007, eq. 16) on wo's side.
@@ -206,6 +281,17 @@ float bsdf_sheen_scale(BsdfFrame f, float cos_i) {
     return min(f.sheen_scale_o, max(1.0 - f.sheen_max * e, 0.0));
 }
 
+// KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local wi (wi.z < 0), F on
+// the half vector of wo and wi mirrored to wo's side (BsdfFrame::eval_diffuse_transmission).
+vec3 bsdf_eval_diffuse_transmission(BsdfFrame f, vec3 wi) {
+    if (f.dt <= 0.0) return vec3(0.0);
+    vec3 h = normalize(f.wo + vec3(wi.xy, -wi.z));
+    vec3 fd, fm;
+    bsdf_fresnel(f, dot(f.wo, h), fd, fm);
+    return (1.0 - f.metallic) * (1.0 - f.transmission) * f.dt * (1.0 - max3(fd)) * INV_PI
+         * bsdf_sheen_scale(f, wi.z) * f.dt_color;
+}
+
 // f of the non-delta lobes for local wi.
 vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     vec3 wo = f.wo;
@@ -214,11 +300,12 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     if (wi.z > 0.0) {
         vec3 h = normalize(wo + wi);
         float vh = dot(wo, h);
-        vec3 fd = fresnel_dielectric_color(vh, f.f0, f.f90, f.etap);
-        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - max3(fd)) * INV_PI * f.base;
+        vec3 fd, fm;
+        bsdf_fresnel(f, vh, fd, fm);
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
         if (!bsdf_is_delta(f)) {
-            float spec = ggx_d(h, f.alpha) * ggx_visibility(wo.z, wi.z, f.alpha);
-            value += (dielectric * fd + f.metallic * fresnel_conductor(f.base, vh)) * spec;
+            float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
+            value += (dielectric * fd + f.metallic * fm) * spec;
         }
         if (f.sheen_max > 0.0) {
             value = value * bsdf_sheen_scale(f, wi.z)
@@ -226,18 +313,22 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         }
         return value;
     }
-    if (wi.z < 0.0 && f.transmission > 0.0 && !bsdf_is_delta(f)) {
+    if (wi.z < 0.0) {
+        vec3 diffuse = bsdf_eval_diffuse_transmission(f, wi);
+        if (f.transmission <= 0.0 || bsdf_is_delta(f)) return diffuse;
         vec3 m;
-        if (!refraction_half_vector(f, wi, m)) return vec3(0.0);
+        if (!refraction_half_vector(f, wi, m)) return diffuse;
         float om = dot(wo, m);
         float im = dot(wi, m);
-        float fd = max3(fresnel_dielectric_color(om, f.f0, f.f90, f.etap));
+        vec3 fd3, fm;
+        bsdf_fresnel(f, om, fd3, fm);
+        float fd = max3(fd3);
         float denom = f.etap * im + om;
         // Walter et al. 2007, eq. 21, for radiance (the 1/eta^2 of refraction included).
-        float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo.z, wi.z, f.alpha);
+        float g2 = 4.0 * wo.z * abs(wi.z) * ggx_visibility(wo, wi, f.alpha);
         float ft = ggx_d(m, f.alpha) * g2 * abs(im * om) / (wo.z * abs(wi.z) * denom * denom);
         if (mode == TRANSPORT_IMPORTANCE) ft *= f.etap * f.etap;
-        return dielectric * f.transmission * (1.0 - fd) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
+        return diffuse + dielectric * f.transmission * (1.0 - fd) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
     }
     return vec3(0.0);
 }
@@ -255,11 +346,13 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
         if (f.sheen_pmf > 0.0) pdf += f.sheen_pmf * uniform_cone_pdf(0.0);
         return pdf;
     }
-    if (wi.z < 0.0 && !bsdf_is_delta(f) && f.lobe_pmf.z > 0.0) {
+    if (wi.z < 0.0) {
+        float diffuse = f.dt_pmf * cosine_hemisphere_pdf(-wi.z);
+        if (bsdf_is_delta(f) || f.lobe_pmf.z <= 0.0) return diffuse;
         vec3 m;
-        if (!refraction_half_vector(f, wi, m)) return 0.0;
+        if (!refraction_half_vector(f, wi, m)) return diffuse;
         float denom = f.etap * dot(wi, m) + dot(wo, m);
-        return f.lobe_pmf.z * ggx_vndf_pdf(wo, m, f.alpha) * f.etap * f.etap * abs(dot(wi, m))
+        return diffuse + f.lobe_pmf.z * ggx_vndf_pdf(wo, m, f.alpha) * f.etap * f.etap * abs(dot(wi, m))
              / (denom * denom);
     }
     return 0.0;
@@ -269,10 +362,11 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
 bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 value) {
     vec3 wo = f.wo;
     float dielectric = 1.0 - f.metallic;
-    vec3 fd = fresnel_dielectric_color(wo.z, f.f0, f.f90, f.etap);
+    vec3 fd, fm;
+    bsdf_fresnel(f, wo.z, fd, fm);
     if (lobe == LOBE_REFLECTION) {
         wi = vec3(-wo.x, -wo.y, wo.z);
-        value = (dielectric * fd + f.metallic * fresnel_conductor(f.base, wo.z)) * bsdf_sheen_scale(f, wo.z);
+        value = (dielectric * fd + f.metallic * fm) * bsdf_sheen_scale(f, wo.z);
         return true;
     }
     value = vec3(0.0);
@@ -283,7 +377,7 @@ bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 va
 }
 
 bool bsdf_cc_is_delta(BsdfFrame f) {
-    return f.cc_alpha < ALPHA_DELTA;
+    return f.cc_alpha.x < ALPHA_DELTA;
 }
 
 vec3 bsdf_to_cc_local(BsdfFrame f, vec3 v) {
@@ -302,7 +396,7 @@ float bsdf_eval_clearcoat(BsdfFrame f, vec3 wi, uint mode) {
     vec3 wc = bsdf_to_cc_local(f, wi);
     if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
     vec3 h = normalize(f.cc_wo + wc);
-    float spec = ggx_d(h, f.cc_alpha) * ggx_visibility(f.cc_wo.z, wc.z, f.cc_alpha);
+    float spec = ggx_d(h, f.cc_alpha) * ggx_visibility(f.cc_wo, wc, f.cc_alpha);
     if (all(equal(f.cc_n, f.n))) return spec;
     float ratio = mode == TRANSPORT_RADIANCE ? wc.z / abs(dot(wi, f.n)) : f.cc_wo.z / f.wo.z;
     return (isinf(ratio) || isnan(ratio)) ? 0.0 : spec * ratio;
@@ -393,7 +487,7 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
         }
     } else {
         vec3 local;
-        if (lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && bsdf_is_delta(f)) {
+        if ((lobe == LOBE_REFLECTION || lobe == LOBE_TRANSMISSION) && bsdf_is_delta(f)) {
             vec3 value;
             if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
             wi = bsdf_to_world(f, local);
@@ -405,6 +499,8 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
         }
         if (lobe == LOBE_DIFFUSE) {
             local = sample_cosine_hemisphere(u.xy);
+        } else if (lobe == LOBE_DIFFUSE_TRANSMISSION) {
+            local = sample_cosine_hemisphere(u.xy) * vec3(1.0, 1.0, -1.0);
         } else if (lobe == LOBE_SHEEN) {
             local = sample_uniform_cone(u.xy, 0.0);
         } else if (lobe == LOBE_REFLECTION) {
@@ -413,7 +509,7 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
             return false;
         }
         // Each lobe keeps to its side (the mixture pdf counts each lobe only on its own side).
-        bool reflects = lobe != LOBE_TRANSMISSION;
+        bool reflects = lobe != LOBE_TRANSMISSION && lobe != LOBE_DIFFUSE_TRANSMISSION;
         if ((local.z > 0.0) != reflects || local.z == 0.0) return false;
         world = bsdf_to_world(f, local);
     }

@@ -43,7 +43,7 @@ struct GpuTriangle {
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
 // texture references that modulate its factors at each surface point (surface.glsl).
-// Total: 160 bytes.
+// Total: 256 bytes.
 struct GpuMaterial {
     vec3 base_color;     // 12 bytes: linear RGB, baseColorFactor
     uint flags;          // 4 bytes
@@ -75,6 +75,24 @@ struct GpuMaterial {
     uint sheen_color_texture;         // 4 bytes: sRGB; RGB x sheen_color
     vec3 sheen_color;                 // 12 bytes: sheenColorFactor (0: no sheen)
     uint sheen_roughness_texture;     // 4 bytes: A x sheen_roughness
+    vec3 anisotropy_direction;        // 12 bytes: KHR_materials_anisotropy's world direction at a hit (0: none)
+    float anisotropy;                 // 4 bytes: anisotropyStrength (x texture B at a hit)
+    float anisotropy_rotation;        // 4 bytes: anisotropyRotation, radians
+    uint anisotropy_texture;          // 4 bytes: RG direction, B x anisotropy
+    float iridescence;                // 4 bytes: KHR_materials_iridescence's iridescenceFactor
+    float iridescence_ior;            // 4 bytes
+    float iridescence_thickness_min;  // 4 bytes: nm
+    float iridescence_thickness;      // 4 bytes: nm, the maximum (at a hit: mix(min, max, texture G))
+    uint iridescence_texture;         // 4 bytes: R x iridescence
+    uint iridescence_thickness_texture; // 4 bytes: G
+    vec3 attenuation;                 // 12 bytes: KHR_materials_volume's sigma = -ln(colour)/distance behind back faces (0: none)
+    float thickness;                  // 4 bytes: thicknessFactor
+    vec3 diffuse_transmission_color;  // 12 bytes: KHR_materials_diffuse_transmission's colour factor
+    float diffuse_transmission;       // 4 bytes: diffuseTransmissionFactor (0: none)
+    uint diffuse_transmission_texture;       // 4 bytes: A x diffuse_transmission
+    uint diffuse_transmission_color_texture; // 4 bytes: sRGB; RGB x the colour
+    uint pad0;                        // 4 bytes
+    uint pad1;                        // 4 bytes
 };
 
 // Shading attributes of one vertex, world space. Total: 64 bytes.
@@ -228,7 +246,7 @@ struct DispatchParams {
     uint clear_mask;     // 4 bytes: dispatch_args: bit k set = zero counters[k]
 };
 
-// What carries between bounces for one path. Total: 64 bytes.
+// What carries between bounces for one path. Total: 80 bytes.
 struct PathState {
     vec3 throughput;      // 12 bytes
     float prev_bsdf_pdf;  // 4 bytes
@@ -238,6 +256,8 @@ struct PathState {
     float cone_width;     // 4 bytes: ray cone width at the ray's origin
     vec3 prev_normal;     // 12 bytes: its geometric normal
     uint pad0;            // 4 bytes
+    vec3 medium;          // 12 bytes: attenuation coefficient of the medium the ray enters at its origin
+    uint pad1;            // 4 bytes
 };
 
 // Extension-queue ray. Total: 32 bytes.

@@ -1,7 +1,8 @@
 // The GGX (Trowbridge-Reitz) microfacet model and Schlick's Fresnel in the local shading frame
 // (+Z = normal): twin of src/bsdf/microfacet.rs. glTF 2.0 Appendix B: GGX D with
 // alpha = roughness^2, height-correlated Smith visibility, Schlick on v.h; visible normals
-// sampled after Heitz, JCGT 7(4), 2018.
+// sampled after Heitz, JCGT 7(4), 2018. alpha = (alpha_x, alpha_y) along the frame's tangent and
+// bitangent: KHR_materials_anisotropy's GGX, isotropic where the two are equal.
 #ifndef MICROFACET_GLSL
 #define MICROFACET_GLSL
 #include "sampling.glsl"
@@ -9,39 +10,41 @@
 // Below this alpha the specular lobes are perfectly smooth (delta lobes).
 #define ALPHA_DELTA 1e-3
 
-// GGX D(m), solid angle of microfacet normals (Walter et al. 2007, eq. 33).
-float ggx_d(vec3 m, float alpha) {
+// GGX D(m), solid angle of microfacet normals: 1 / (pi ax ay (mx^2/ax^2 + my^2/ay^2 + mz^2)^2)
+// (Heitz 2014, eq. 85; KHR_materials_anisotropy's D_GGX_anisotropic); no cancellation for
+// narrow lobes.
+float ggx_d(vec3 m, vec2 alpha) {
     if (m.z <= 0.0) return 0.0;
-    // (n.m)^2 (alpha^2 - 1) + 1 as alpha^2 (n.m)^2 + sin^2: no cancellation for narrow lobes.
-    float a2 = alpha * alpha;
-    float d = a2 * m.z * m.z + (m.x * m.x + m.y * m.y);
-    return a2 / (PI * d * d);
+    float x = m.x / alpha.x;
+    float y = m.y / alpha.y;
+    float d = x * x + y * y + m.z * m.z;
+    return 1.0 / (PI * alpha.x * alpha.y * d * d);
 }
 
-// Smith's Lambda for GGX (Heitz 2014, eq. 72).
-float ggx_lambda(vec3 w, float alpha) {
+// Smith's Lambda for GGX (Heitz 2014, eqs. 72 and 86).
+float ggx_lambda(vec3 w, vec2 alpha) {
     float c2 = w.z * w.z;
     if (c2 == 0.0) return 3.402823466e38;  // grazing: fully masked
-    float t2 = (w.x * w.x + w.y * w.y) / c2;
-    return 0.5 * (-1.0 + sqrt(1.0 + alpha * alpha * t2));
+    float x = alpha.x * w.x;
+    float y = alpha.y * w.y;
+    float t2 = (x * x + y * y) / c2;
+    return 0.5 * (-1.0 + sqrt(1.0 + t2));
 }
 
-float ggx_g1(vec3 w, float alpha) {
+float ggx_g1(vec3 w, vec2 alpha) {
     return 1.0 / (1.0 + ggx_lambda(w, alpha));
 }
 
-// Height-correlated Smith visibility G2 / (4 |n.l| |n.v|), as glTF Appendix B writes it.
-float ggx_visibility(float cos_o, float cos_i, float alpha) {
-    float co = abs(cos_o);
-    float ci = abs(cos_i);
-    float a2 = alpha * alpha;
-    float denom = ci * sqrt(a2 + (1.0 - a2) * co * co) + co * sqrt(a2 + (1.0 - a2) * ci * ci);
+// Height-correlated Smith visibility G2 / (4 |n.l| |n.v|) of local wo, wi (either side), as
+// KHR_materials_anisotropy's V_GGX_anisotropic (glTF Appendix B's where ax = ay) writes it.
+float ggx_visibility(vec3 wo, vec3 wi, vec2 alpha) {
+    float denom = abs(wi.z) * length(vec3(alpha * wo.xy, wo.z)) + abs(wo.z) * length(vec3(alpha * wi.xy, wi.z));
     return denom > 0.0 ? 0.5 / denom : 0.0;
 }
 
-// A visible normal of GGX seen from wo (wo.z > 0) (Heitz 2018, listing 1).
-vec3 sample_ggx_vndf(vec3 wo, float alpha, vec2 u) {
-    vec3 vh = normalize(vec3(alpha * wo.x, alpha * wo.y, wo.z));
+// A visible normal of GGX seen from wo (wo.z > 0) (Heitz 2018, listing 1, anisotropic).
+vec3 sample_ggx_vndf(vec3 wo, vec2 alpha, vec2 u) {
+    vec3 vh = normalize(vec3(alpha.x * wo.x, alpha.y * wo.y, wo.z));
     float lensq = vh.x * vh.x + vh.y * vh.y;
     vec3 t1 = lensq > 0.0 ? vec3(-vh.y, vh.x, 0.0) / sqrt(lensq) : vec3(1.0, 0.0, 0.0);
     vec3 t2 = cross(vh, t1);
@@ -51,11 +54,11 @@ vec3 sample_ggx_vndf(vec3 wo, float alpha, vec2 u) {
     float s = 0.5 * (1.0 + vh.z);
     float p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * r * sin(phi);
     vec3 nh = p1 * t1 + p2 * t2 + sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0)) * vh;
-    return normalize(vec3(alpha * nh.x, alpha * nh.y, max(nh.z, 0.0)));
+    return normalize(vec3(alpha.x * nh.x, alpha.y * nh.y, max(nh.z, 0.0)));
 }
 
 // Pdf of sample_ggx_vndf, solid angle of microfacet normals (Heitz 2018, eq. 1).
-float ggx_vndf_pdf(vec3 wo, vec3 m, float alpha) {
+float ggx_vndf_pdf(vec3 wo, vec3 m, vec2 alpha) {
     if (wo.z <= 0.0) return 0.0;
     return ggx_g1(wo, alpha) * max(dot(wo, m), 0.0) * ggx_d(m, alpha) / wo.z;
 }

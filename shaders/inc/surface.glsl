@@ -95,18 +95,47 @@ vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
 
+// The unit tangent and bitangent of the point's tangent frame: TANGENT made orthogonal to the
+// interpolated normal, B = w cross(N, T); false where the tangent is degenerate.
+bool surface_tangent_frame(SurfacePoint sp, out vec3 t, out vec3 b) {
+    vec3 n = sp.ns;
+    t = sp.tangent.xyz - n * dot(n, sp.tangent.xyz);
+    b = vec3(0.0);
+    float t_len = length(t);
+    if (!(t_len > 1e-12) || isinf(t_len)) return false;
+    t /= t_len;
+    b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
+    return true;
+}
+
+// KHR_materials_anisotropy at the point (surface.rs, surface_anisotropy): the strength and the
+// world direction of alpha_t, T d.x + B d.y with d the texture's RG in [-1, 1]^2 (else (1, 0))
+// rotated by anisotropyRotation; strength 0 where the tangent frame is degenerate.
+float surface_anisotropy(GpuMaterial m, SurfacePoint sp, vec2 lod, out vec3 direction) {
+    vec3 t, b;
+    direction = vec3(0.0);
+    if (!surface_tangent_frame(sp, t, b)) return 0.0;
+    vec2 d = vec2(1.0, 0.0);
+    float strength = m.anisotropy;
+    if (m.anisotropy_texture != NO_TEXTURE) {
+        vec4 texel = sample_texture_ref(m.anisotropy_texture, sp.uv0, sp.uv1, lod);
+        d = 2.0 * texel.xy - vec2(1.0);
+        strength *= texel.z;
+    }
+    float s = sin(m.anisotropy_rotation);
+    float c = cos(m.anisotropy_rotation);
+    d = vec2(c * d.x - s * d.y, s * d.x + c * d.y);
+    direction = t * d.x + b * d.y;
+    return strength;
+}
 
 // The interpolated normal perturbed by tangent-space normal map `tex` (or NO_TEXTURE), XY scaled
 // by `scale` (surface_mapped_normal): the base's and the clearcoat's maps.
 vec3 surface_mapped_normal(uint tex, float scale, SurfacePoint sp, vec2 lod) {
     if (tex == NO_TEXTURE) return sp.ns;
     vec3 n = sp.ns;
-    vec3 t = sp.tangent.xyz;
-    t = t - n * dot(n, t);
-    float t_len = length(t);
-    if (!(t_len > 1e-12) || isinf(t_len)) return n;
-    t /= t_len;
-    vec3 b = cross(n, t) * (sp.tangent.w < 0.0 ? -1.0 : 1.0);
+    vec3 t, b;
+    if (!surface_tangent_frame(sp, t, b)) return n;
     vec4 texel = sample_texture_ref(tex, sp.uv0, sp.uv1, lod);
     float x = (2.0 * texel.x - 1.0) * scale;
     float y = (2.0 * texel.y - 1.0) * scale;
@@ -160,6 +189,20 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     if (o.clearcoat > 0.0 && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)) {
         o.clearcoat_normal = surface_mapped_normal(m.clearcoat_normal_texture, m.clearcoat_normal_scale, sp, lod);
     }
+    if (m.iridescence_texture != NO_TEXTURE) {
+        o.iridescence *= sample_texture_ref(m.iridescence_texture, sp.uv0, sp.uv1, lod).x;
+    }
+    if (m.iridescence_thickness_texture != NO_TEXTURE) {
+        float g = sample_texture_ref(m.iridescence_thickness_texture, sp.uv0, sp.uv1, lod).y;
+        o.iridescence_thickness = mix(m.iridescence_thickness_min, m.iridescence_thickness, g);
+    }
+    if (m.diffuse_transmission_texture != NO_TEXTURE) {
+        o.diffuse_transmission *= sample_texture_ref(m.diffuse_transmission_texture, sp.uv0, sp.uv1, lod).w;
+    }
+    if (m.diffuse_transmission_color_texture != NO_TEXTURE) {
+        o.diffuse_transmission_color = m.diffuse_transmission_color * sample_texture_ref(m.diffuse_transmission_color_texture, sp.uv0, sp.uv1, lod).xyz;
+    }
+    if (m.anisotropy > 0.0) o.anisotropy = surface_anisotropy(m, sp, lod, o.anisotropy_direction);
     return o;
 }
 

@@ -27,7 +27,7 @@ const vec4 SHEEN_TABLE_UNUSED[1] = vec4[](vec4(0.0));
 #include "surface.glsl"
 
 #define INPUTS_PER_CASE 6u
-#define OUTPUTS_PER_CASE 14u
+#define OUTPUTS_PER_CASE 17u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -82,4 +82,7 @@ void main() {
     outputs[o + 11u] = vec4(e.clearcoat, e.clearcoat_roughness, 0.0, 0.0);
     outputs[o + 12u] = vec4(e.clearcoat_normal, 0.0);
     outputs[o + 13u] = vec4(e.sheen_color, e.sheen_roughness);
+    outputs[o + 14u] = vec4(e.anisotropy_direction, e.anisotropy);
+    outputs[o + 15u] = vec4(e.iridescence, e.iridescence_thickness, 0.0, 0.0);
+    outputs[o + 16u] = vec4(e.diffuse_transmission_color, e.diffuse_transmission);
 }

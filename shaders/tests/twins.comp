@@ -29,7 +29,7 @@ layout(push_constant) uniform Push { uint case_count; };
 layout(local_size_x = WORKGROUP_SIZE) in;
 
 // The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
-// specular factor and colour, clearcoat, sheen swept by the case index; the last 512 cases are unlit.
+// specular factor and colour, clearcoat, sheen, anisotropy, iridescence, diffuse transmission swept by the case index; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
@@ -58,6 +58,22 @@ GpuMaterial twin_material(uint i) {
     m.sheen_roughness = (i / 8u) % 2u == 0u ? 0.3 : 0.8;
     m.sheen_color_texture = NO_TEXTURE;
     m.sheen_roughness_texture = NO_TEXTURE;
+    m.anisotropy = (i / 3u) % 3u == 1u ? 0.8 : 0.0;
+    m.anisotropy_direction = vec3(0.48, 0.6, -0.64);
+    m.anisotropy_rotation = 0.0;
+    m.anisotropy_texture = NO_TEXTURE;
+    m.iridescence = (i / 3u) % 3u == 2u ? 0.9 : 0.0;
+    m.iridescence_ior = 1.6;
+    m.iridescence_thickness_min = 100.0;
+    m.iridescence_thickness = 350.0;
+    m.iridescence_texture = NO_TEXTURE;
+    m.iridescence_thickness_texture = NO_TEXTURE;
+    m.attenuation = vec3(0.0);
+    m.thickness = 0.0;
+    m.diffuse_transmission = (i / 5u) % 3u == 1u ? 0.6 : 0.0;
+    m.diffuse_transmission_color = vec3(0.3, 0.9, 0.5);
+    m.diffuse_transmission_texture = NO_TEXTURE;
+    m.diffuse_transmission_color_texture = NO_TEXTURE;
     return m;
 }
 
@@ -108,10 +124,10 @@ void main() {
     outputs[o + 12u] = vec4(uintBitsToFloat(p), strat, 0.0);
 
     // Microfacet pieces in the local frame, wo = the cosine-sampled w (z >= 0).
-    float alpha = 0.02 + u.w;
+    vec2 alpha = vec2(0.02 + u.w, (i & 2u) != 0u ? 0.02 + u.x : 0.02 + u.w);
     vec3 h = sample_ggx_vndf(w, alpha, u.zw);
     outputs[o + 13u] = vec4(h, ggx_vndf_pdf(w, h, alpha));
-    outputs[o + 14u] = vec4(ggx_d(h, alpha), ggx_lambda(w, alpha), ggx_visibility(w.z, h.z, alpha),
+    outputs[o + 14u] = vec4(ggx_d(h, alpha), ggx_lambda(w, alpha), ggx_visibility(w, h, alpha),
                             fresnel_dielectric(u.x, dielectric_f0(1.5), u.y, (i & 1u) != 0u ? 1.5 : 1.0 / 1.5));
     vec3 refracted;
     bool refracts = refract_through(w, vec3(0.0, 0.0, 1.0), (i & 1u) != 0u ? 1.5 : 1.0 / 1.5, refracted);

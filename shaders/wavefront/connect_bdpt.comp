@@ -15,6 +15,7 @@
 #include "rng.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
+#include "volume.glsl"
 #include "scene.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
@@ -109,7 +110,10 @@ void main() {
                 camera_side *= f;
             }
         }
-        c = qs.beta * at_light * camera_side;
+        // KHR_materials_volume: the connection's attenuation, its medium read from either end.
+        vec3 sigma = bdpt_on_surface(qs) ? volume_sigma(mat_qs, qs.ng, w_q) : vec3(0.0);
+        if (t > 1u) sigma = max(sigma, volume_sigma(mat_pt, pt.ng, -w_q));
+        c = qs.beta * at_light * camera_side * transmittance(sigma, dist);
     }
     if (!(max_component(c) > 0.0) || any(isinf(c)) || any(isnan(c))) return;
     if (!bdpt_path_matches(path, s, t)) return;

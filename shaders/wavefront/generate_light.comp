@@ -11,6 +11,7 @@
 #include "rng.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
+#include "volume.glsl"
 #include "scene.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
@@ -36,6 +37,8 @@ void main() {
     state.prev_position = vec3(0.0);
     state.prev_normal = vec3(0.0);
     state.pad0 = 0u;
+    state.medium = vec3(0.0);
+    state.pad1 = 0u;
     paths[i] = state;
     bool bdpt = frame.integrator == INTEGRATOR_BDPT;
     if (bdpt) {
@@ -64,7 +67,7 @@ void main() {
         uint target;
         float g_we;
         if (camera_connection(y0.p, y0.ng, !point, w, dist, target, g_we, shadow)) {
-            queue_camera_join(shadow, y0.beta * emitted_radiance(mat, dot(y0.ng, w)) * g_we, i, light_path_ends_here(state.prev_specular, 4u));
+            queue_camera_join(shadow, y0.beta * emitted_radiance(mat, dot(y0.ng, w)) * g_we * transmittance(volume_sigma(mat, y0.ng, w), dist), i, light_path_ends_here(state.prev_specular, 4u));
         }
     }
     if (frame.max_depth == 0u) return;
@@ -103,6 +106,8 @@ void main() {
     state.cone_width = pdf_dir;
     if (!(max_component(beta) > 0.0) || frame.max_depth == 0u) return;
     state.throughput = beta;
+    // The medium the ray enters (an emitter's volume behind its back face; none at a point).
+    if (!point) state.medium = volume_sigma(mat, y0.ng, dir);
     // Russian roulette on light subpaths compares the throughput with its first value.
     state.prev_bsdf_pdf = max_component(beta);
     paths[i] = state;

@@ -8,6 +8,7 @@
 #include "rng.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
+#include "volume.glsl"
 #include "mis.glsl"
 #include "scene.glsl"
 #include "texture.glsl"
@@ -36,6 +37,7 @@ struct LightSample {
     bool delta;
     vec3 radiance;
     float pdf;
+    vec3 medium;  // volume_sigma at the light's end of the shadow segment
 };
 
 // Next event estimation towards the environment (src/cpu/path.rs, sample_environment).
@@ -47,6 +49,7 @@ bool sample_environment(vec2 u, out LightSample ls) {
     ls.delta = false;
     ls.radiance = found ? env_radiance(ls.wi) : vec3(0.0);
     ls.pdf = frame.env_pmf * pdf;
+    ls.medium = vec3(0.0);
     return found;
 }
 
@@ -61,6 +64,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     ls.delta = false;
     ls.radiance = vec3(0.0);
     ls.pdf = 0.0;
+    ls.medium = vec3(0.0);
     if (frame.light_count == 0u) return false;
     float keep = 1.0 - frame.env_pmf;
     float u_table = min((u_pick - frame.env_pmf) / keep, ONE_MINUS_EPSILON);
@@ -108,6 +112,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     ls.target = offset_ray_origin(y, cos_light > 0.0 ? light_n : -light_n);
     // Solid-angle pdf: pmf * (1/area) * dist^2 / |cos at the light|.
     ls.pdf = pmf * dist2 / (abs(cos_light) * light.area);
+    ls.medium = volume_sigma(light_mat, light_n, -ls.wi);
     return true;
 }
 
@@ -126,8 +131,9 @@ void main() {
     vec3 wo = -ray.dir;
 
     // Escaped: the environment's radiance, weighted against sampling the environment from the
-    // previous vertex.
+    // previous vertex (a ray that leaves into a volume and escapes crossed an infinite medium).
     if (hit.triangle == NO_HIT) {
+        state.throughput *= transmittance(state.medium, 3.402823466e38);
         if (frame.aov == AOV_RADIANCE && frame.env_width > 0u && path_ends_here(state.pad0, 4u)) {
             vec3 le = env_radiance(ray.dir);
             float w = 1.0;
@@ -150,6 +156,8 @@ void main() {
     float cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
     GpuMaterial raw = materials[triangle_material(tri)];
+    // KHR_materials_volume: the segment's attenuation, its medium read from either end.
+    state.throughput *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
     vec2 lod = (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
     GpuMaterial mat = surface_material(raw, sp, lod);
     // --aov: a property of the first hit instead of radiance.
@@ -212,7 +220,9 @@ void main() {
                     shadow.dir = ls.wi;
                     shadow.t_max = 3.402823466e38;
                 }
-                shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, ls.wi) * ls.radiance * (w / ls.pdf);
+                // The shadow segment's attenuation, its medium read from either end.
+                vec3 tr = transmittance(max(volume_sigma(mat, ng, ls.wi), ls.medium), shadow.t_max);
+                shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, ls.wi) * ls.radiance * tr * (w / ls.pdf);
                 shadow.pad = 0u;
                 shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
             }
@@ -236,6 +246,7 @@ void main() {
     state.prev_specular = delta ? 1u : 0u;
     state.prev_position = p;
     state.prev_normal = ng;
+    state.medium = volume_sigma(mat, ng, wi);
     if (max_component(state.throughput) <= 0.0) {
         paths[ray.path] = state;
         return;

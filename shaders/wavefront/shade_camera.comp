@@ -12,6 +12,7 @@
 #include "rng.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
+#include "volume.glsl"
 #include "scene.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
@@ -45,6 +46,8 @@ void main() {
     GpuMaterial raw = materials[triangle_material(tri)];
     GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
     vec3 ns = surface_normal(raw, sp, LOD_MAGNIFY);
+    // KHR_materials_volume: the segment's attenuation, its medium read from either end.
+    beta *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
 
     BdptVertex v = bdpt_endpoint(BDPT_VERTEX_SURFACE, p, ng, beta, 1.0, hit.triangle);
     v.ns = ns;
@@ -96,6 +99,7 @@ void main() {
         beta *= w;
     }
     state.throughput = beta;
+    state.medium = volume_sigma(mat, ng, wi);
     paths[ray.path] = state;
     QueuedRay next;
     next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);

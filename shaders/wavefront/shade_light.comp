@@ -10,6 +10,7 @@
 #include "rng.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
+#include "volume.glsl"
 #include "scene.glsl"
 #include "texture.glsl"
 #include "surface.glsl"
@@ -45,6 +46,8 @@ void main() {
     GpuMaterial raw = materials[triangle_material(tri)];
     GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
     vec3 ns = surface_normal(raw, sp, LOD_MAGNIFY);
+    // KHR_materials_volume: the segment's attenuation, its medium read from either end.
+    beta *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
 
     bool bdpt = frame.integrator == INTEGRATOR_BDPT;
     uint k = depth + 1u;  // the vertex's index in its subpath
@@ -68,7 +71,7 @@ void main() {
         uint target;
         float g_we;
         if (camera_connection(p, ng, true, w, dist, target, g_we, shadow) && camera_sees(hit.triangle, ng, w)) {
-            queue_camera_join(shadow, beta * phi(mat, ng, ns, w, wo) * g_we, ray.path, light_path_ends_here(state.prev_specular, SYM_D));
+            queue_camera_join(shadow, beta * phi(mat, ng, ns, w, wo) * g_we * transmittance(volume_sigma(mat, ng, w), dist), ray.path, light_path_ends_here(state.prev_specular, SYM_D));
         }
     }
     if (depth + 1u >= frame.max_depth) return;
@@ -114,6 +117,7 @@ void main() {
         beta *= w;
     }
     state.throughput = beta;
+    state.medium = volume_sigma(mat, ng, wi);
     if (paths_enabled()) state.prev_specular = dfa_step_forward(state.prev_specular, delta ? SYM_S : SYM_D);
     paths[ray.path] = state;
     QueuedRay next;

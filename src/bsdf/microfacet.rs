@@ -4,6 +4,10 @@
 //! glTF 2.0 Appendix B: D is GGX with α = roughness², V the height-correlated Smith visibility
 //! G₂ / (4 |n·l| |n·v|), F Schlick's approximation on v·h. Visible normals are sampled after
 //! Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018.
+//!
+//! Every function takes the roughness as α = (α_x, α_y) along the frame's X (tangent) and Y
+//! (bitangent) axes: the anisotropic GGX of KHR_materials_anisotropy (α_t, α_b), of which the
+//! isotropic model is α_x = α_y = α (one copy of the code serves both).
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -15,41 +19,44 @@ use std::f32::consts::PI;
 pub const ALPHA_DELTA: f32 = 1e-3;
 
 /// GGX normal distribution D(m) with respect to solid angle of microfacet normals, m on +Z's
-/// side (Walter et al. 2007, eq. 33; glTF Appendix B "D").
-pub fn ggx_d(m: Vec3, alpha: f32) -> f32 {
+/// side: 1 / (π α_x α_y (m_x²/α_x² + m_y²/α_y² + m_z²)²) (Heitz 2014, "Understanding the
+/// Masking-Shadowing Function", eq. 85; Walter et al. 2007, eq. 33 where α_x = α_y; glTF
+/// Appendix B "D" and KHR_materials_anisotropy's D_GGX_anisotropic). The sum keeps its
+/// precision for narrow lobes (the textbook (n·m)²(α² − 1) + 1 cancels when n·m → 1, α → 0).
+pub fn ggx_d(m: Vec3, alpha: Vec2) -> f32 {
     if m.z <= 0.0 {
         return 0.0;
     }
-    // (n·m)²(α² − 1) + 1 written as α²(n·m)² + sin²θm, which keeps its precision for narrow
-    // lobes (the textbook form cancels catastrophically when n·m → 1 and α → 0).
-    let a2 = alpha * alpha;
-    let d = a2 * m.z * m.z + (m.x * m.x + m.y * m.y);
-    a2 / (PI * d * d)
+    let (x, y) = (m.x / alpha.x, m.y / alpha.y);
+    let d = x * x + y * y + m.z * m.z;
+    1.0 / (PI * alpha.x * alpha.y * d * d)
 }
 
-/// Smith's Λ for GGX: (−1 + √(1 + α² tan²θ)) / 2 (Heitz 2014, "Understanding the
-/// Masking-Shadowing Function", eq. 72), for a direction on either side.
-pub fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
+/// Smith's Λ for GGX: (−1 + √(1 + (α_x² w_x² + α_y² w_y²)/w_z²)) / 2 (Heitz 2014, eqs. 72 and
+/// 86), for a direction on either side.
+pub fn ggx_lambda(w: Vec3, alpha: Vec2) -> f32 {
     let c2 = w.z * w.z;
     if c2 == 0.0 {
         return f32::MAX; // grazing: fully masked (finite, as the GLSL twin must be)
     }
-    let t2 = (w.x * w.x + w.y * w.y) / c2;
-    0.5 * (-1.0 + (1.0 + alpha * alpha * t2).sqrt())
+    let (x, y) = (alpha.x * w.x, alpha.y * w.y);
+    let t2 = (x * x + y * y) / c2;
+    0.5 * (-1.0 + (1.0 + t2).sqrt())
 }
 
 /// Smith masking of one direction, G₁ = 1 / (1 + Λ).
-pub fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
+pub fn ggx_g1(w: Vec3, alpha: Vec2) -> f32 {
     1.0 / (1.0 + ggx_lambda(w, alpha))
 }
 
-/// Height-correlated Smith visibility V = G₂ / (4 |n·l| |n·v|), written as glTF Appendix B
-/// writes it: 0.5 / (|n·l| √(α² + (1 − α²)(n·v)²) + |n·v| √(α² + (1 − α²)(n·l)²)), which equals
+/// Height-correlated Smith visibility V = G₂ / (4 |n·l| |n·v|) of local `wo`, `wi` (either
+/// side), written as KHR_materials_anisotropy's V_GGX_anisotropic writes it:
+/// 0.5 / (|n·l| |(α_x v_x, α_y v_y, v_z)| + |n·v| |(α_x l_x, α_y l_y, l_z)|), which for
+/// α_x = α_y is glTF Appendix B's 0.5 / (|n·l| √(α² + (1 − α²)(n·v)²) + …) and equals
 /// G₂ = 1 / (1 + Λ(v) + Λ(l)) (Heitz 2014, eq. 99) divided by 4 |n·l| |n·v|.
-pub fn ggx_visibility(cos_o: f32, cos_i: f32, alpha: f32) -> f32 {
-    let (co, ci) = (cos_o.abs(), cos_i.abs());
-    let a2 = alpha * alpha;
-    let denom = ci * (a2 + (1.0 - a2) * co * co).sqrt() + co * (a2 + (1.0 - a2) * ci * ci).sqrt();
+pub fn ggx_visibility(wo: Vec3, wi: Vec3, alpha: Vec2) -> f32 {
+    let stretched = |w: Vec3| Vec3::new(alpha.x * w.x, alpha.y * w.y, w.z).length();
+    let denom = wi.z.abs() * stretched(wo) + wo.z.abs() * stretched(wi);
     if denom > 0.0 {
         0.5 / denom
     } else {
@@ -58,10 +65,10 @@ pub fn ggx_visibility(cos_o: f32, cos_i: f32, alpha: f32) -> f32 {
 }
 
 /// A visible normal of GGX seen from `wo` (wo.z > 0), from two uniform numbers (Heitz 2018,
-/// listing 1): stretch the view to the hemisphere configuration, sample the projected
-/// hemisphere, unstretch.
-pub fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
-    let vh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+/// listing 1, anisotropic as written there): stretch the view to the hemisphere
+/// configuration, sample the projected hemisphere, unstretch.
+pub fn sample_ggx_vndf(wo: Vec3, alpha: Vec2, u: Vec2) -> Vec3 {
+    let vh = Vec3::new(alpha.x * wo.x, alpha.y * wo.y, wo.z).normalize();
     let lensq = vh.x * vh.x + vh.y * vh.y;
     let t1 = if lensq > 0.0 {
         Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
@@ -75,12 +82,12 @@ pub fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let s = 0.5 * (1.0 + vh.z);
     let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
     let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
-    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize()
+    Vec3::new(alpha.x * nh.x, alpha.y * nh.y, nh.z.max(0.0)).normalize()
 }
 
 /// Pdf of [`sample_ggx_vndf`] with respect to solid angle of microfacet normals:
 /// D_wo(m) = G₁(wo) max(0, wo·m) D(m) / wo.z (Heitz 2018, eq. 1).
-pub fn ggx_vndf_pdf(wo: Vec3, m: Vec3, alpha: f32) -> f32 {
+pub fn ggx_vndf_pdf(wo: Vec3, m: Vec3, alpha: Vec2) -> f32 {
     if wo.z <= 0.0 {
         return 0.0;
     }

@@ -51,17 +51,38 @@
 //! (symmetric in V and L, so reciprocal), E tabulated by quadrature; the lobe is sampled
 //! uniformly over the hemisphere.
 //!
+//! KHR_materials_anisotropy: the base's GGX lobes (metal and dielectric reflection,
+//! transmission) take α_t = mix(α, 1, strength²) along the anisotropy direction and α_b = α
+//! across it (the extension's "Implementation"; [`anisotropic_alpha`]), with the anisotropic D,
+//! Smith Λ and height-correlated visibility and the anisotropic visible-normal sampling of
+//! Heitz 2018 (`microfacet`). The frame's tangent is the direction
+//! (`GpuMaterial::anisotropy_direction`, from the mesh's tangents) made orthogonal to the
+//! shading normal; the other lobes are isotropic and do not see it.
+//!
+//! KHR_materials_iridescence replaces the dielectric and the metal Fresnel by their mix with a
+//! thin film's (`iridescence`, Belcour & Barla 2017 as the extension writes it), on v·h like
+//! the core model's Fresnel ([`fresnel_layers`]); the layers below the dielectric specular are
+//! scaled by 1 − max(F) of the mixed F as KHR_materials_specular says.
+//!
+//! KHR_materials_diffuse_transmission splits the diffuse lobe as the extension's
+//! `mix(diffuse_brdf, diffuse_btdf, diffuseTransmission)` does: (1 − dt)·c/π on `wo`'s side
+//! and dt·dtColor/π on the far side (a thin surface: no refraction, no η), both under
+//! 1 − max(F) of the specular layer, the far side's F taken on the half vector of `wo` and `wi`
+//! mirrored to `wo`'s side (as the Khronos sample renderer does), which keeps f symmetric.
+//!
 //! KHR_materials_unlit: the surface shows its base colour term whatever the lighting. A path
 //! tracer gives it that look by making the surface an emitter of exactly that radiance
 //! (`surface::surface_emission`) whose BSDF is zero: seen directly it is its base colour, it
 //! reflects and transmits nothing, and like every emitter it lights the scene (a rasteriser's
 //! unlit surface lights nothing only because rasterisers have no indirect light).
 
+pub mod iridescence;
 pub mod microfacet;
 pub mod sheen;
 mod sheen_table;
 #[cfg(test)]
 mod tests;
+pub mod volume;
 
 use crate::layout::{GpuMaterial, MATERIAL_UNLIT};
 use crate::sampling::{
@@ -69,6 +90,7 @@ use crate::sampling::{
     uniform_cone_pdf,
 };
 use glam::{Vec2, Vec3};
+use iridescence::fresnel_iridescence;
 use microfacet::*;
 use sheen::{charlie_d, sheen_albedo, sheen_alpha, sheen_visibility};
 use std::f32::consts::FRAC_1_PI;
@@ -99,8 +121,9 @@ pub const LOBE_REFLECTION: usize = 1;
 pub const LOBE_TRANSMISSION: usize = 2;
 pub const LOBE_CLEARCOAT: usize = 3;
 pub const LOBE_SHEEN: usize = 4;
+pub const LOBE_DIFFUSE_TRANSMISSION: usize = 5;
 /// How many lobes [`BsdfFrame::lobe_pmf`] chooses among.
-pub const LOBE_COUNT: usize = 5;
+pub const LOBE_COUNT: usize = 6;
 
 /// A material seen from `wo`: the local frame with +Z on `wo`'s side, the relative index of
 /// refraction and the lobe selection probabilities.
@@ -114,12 +137,18 @@ pub struct BsdfFrame {
     base: Vec3,
     metallic: f32,
     transmission: f32,
-    alpha: f32,
+    /// GGX α along `t` and `b` ([`anisotropic_alpha`]).
+    alpha: Vec2,
     /// η on the far side / η on `wo`'s side (1 for opaque surfaces' geometry).
     etap: f32,
     /// The dielectric Fresnel's RGB F0 ([`specular_f0`]) and F90 (specular).
     f0: Vec3,
     f90: f32,
+    /// KHR_materials_iridescence's thin film over the base ([`fresnel_layers`]).
+    film: ThinFilm,
+    /// KHR_materials_diffuse_transmission: its factor (0: none) and colour.
+    dt: f32,
+    dt_color: Vec3,
     /// Probabilities of choosing the diffuse, reflection, transmission, clearcoat and sheen
     /// lobes.
     pub lobe_pmf: [f32; LOBE_COUNT],
@@ -133,7 +162,7 @@ pub struct BsdfFrame {
     /// The clearcoat layer: its weight (0: none), α, world frame about N_c (on `wo`'s side) and
     /// `wo` in that frame.
     clearcoat: f32,
-    cc_alpha: f32,
+    cc_alpha: Vec2,
     cc_t: Vec3,
     cc_b: Vec3,
     cc_n: Vec3,
@@ -152,6 +181,55 @@ pub struct BsdfFrame {
 pub fn fresnel_coat(cos: f32) -> f32 {
     let f0 = dielectric_f0(1.5);
     f0 + (1.0 - f0) * schlick_weight(cos.abs())
+}
+
+/// KHR_materials_iridescence's film: its factor (0: none), index and thickness (nm).
+#[derive(Clone, Copy, Debug)]
+pub struct ThinFilm {
+    pub factor: f32,
+    pub ior: f32,
+    pub thickness: f32,
+}
+
+/// The dielectric (RGB: KHR_materials_specular's F0, F90, [`fresnel_dielectric_color`]) and the
+/// metal ([`fresnel_conductor`]) Fresnel terms at cosine `cos` to the microfacet normal on
+/// `wo`'s side, each mixed with the thin film's reflectance by its factor as
+/// KHR_materials_iridescence writes it: F = mix(F_base, F_film, iridescenceFactor), the film over
+/// a base of F0 = the dielectric's F0 or the base colour ([`fresnel_iridescence`], seen from air
+/// at the outside cosine: the transmitted angle's when `etap` < 1; total internal reflection
+/// stays 1). The film's reflectance is clamped to [0, 1] so that the layers below keep a
+/// non-negative 1 − max(F).
+pub fn fresnel_layers(
+    cos: f32,
+    f0: Vec3,
+    f90: f32,
+    etap: f32,
+    base: Vec3,
+    metallic: f32,
+    film: &ThinFilm,
+) -> (Vec3, Vec3) {
+    let mut fd = fresnel_dielectric_color(cos, f0, f90, etap);
+    let mut fm = fresnel_conductor(base, cos);
+    if film.factor <= 0.0 {
+        return (fd, fm);
+    }
+    let mut c = cos.abs().min(1.0);
+    let mut tir = false;
+    if etap < 1.0 {
+        let sin2_t = (1.0 - c * c) / (etap * etap);
+        tir = sin2_t >= 1.0;
+        c = (1.0 - sin2_t).max(0.0).sqrt();
+    }
+    if !tir && metallic < 1.0 {
+        let thin = fresnel_iridescence(1.0, film.ior, c, film.thickness, f0).min(Vec3::ONE);
+        fd += (thin - fd) * film.factor;
+    }
+    if metallic > 0.0 {
+        let thin = fresnel_iridescence(1.0, film.ior, cos.abs().min(1.0), film.thickness, base)
+            .min(Vec3::ONE);
+        fm += (thin - fm) * film.factor;
+    }
+    (fd, fm)
 }
 
 /// How far above the geometric surface the shading normal must reflect `wo`
@@ -179,6 +257,40 @@ pub fn bend_shading_normal(ns: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
         * ((1.0 - SHADING_NORMAL_MIN_COS * SHADING_NORMAL_MIN_COS).sqrt() / length)
         + SHADING_NORMAL_MIN_COS * ng;
     (wo + lifted).normalize()
+}
+
+/// KHR_materials_anisotropy's roughnesses (α_t, α_b) = (mix(α, 1, strength²), α) (the
+/// extension's "Implementation"); (α, α) without anisotropy. The lobe is a delta where α_t <
+/// [`ALPHA_DELTA`]; otherwise α_b is at least [`ALPHA_DELTA`] (a lobe rough along the tangent
+/// and smooth across it is a line of directions, no density: it is kept finitely narrow).
+pub fn anisotropic_alpha(alpha: f32, strength: f32) -> Vec2 {
+    if strength <= 0.0 {
+        return Vec2::splat(alpha);
+    }
+    let at = alpha + (1.0 - alpha) * strength * strength;
+    Vec2::new(
+        at,
+        if at < ALPHA_DELTA {
+            alpha
+        } else {
+            alpha.max(ALPHA_DELTA)
+        },
+    )
+}
+
+/// The tangent frame (t, b) about unit `n`: where `strength` > 0, t is `direction` made
+/// orthogonal to n (KHR_materials_anisotropy's α_t axis) and b = n × t; else, and where the
+/// direction is degenerate, [`build_frame`]'s.
+pub fn anisotropic_frame(n: Vec3, strength: f32, direction: Vec3) -> (Vec3, Vec3) {
+    if strength > 0.0 {
+        let t = direction - n * n.dot(direction);
+        let length = t.length();
+        if length > 1e-12 && length.is_finite() {
+            let t = t / length;
+            return (t, n.cross(t));
+        }
+    }
+    build_frame(n)
 }
 
 fn average(v: Vec3) -> f32 {
@@ -209,14 +321,17 @@ impl BsdfFrame {
         } else {
             bend_shading_normal(if front { ns } else { -ns }, ng_wo, wo)
         };
-        let (t, b) = build_frame(n);
+        // The tangent: KHR_materials_anisotropy's direction of α_t where the material has one,
+        // else any (the other lobes are isotropic about n).
+        let unlit = m.flags & MATERIAL_UNLIT != 0;
+        let anisotropy = if unlit { 0.0 } else { m.anisotropy };
+        let (t, b) = anisotropic_frame(n, anisotropy, Vec3::from(m.anisotropy_direction));
         let wo_local = Vec3::new(
             wo.dot(t),
             wo.dot(b),
             if ns == ng { cos_g.abs() } else { wo.dot(n) },
         );
         // An unlit surface scatters nothing: every lobe's weight is 0.
-        let unlit = m.flags & MATERIAL_UNLIT != 0;
         let transmission = if m.metallic < 1.0 && !unlit {
             m.transmission
         } else {
@@ -235,16 +350,25 @@ impl BsdfFrame {
         };
         let f0 = specular_f0(m.ior, Vec3::from(m.specular_color), specular);
         let f90 = specular;
+        let film = ThinFilm {
+            factor: if unlit { 0.0 } else { m.iridescence },
+            ior: m.iridescence_ior,
+            thickness: m.iridescence_thickness,
+        };
         // Lobe albedo estimates at the macro normal (Fresnel at cos θo).
-        let fe = fresnel_dielectric_color(wo_local.z, f0, f90, etap);
-        let fm = average(fresnel_conductor(base, wo_local.z));
+        let (fe, fm) = fresnel_layers(wo_local.z, f0, f90, etap, base, metallic, &film);
+        let fm = average(fm);
         let dielectric = 1.0 - metallic;
+        let dt = if unlit { 0.0 } else { m.diffuse_transmission };
+        let dt_color = Vec3::from(m.diffuse_transmission_color);
+        let diffuse = dielectric * (1.0 - transmission) * (1.0 - fe.max_element());
         let mut w = [
-            dielectric * (1.0 - transmission) * (1.0 - fe.max_element()) * average(base),
+            diffuse * (1.0 - dt) * average(base),
             dielectric * average(fe) + metallic * fm,
             dielectric * transmission * (1.0 - fe.max_element()) * average(base),
             0.0,
             0.0,
+            diffuse * dt * average(dt_color),
         ];
         // The sheen: its albedo E(cos θo) taken from the layers below (albedo scaling).
         let sheen_color = if unlit {
@@ -257,8 +381,8 @@ impl BsdfFrame {
         if sheen_max > 0.0 {
             let e = sheen_albedo(wo_local.z, m.sheen_roughness);
             sheen_scale_o = (1.0 - sheen_max * e).max(0.0);
-            for x in &mut w[..3] {
-                *x *= sheen_scale_o;
+            for k in [0, 1, 2, LOBE_DIFFUSE_TRANSMISSION] {
+                w[k] *= sheen_scale_o;
             }
             w[LOBE_SHEEN] = average(sheen_color) * e;
         }
@@ -274,13 +398,13 @@ impl BsdfFrame {
                 cc_wo = Vec3::new(wo.dot(cc_t), wo.dot(cc_b), wo.dot(cc_n));
             }
             let wc = clearcoat * fresnel_coat(cc_wo.z);
-            for x in &mut w[..3] {
-                *x *= 1.0 - wc;
+            for k in [0, 1, 2, LOBE_DIFFUSE_TRANSMISSION] {
+                w[k] *= 1.0 - wc;
             }
             w[LOBE_SHEEN] *= 1.0 - wc;
             w[LOBE_CLEARCOAT] = wc;
         }
-        let total = w[0] + w[1] + w[2] + w[3] + w[4];
+        let total = w.iter().sum::<f32>();
         let lobe_pmf = if total > 0.0 {
             w.map(|x| x / total)
         } else {
@@ -294,10 +418,13 @@ impl BsdfFrame {
             base,
             metallic,
             transmission,
-            alpha: m.roughness * m.roughness,
+            alpha: anisotropic_alpha(m.roughness * m.roughness, anisotropy),
             etap,
             f0,
             f90,
+            film,
+            dt,
+            dt_color,
             lobe_pmf,
             albedo_estimate: total,
             ng: if ns == ng {
@@ -307,7 +434,7 @@ impl BsdfFrame {
             },
             ng_world: ng_wo,
             clearcoat,
-            cc_alpha: m.clearcoat_roughness * m.clearcoat_roughness,
+            cc_alpha: Vec2::splat(m.clearcoat_roughness * m.clearcoat_roughness),
             cc_t,
             cc_b,
             cc_n,
@@ -340,7 +467,7 @@ impl BsdfFrame {
     }
 
     fn is_delta(&self) -> bool {
-        self.alpha < ALPHA_DELTA
+        self.alpha.x < ALPHA_DELTA
     }
 
     /// The generalised half vector of a refraction (Walter et al. 2007, eq. 16), on `wo`'s side;
@@ -353,6 +480,19 @@ impl BsdfFrame {
         (m.is_finite() && self.wo.dot(m) > 0.0 && wi.dot(m) < 0.0).then_some(m)
     }
 
+    /// The dielectric and metal Fresnel terms at cosine `cos` ([`fresnel_layers`]).
+    fn fresnel(&self, cos: f32) -> (Vec3, Vec3) {
+        fresnel_layers(
+            cos,
+            self.f0,
+            self.f90,
+            self.etap,
+            self.base,
+            self.metallic,
+            &self.film,
+        )
+    }
+
     /// f of the non-delta lobes for local `wi`.
     fn eval_local(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
         let wo = self.wo;
@@ -363,15 +503,16 @@ impl BsdfFrame {
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
             let vh = wo.dot(h);
-            let fd = fresnel_dielectric_color(vh, self.f0, self.f90, self.etap);
+            let (fd, fm) = self.fresnel(vh);
             let mut f = dielectric
                 * (1.0 - self.transmission)
+                * (1.0 - self.dt)
                 * (1.0 - fd.max_element())
                 * FRAC_1_PI
                 * self.base;
             if !self.is_delta() {
-                let spec = ggx_d(h, self.alpha) * ggx_visibility(wo.z, wi.z, self.alpha);
-                f += (dielectric * fd + self.metallic * fresnel_conductor(self.base, vh)) * spec;
+                let spec = ggx_d(h, self.alpha) * ggx_visibility(wo, wi, self.alpha);
+                f += (dielectric * fd + self.metallic * fm) * spec;
             }
             if self.sheen_max > 0.0 {
                 f = f * self.sheen_scale(wi.z)
@@ -380,24 +521,53 @@ impl BsdfFrame {
                             * sheen_visibility(wo.z, wi.z, self.sheen_alpha));
             }
             f
-        } else if wi.z < 0.0 && self.transmission > 0.0 && !self.is_delta() {
+        } else if wi.z < 0.0 {
+            let diffuse = self.eval_diffuse_transmission(wi);
+            if self.transmission <= 0.0 || self.is_delta() {
+                return diffuse;
+            }
             let Some(m) = self.refraction_half_vector(wi) else {
-                return Vec3::ZERO;
+                return diffuse;
             };
             let (om, im) = (wo.dot(m), wi.dot(m));
-            let fd = fresnel_dielectric_color(om, self.f0, self.f90, self.etap).max_element();
+            let fd = self.fresnel(om).0.max_element();
             let denom = self.etap * im + om;
             // Walter et al. 2007, eq. 21, for radiance (the 1/η² of refraction included).
-            let g2 = 4.0 * wo.z * wi.z.abs() * ggx_visibility(wo.z, wi.z, self.alpha);
+            let g2 = 4.0 * wo.z * wi.z.abs() * ggx_visibility(wo, wi, self.alpha);
             let mut ft =
                 ggx_d(m, self.alpha) * g2 * (im * om).abs() / (wo.z * wi.z.abs() * denom * denom);
             if mode == TransportMode::Importance {
                 ft *= self.etap * self.etap;
             }
-            dielectric * self.transmission * (1.0 - fd) * ft * self.sheen_scale(wi.z) * self.base
+            diffuse
+                + dielectric
+                    * self.transmission
+                    * (1.0 - fd)
+                    * ft
+                    * self.sheen_scale(wi.z)
+                    * self.base
         } else {
             Vec3::ZERO
         }
+    }
+
+    /// KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local `wi`
+    /// (wi.z < 0): (1 − metallic)(1 − transmission)·dt·(1 − max F)·dtColor/π, F on the half
+    /// vector of `wo` and `wi` mirrored to `wo`'s side (symmetric in the two, as the thin
+    /// surface is), under the sheen's scaling.
+    fn eval_diffuse_transmission(&self, wi: Vec3) -> Vec3 {
+        if self.dt <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = (self.wo + Vec3::new(wi.x, wi.y, -wi.z)).normalize();
+        let fd = self.fresnel(self.wo.dot(h)).0.max_element();
+        (1.0 - self.metallic)
+            * (1.0 - self.transmission)
+            * self.dt
+            * (1.0 - fd)
+            * FRAC_1_PI
+            * self.sheen_scale(wi.z)
+            * self.dt_color
     }
 
     /// Solid-angle pdf of the non-delta lobes' mixture at local `wi`.
@@ -406,7 +576,7 @@ impl BsdfFrame {
         if !self.consistent(wi) {
             return 0.0;
         }
-        let [p_diffuse, p_reflection, p_transmission, _, p_sheen] = self.lobe_pmf;
+        let [p_diffuse, p_reflection, p_transmission, _, p_sheen, p_dt] = self.lobe_pmf;
         if wi.z > 0.0 {
             let mut pdf = p_diffuse * cosine_hemisphere_pdf(wi.z);
             if !self.is_delta() && p_reflection > 0.0 {
@@ -418,18 +588,23 @@ impl BsdfFrame {
                 pdf += p_sheen * uniform_cone_pdf(0.0);
             }
             pdf
-        } else if wi.z < 0.0 && !self.is_delta() && p_transmission > 0.0 {
+        } else if wi.z < 0.0 {
+            let diffuse = p_dt * cosine_hemisphere_pdf(-wi.z);
+            if self.is_delta() || p_transmission <= 0.0 {
+                return diffuse;
+            }
             let Some(m) = self.refraction_half_vector(wi) else {
-                return 0.0;
+                return diffuse;
             };
             let denom = self.etap * wi.dot(m) + wo.dot(m);
             // dω_m/dω_i = η² |wi·m| / (wo·m + η wi·m)² (Walter et al. 2007, eq. 17).
-            p_transmission
-                * ggx_vndf_pdf(wo, m, self.alpha)
-                * self.etap
-                * self.etap
-                * wi.dot(m).abs()
-                / (denom * denom)
+            diffuse
+                + p_transmission
+                    * ggx_vndf_pdf(wo, m, self.alpha)
+                    * self.etap
+                    * self.etap
+                    * wi.dot(m).abs()
+                    / (denom * denom)
         } else {
             0.0
         }
@@ -439,9 +614,9 @@ impl BsdfFrame {
     fn delta_lobe(&self, lobe: usize, mode: TransportMode) -> Option<(Vec3, Vec3)> {
         let wo = self.wo;
         let dielectric = 1.0 - self.metallic;
-        let fd = fresnel_dielectric_color(wo.z, self.f0, self.f90, self.etap);
+        let (fd, fm) = self.fresnel(wo.z);
         if lobe == LOBE_REFLECTION {
-            let value = dielectric * fd + self.metallic * fresnel_conductor(self.base, wo.z);
+            let value = dielectric * fd + self.metallic * fm;
             Some((
                 Vec3::new(-wo.x, -wo.y, wo.z),
                 value * self.sheen_scale(wo.z),
@@ -472,7 +647,7 @@ impl BsdfFrame {
     }
 
     fn cc_is_delta(&self) -> bool {
-        self.cc_alpha < ALPHA_DELTA
+        self.cc_alpha.x < ALPHA_DELTA
     }
 
     fn to_cc_local(self, v: Vec3) -> Vec3 {
@@ -499,7 +674,7 @@ impl BsdfFrame {
             return 0.0;
         }
         let h = (self.cc_wo + wc).normalize();
-        let spec = ggx_d(h, self.cc_alpha) * ggx_visibility(self.cc_wo.z, wc.z, self.cc_alpha);
+        let spec = ggx_d(h, self.cc_alpha) * ggx_visibility(self.cc_wo, wc, self.cc_alpha);
         if self.cc_n == self.n {
             return spec;
         }
@@ -583,7 +758,7 @@ impl BsdfFrame {
             }
             wi
         } else {
-            if lobe != LOBE_DIFFUSE && lobe != LOBE_SHEEN && self.is_delta() {
+            if matches!(lobe, LOBE_REFLECTION | LOBE_TRANSMISSION) && self.is_delta() {
                 let (wi, value) = self.delta_lobe(lobe, mode)?;
                 if !self.consistent(wi) {
                     return None;
@@ -603,6 +778,9 @@ impl BsdfFrame {
             }
             let wi = match lobe {
                 LOBE_DIFFUSE => sample_cosine_hemisphere(uv),
+                LOBE_DIFFUSE_TRANSMISSION => {
+                    sample_cosine_hemisphere(uv) * Vec3::new(1.0, 1.0, -1.0)
+                }
                 // Charlie has no closed-form sampler: uniform directions, as Conty Estevez &
                 // Kulla 2017 suggest (the lobe peaks towards grazing, where cosine sampling is
                 // sparse).
@@ -612,7 +790,7 @@ impl BsdfFrame {
             };
             // Each lobe keeps to its side: a reflection below or a refraction above the surface
             // is no sample (the mixture pdf counts each lobe only on its own side).
-            let reflects = lobe != LOBE_TRANSMISSION;
+            let reflects = lobe != LOBE_TRANSMISSION && lobe != LOBE_DIFFUSE_TRANSMISSION;
             if (wi.z > 0.0) != reflects || wi.z == 0.0 {
                 return None;
             }

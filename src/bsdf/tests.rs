@@ -173,10 +173,17 @@ fn chi_square_p(sample: &dyn Fn(Vec3) -> Option<Vec3>, pdf: &dyn Fn(Vec3) -> f32
 
 #[test]
 fn ggx_visible_normals_match_their_pdf() {
-    let cases: Vec<(f32, f32)> = [0.1f32, 0.4, 1.0]
-        .iter()
-        .flat_map(|&a| [0.95f32, 0.5, 0.1].map(|c| (a, c)))
-        .collect();
+    // Isotropic and anisotropic (KHR_materials_anisotropy) roughnesses.
+    let cases: Vec<(Vec2, f32)> = [
+        Vec2::splat(0.1),
+        Vec2::splat(0.4),
+        Vec2::splat(1.0),
+        Vec2::new(0.6, 0.05),
+        Vec2::new(0.2, 0.9),
+    ]
+    .iter()
+    .flat_map(|&a| [0.95f32, 0.5, 0.1].map(|c| (a, c)))
+    .collect();
     let alpha = sidak(0.01, cases.len());
     for (a, cos) in cases {
         let wo = direction(cos, 1.1);
@@ -377,8 +384,9 @@ fn visibility_equals_height_correlated_smith() {
     for a in [0.05, 0.3, 1.0] {
         for (co, ci) in [(0.9, 0.2), (0.5, 0.5), (0.1, 0.99)] {
             let (wo, wi) = (direction(co, 0.0), direction(ci, 1.0));
+            let a = Vec2::splat(a);
             let g2 = 1.0 / (1.0 + ggx_lambda(wo, a) + ggx_lambda(wi, a));
-            let v = ggx_visibility(co, ci, a);
+            let v = ggx_visibility(wo, wi, a);
             assert!(
                 (v - g2 / (4.0 * co * ci)).abs() <= 1e-5 * v,
                 "α {a}: {v} vs {}",
@@ -412,7 +420,7 @@ fn specular_color_follows_the_extension_formula() {
         let f = f0 + (Vec3::splat(m.specular) - f0) * (1.0 - vh).powi(5);
         let alpha = 0.25;
         let expected = (1.0 - f.max_element()) * Vec3::splat(0.7) / PI
-            + f * ggx_d(h, alpha) * ggx_visibility(wo.z, wi.z, alpha);
+            + f * ggx_d(h, Vec2::splat(alpha)) * ggx_visibility(wo, wi, Vec2::splat(alpha));
         let got = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
         assert!(
             (got - expected).abs().max_element() <= 1e-5 * expected.max_element(),
@@ -550,8 +558,8 @@ fn clearcoat_follows_fresnel_coat() {
         let (wo, wi) = (direction(0.8, 0.2), direction(0.45, 2.5));
         let fc = 0.04 + 0.96 * (1.0 - wo.z).powi(5);
         let h = (wo + wi).normalize();
-        let a = 0.16;
-        let coat = ggx_d(h, a) * ggx_visibility(wo.z, wi.z, a);
+        let a = Vec2::splat(0.16);
+        let coat = ggx_d(h, a) * ggx_visibility(wo, wi, a);
         for mode in [TransportMode::Radiance, TransportMode::Importance] {
             let v = if mode == TransportMode::Radiance {
                 wo.z
@@ -879,4 +887,579 @@ fn sheen_albedo_is_the_tabulated_one_and_the_scaling_conserves_energy() {
     println!("sheen over white: highest albedo {worst:.4}");
     // The spec's model gains energy at grazing views of a smooth sheen (documented in `sheen`).
     assert!(sheen_albedo_quadrature(1.0 / 31.0, 0.07) > 1.0);
+}
+
+/// KHR_materials_anisotropy cases: a material whose anisotropy direction lies at 0.4 rad from
+/// +X in the surface's plane.
+fn anisotropic(metallic: f32, transmission: f32, roughness: f32, strength: f32) -> GpuMaterial {
+    GpuMaterial {
+        anisotropy: strength,
+        anisotropy_direction: [0.4f32.cos(), 0.4f32.sin(), 0.0],
+        ..material(0.8, metallic, roughness, transmission)
+    }
+}
+
+#[test]
+fn anisotropy_follows_the_extension_formula() {
+    // KHR_materials_anisotropy, "Implementation", written out independently in world terms:
+    // α_t = mix(α, 1, s²), α_b = α; D = a2·(a2/|(α_b T·H, α_t B·H, a2 N·H)|²)²/π with a2 = α_t α_b;
+    // V = 0.5 / (N·L |(α_t T·V, α_b B·V, N·V)| + N·V |(α_t T·L, α_b B·L, N·L)|).
+    let (t, b) = (Vec3::new(0.4f32.cos(), 0.4f32.sin(), 0.0), Vec3::ZERO);
+    let b = if b == Vec3::ZERO { NG.cross(t) } else { b };
+    for (roughness, strength) in [(0.3, 0.6), (0.5, 1.0), (0.1, 0.3)] {
+        let m = anisotropic(1.0, 0.0, roughness, strength);
+        let alpha = roughness * roughness;
+        let at = alpha + (1.0 - alpha) * strength * strength;
+        let ab = alpha;
+        for (wo, wi) in [
+            (direction(0.8, 0.2), direction(0.45, 2.5)),
+            (direction(0.3, 1.0), direction(0.9, 4.0)),
+            (direction(0.6, 0.4), direction(0.6, 3.5)),
+        ] {
+            let h = (wo + wi).normalize();
+            let a2 = at * ab;
+            let fv = Vec3::new(ab * t.dot(h), at * b.dot(h), a2 * NG.dot(h));
+            let w2 = a2 / fv.dot(fv);
+            let d = a2 * w2 * w2 / PI;
+            let gv = NG.dot(wi) * Vec3::new(at * t.dot(wo), ab * b.dot(wo), NG.dot(wo)).length();
+            let gl = NG.dot(wo) * Vec3::new(at * t.dot(wi), ab * b.dot(wi), NG.dot(wi)).length();
+            let v = 0.5 / (gv + gl);
+            let f = Vec3::splat(0.8) + Vec3::splat(0.2) * (1.0 - wo.dot(h)).powi(5);
+            let expected = f * d * v;
+            let got = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+            assert!(
+                (got - expected).abs().max_element() <= 1e-4 * expected.max_element(),
+                "roughness {roughness}, strength {strength}: {got} vs {expected}"
+            );
+        }
+    }
+    // Strength 0 is the isotropic model exactly, whatever the direction.
+    let iso = material(0.8, 0.3, 0.4, 0.0);
+    let aniso = GpuMaterial {
+        anisotropy_direction: [0.0, 1.0, 0.0],
+        ..iso
+    };
+    let (wo, wi) = (direction(0.7, 0.3), direction(0.4, 2.0));
+    assert_eq!(
+        bsdf_eval(&iso, NG, wo, wi, TransportMode::Radiance),
+        bsdf_eval(&aniso, NG, wo, wi, TransportMode::Radiance)
+    );
+    // Rotating the direction by 90° swaps the two axes: the same lobe turned a quarter.
+    let m = anisotropic(1.0, 0.0, 0.4, 0.8);
+    let turned = GpuMaterial {
+        anisotropy_direction: [-(0.4f32.sin()), 0.4f32.cos(), 0.0],
+        ..m
+    };
+    let quarter = |v: Vec3| Vec3::new(-v.y, v.x, v.z);
+    let (wo, wi) = (direction(0.7, 0.3), direction(0.4, 2.0));
+    let a = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+    let c = bsdf_eval(
+        &turned,
+        NG,
+        quarter(wo),
+        quarter(wi),
+        TransportMode::Radiance,
+    );
+    assert!(
+        (a - c).abs().max_element() <= 1e-4 * a.max_element(),
+        "{a} vs {c}"
+    );
+}
+
+fn anisotropic_cases() -> Vec<(GpuMaterial, Vec3, String)> {
+    let mut cases = Vec::new();
+    for (metallic, transmission) in [(1.0, 0.0), (0.0, 0.0), (0.0, 1.0)] {
+        for (roughness, strength) in [(0.3, 0.7), (0.6, 0.4), (0.2, 1.0)] {
+            for (cos, phi) in [(0.9, 0.7), (0.4, 2.1), (0.15, 0.4)] {
+                let mut sides = vec![1.0];
+                if transmission > 0.0 {
+                    sides.push(-1.0);
+                }
+                for side in sides {
+                    let wo = direction(cos, phi) * Vec3::new(1.0, 1.0, side);
+                    let name = format!(
+                        "anisotropy {strength}, roughness {roughness}, metallic {metallic}, \
+                         transmission {transmission}, wo {wo}"
+                    );
+                    cases.push((
+                        anisotropic(metallic, transmission, roughness, strength),
+                        wo,
+                        name,
+                    ));
+                }
+            }
+        }
+    }
+    cases
+}
+
+#[test]
+fn anisotropic_sampling_matches_its_pdf_and_eval() {
+    let cases = anisotropic_cases();
+    let alpha = sidak(0.01, cases.len());
+    let mut smallest: f64 = 1.0;
+    for (m, wo, name) in cases {
+        let p = chi_square_p(
+            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
+            &|wi| bsdf_pdf(&m, NG, wo, wi),
+            1_000_000,
+        );
+        smallest = smallest.min(p);
+        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            for i in 0..5000 {
+                let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), mode) else {
+                    continue;
+                };
+                assert!(!s.delta, "{name}");
+                let pdf = bsdf_pdf(&m, NG, wo, s.wi);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                    "{name}: {} vs {pdf}",
+                    s.pdf
+                );
+                let f = bsdf_eval(&m, NG, wo, s.wi, mode);
+                let expected = f * s.wi.z.abs() / pdf;
+                assert!(
+                    (s.weight - expected).abs().max_element()
+                        <= 1e-3 * expected.max_element().max(1e-3),
+                    "{name}: {} vs {expected}",
+                    s.weight
+                );
+            }
+        }
+    }
+    println!(
+        "anisotropy χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
+        anisotropic_cases().len()
+    );
+}
+
+#[test]
+fn anisotropy_is_reciprocal_and_conserves_energy() {
+    let dirs = [
+        direction(0.9, 0.1),
+        direction(0.4, 2.0),
+        direction(0.15, 4.0),
+    ];
+    for (m, _, name) in anisotropic_cases() {
+        for a in dirs {
+            for b in dirs {
+                let fab = bsdf_eval(&m, NG, a, b, TransportMode::Radiance);
+                let fba = bsdf_eval(&m, NG, b, a, TransportMode::Radiance);
+                assert!(
+                    (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
+                    "{name}: {fab} vs {fba}"
+                );
+                // Transmission: the importance BSDF is the radiance one transposed.
+                let below = b * Vec3::new(1.0, 1.0, -1.0);
+                let out_in = bsdf_eval(&m, NG, a, below, TransportMode::Radiance);
+                let adjoint = bsdf_eval(&m, NG, below, a, TransportMode::Importance);
+                assert!(
+                    (adjoint - out_in).abs().max_element() <= 1e-3 * out_in.max_element().max(1e-3),
+                    "{name}: {adjoint} vs {out_in}"
+                );
+            }
+        }
+    }
+    // A white anisotropic metal and a clear anisotropic dielectric (seen from outside, where
+    // 1/η² keeps transmission below 1) reflect at most what they receive.
+    let mut checks = Vec::new();
+    let mut largest: f64 = 0.0;
+    for (roughness, strength) in [(0.0, 1.0), (0.1, 0.5), (0.3, 1.0), (0.7, 0.6), (1.0, 1.0)] {
+        for cos in [1.0, 0.5, 0.1] {
+            for phi in [0.4, 1.97] {
+                for (metallic, transmission) in [(1.0, 0.0), (0.0, 1.0)] {
+                    let m = GpuMaterial {
+                        base_color: [1.0; 3],
+                        ..anisotropic(metallic, transmission, roughness, strength)
+                    };
+                    checks.push((m, direction(cos, phi)));
+                }
+            }
+        }
+    }
+    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
+    for (m, wo) in checks {
+        let (a, se) = albedo(&m, wo, 100_000);
+        largest = largest.max(a);
+        assert!(
+            a <= 1.0 + z * se + 1e-4,
+            "{m:?} from {wo}: albedo {a} ± {se}"
+        );
+    }
+    println!("anisotropic albedo: largest {largest:.4}");
+}
+
+/// KHR_materials_iridescence cases: a film of index 1.6 and thickness `d` nm.
+fn iridescent(
+    metallic: f32,
+    transmission: f32,
+    roughness: f32,
+    factor: f32,
+    d: f32,
+) -> GpuMaterial {
+    GpuMaterial {
+        iridescence: factor,
+        iridescence_ior: 1.6,
+        iridescence_thickness: d,
+        ..material(0.8, metallic, roughness, transmission)
+    }
+}
+
+#[test]
+fn thin_film_fresnel_has_its_limits() {
+    use super::iridescence::*;
+    // No path difference: the fitted matching functions integrate to X = Y = Z = 1 (the
+    // fit's normalisation; equal-energy white), whose linear Rec. 709 value is the matrix's
+    // row sums (1.2048, 0.9483, 0.9088) — the extension's code does not white-balance.
+    let white = eval_sensitivity(0.0, Vec3::ZERO);
+    let e = Vec3::new(
+        3.2404542 - 1.5371385 - 0.4985314,
+        -0.969266 + 1.8760108 + 0.041556,
+        0.0556434 - 0.2040259 + 1.0572252,
+    );
+    assert!(
+        (white - e).abs().max_element() < 5e-3,
+        "sensitivity at zero path difference: {white} vs {e}"
+    );
+    // A film of no thickness at normal incidence is no film: the base's Fresnel F0, up to the
+    // clamp R123 ≥ 10⁻⁵ of the extension's code (an error below 10⁻²). (At oblique angles the
+    // extension's Schlick interfaces keep a vanishing film's (1 − cos)⁵ reflection: not a
+    // limit the code has.)
+    for f0 in [0.04, 0.2, 0.7] {
+        {
+            let got = fresnel_iridescence(1.0, 1.6, 1.0, 0.0, Vec3::splat(f0));
+            let (schlick, cos) = (f0, 1.0);
+            assert!(
+                (got - Vec3::splat(schlick)).abs().max_element() < 1e-2,
+                "F0 {f0}, cos {cos}: {got} vs {schlick}"
+            );
+        }
+    }
+    // A film colours the reflection: thickness changes the hue, and within [0, 1].
+    let a = fresnel_iridescence(1.0, 1.6, 0.9, 250.0, Vec3::splat(0.04));
+    let b = fresnel_iridescence(1.0, 1.6, 0.9, 450.0, Vec3::splat(0.04));
+    assert!(
+        (a - b).abs().max_element() > 0.1 * a.max_element(),
+        "{a} vs {b}"
+    );
+    for d in [0.0, 100.0, 300.0, 600.0, 1200.0] {
+        for cos in [1.0, 0.5, 0.05] {
+            for f0 in [0.0, 0.04, 0.5, 0.95] {
+                let f = fresnel_iridescence(1.0, 1.6, cos, d, Vec3::splat(f0));
+                assert!(
+                    f.is_finite() && f.min_element() >= 0.0,
+                    "{d} {cos} {f0}: {f}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn iridescence_mixes_the_fresnel_as_the_extension_writes() {
+    use super::iridescence::fresnel_iridescence;
+    // F = mix(F_base(v·h), F_film(v·h), factor) for the dielectric (film over F0 = 0.04) and the
+    // metal (film over F0 = baseColor), the diffuse scaled by 1 − max(F).
+    let (wo, wi) = (direction(0.8, 0.2), direction(0.45, 2.5));
+    let h = (wo + wi).normalize();
+    let vh = wo.dot(h);
+    let alpha = Vec2::splat(0.25);
+    let spec = ggx_d(h, alpha) * ggx_visibility(wo, wi, alpha);
+    for factor in [0.0, 0.4, 1.0] {
+        for metallic in [0.0, 1.0] {
+            let m = iridescent(metallic, 0.0, 0.5, factor, 380.0);
+            let got = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+            let base_f0 = if metallic > 0.0 {
+                Vec3::splat(0.8)
+            } else {
+                Vec3::splat(0.04)
+            };
+            let f_base = if metallic > 0.0 {
+                fresnel_conductor(Vec3::splat(0.8), vh)
+            } else {
+                Vec3::splat(fresnel_dielectric(vh, 0.04, 1.0, 1.5))
+            };
+            let film = fresnel_iridescence(1.0, 1.6, vh, 380.0, base_f0).min(Vec3::ONE);
+            let f = f_base + (film - f_base) * factor;
+            let expected = if metallic > 0.0 {
+                f * spec
+            } else {
+                (1.0 - f.max_element()) * Vec3::splat(0.8) / PI + f * spec
+            };
+            assert!(
+                (got - expected).abs().max_element() <= 1e-5 * expected.max_element(),
+                "factor {factor}, metallic {metallic}: {got} vs {expected}"
+            );
+        }
+    }
+}
+
+fn iridescent_cases() -> Vec<(GpuMaterial, Vec3, String)> {
+    let mut cases = Vec::new();
+    for (metallic, transmission) in [(1.0, 0.0), (0.0, 0.0), (0.0, 1.0), (0.5, 0.5)] {
+        for (roughness, d) in [(0.3, 300.0), (0.7, 550.0)] {
+            for cos in [0.9, 0.35] {
+                let mut sides = vec![1.0];
+                if transmission > 0.0 {
+                    sides.push(-1.0);
+                }
+                for side in sides {
+                    let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                    let name = format!(
+                        "iridescence d {d}, roughness {roughness}, metallic {metallic}, \
+                         transmission {transmission}, wo {wo}"
+                    );
+                    cases.push((
+                        iridescent(metallic, transmission, roughness, 1.0, d),
+                        wo,
+                        name,
+                    ));
+                }
+            }
+        }
+    }
+    cases
+}
+
+#[test]
+fn iridescent_sampling_matches_its_pdf_and_eval() {
+    let cases = iridescent_cases();
+    let alpha = sidak(0.01, cases.len());
+    let mut smallest: f64 = 1.0;
+    for (m, wo, name) in &cases {
+        let p = chi_square_p(
+            &|u| bsdf_sample(m, NG, *wo, u, TransportMode::Radiance).map(|s| s.wi),
+            &|wi| bsdf_pdf(m, NG, *wo, wi),
+            1_000_000,
+        );
+        smallest = smallest.min(p);
+        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            for i in 0..5000 {
+                let Some(s) = bsdf_sample(m, NG, *wo, u3(2, i), mode) else {
+                    continue;
+                };
+                let pdf = bsdf_pdf(m, NG, *wo, s.wi);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                    "{name}: {} vs {pdf}",
+                    s.pdf
+                );
+                let expected = bsdf_eval(m, NG, *wo, s.wi, mode) * s.wi.z.abs() / pdf;
+                assert!(
+                    (s.weight - expected).abs().max_element()
+                        <= 1e-3 * expected.max_element().max(1e-3),
+                    "{name}: {} vs {expected}",
+                    s.weight
+                );
+            }
+        }
+    }
+    println!(
+        "iridescence χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
+        cases.len()
+    );
+}
+
+#[test]
+fn iridescence_is_reciprocal_and_conserves_energy() {
+    let dirs = [
+        direction(0.9, 0.1),
+        direction(0.4, 2.0),
+        direction(0.15, 4.0),
+    ];
+    for (m, _, name) in iridescent_cases() {
+        for a in dirs {
+            for b in dirs {
+                let fab = bsdf_eval(&m, NG, a, b, TransportMode::Radiance);
+                let fba = bsdf_eval(&m, NG, b, a, TransportMode::Radiance);
+                assert!(
+                    (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
+                    "{name}: {fab} vs {fba}"
+                );
+                let below = b * Vec3::new(1.0, 1.0, -1.0);
+                let out_in = bsdf_eval(&m, NG, a, below, TransportMode::Radiance);
+                let adjoint = bsdf_eval(&m, NG, below, a, TransportMode::Importance);
+                assert!(
+                    (adjoint - out_in).abs().max_element() <= 1e-3 * out_in.max_element().max(1e-3),
+                    "{name}: {adjoint} vs {out_in}"
+                );
+            }
+        }
+    }
+    // Filmed white metal and clear glass (from outside) reflect at most what they receive,
+    // smooth (delta lobes: F + (1 − F) per channel) and rough.
+    let mut checks = Vec::new();
+    for roughness in [0.0, 0.2, 0.6] {
+        for d in [150.0, 400.0, 800.0] {
+            for cos in [1.0, 0.5, 0.1] {
+                for (metallic, transmission) in [(1.0, 0.0), (0.0, 1.0)] {
+                    let m = GpuMaterial {
+                        base_color: [1.0; 3],
+                        ..iridescent(metallic, transmission, roughness, 1.0, d)
+                    };
+                    checks.push((m, direction(cos, 0.3)));
+                }
+            }
+        }
+    }
+    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
+    let mut largest: f64 = 0.0;
+    for (m, wo) in checks {
+        let (a, se) = albedo(&m, wo, 100_000);
+        largest = largest.max(a);
+        assert!(
+            a <= 1.0 + z * se + 1e-4,
+            "{m:?} from {wo}: albedo {a} ± {se}"
+        );
+    }
+    println!("iridescent albedo: largest {largest:.4}");
+}
+
+/// KHR_materials_diffuse_transmission cases.
+fn translucent(base: f32, metallic: f32, roughness: f32, dt: f32, color: [f32; 3]) -> GpuMaterial {
+    GpuMaterial {
+        diffuse_transmission: dt,
+        diffuse_transmission_color: color,
+        ..material(base, metallic, roughness, 0.0)
+    }
+}
+
+#[test]
+fn diffuse_transmission_follows_the_extension_formula() {
+    // mix(c/π on wo's side, dtColor/π on the far side, dt) under 1 − max(F) of the specular
+    // layer (F on v·h; for the far side h of wo and wi mirrored), written out independently.
+    let m = translucent(0.6, 0.2, 0.5, 0.7, [0.5, 0.9, 0.2]);
+    let wo = direction(0.8, 0.2);
+    let f_at = |vh: f32| 0.04 + 0.96 * (1.0 - vh).powi(5);
+    // Far side.
+    let wi = direction(0.45, 2.5) * Vec3::new(1.0, 1.0, -1.0);
+    let h = (wo + wi * Vec3::new(1.0, 1.0, -1.0)).normalize();
+    let expected = 0.8 * 0.7 * (1.0 - f_at(wo.dot(h))) * Vec3::new(0.5, 0.9, 0.2) / PI;
+    let got = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+    assert!(
+        (got - expected).abs().max_element() <= 1e-5 * expected.max_element(),
+        "{got} vs {expected}"
+    );
+    // Near side: the diffuse part is (1 − dt) of the Lambertian one.
+    let wi = direction(0.45, 2.5);
+    let without = GpuMaterial {
+        diffuse_transmission: 0.0,
+        ..m
+    };
+    let h = (wo + wi).normalize();
+    let diffuse = 0.8 * (1.0 - f_at(wo.dot(h))) * 0.6 / PI;
+    let a = bsdf_eval(&m, NG, wo, wi, TransportMode::Radiance);
+    let b = bsdf_eval(&without, NG, wo, wi, TransportMode::Radiance);
+    assert!(
+        ((b - a) - Vec3::splat(0.7 * diffuse)).abs().max_element() < 1e-5,
+        "{a} {b}"
+    );
+}
+
+fn translucent_cases() -> Vec<(GpuMaterial, Vec3, String)> {
+    let mut cases = Vec::new();
+    for (metallic, roughness, dt) in [(0.0, 0.5, 0.5), (0.0, 0.0, 1.0), (0.3, 0.8, 0.7)] {
+        for cos in [0.9, 0.3] {
+            for side in [1.0, -1.0] {
+                let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                let name = format!("dt {dt}, metallic {metallic}, roughness {roughness}, wo {wo}");
+                cases.push((
+                    translucent(0.7, metallic, roughness, dt, [0.4, 0.9, 0.6]),
+                    wo,
+                    name,
+                ));
+            }
+        }
+    }
+    cases
+}
+
+#[test]
+fn diffuse_transmission_sampling_matches_its_pdf_and_eval() {
+    let cases = translucent_cases();
+    let alpha = sidak(0.01, cases.len());
+    let mut smallest: f64 = 1.0;
+    for (m, wo, name) in &cases {
+        let p = chi_square_p(
+            &|u| {
+                bsdf_sample(m, NG, *wo, u, TransportMode::Radiance)
+                    .filter(|s| !s.delta)
+                    .map(|s| s.wi)
+            },
+            &|wi| bsdf_pdf(m, NG, *wo, wi),
+            1_000_000,
+        );
+        smallest = smallest.min(p);
+        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            for i in 0..5000 {
+                let Some(s) = bsdf_sample(m, NG, *wo, u3(2, i), mode) else {
+                    continue;
+                };
+                if s.delta {
+                    continue;
+                }
+                let pdf = bsdf_pdf(m, NG, *wo, s.wi);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                    "{name}: {} vs {pdf}",
+                    s.pdf
+                );
+                let expected = bsdf_eval(m, NG, *wo, s.wi, mode) * s.wi.z.abs() / pdf;
+                assert!(
+                    (s.weight - expected).abs().max_element()
+                        <= 1e-3 * expected.max_element().max(1e-3),
+                    "{name}: {} vs {expected}",
+                    s.weight
+                );
+            }
+        }
+    }
+    println!(
+        "diffuse transmission χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
+        cases.len()
+    );
+}
+
+#[test]
+fn diffuse_transmission_is_reciprocal_and_a_white_leaf_keeps_all_the_light() {
+    let dirs = [
+        direction(0.9, 0.1),
+        direction(0.4, 2.0),
+        direction(0.15, 4.0),
+    ];
+    for (m, _, name) in translucent_cases() {
+        for a in dirs {
+            for b in dirs {
+                let below = b * Vec3::new(1.0, 1.0, -1.0);
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let fab = bsdf_eval(&m, NG, a, below, mode);
+                    let fba = bsdf_eval(&m, NG, below, a, mode);
+                    assert!(
+                        (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
+                        "{name}: {fab} vs {fba}"
+                    );
+                }
+            }
+        }
+    }
+    // White furnace: a white Lambertian leaf without the specular layer (specular 0) splits
+    // every bit of light between its sides: each sample weighs exactly 1.
+    for dt in [0.0, 0.3, 1.0] {
+        let m = GpuMaterial {
+            specular: 0.0,
+            ..translucent(1.0, 0.0, 1.0, dt, [1.0; 3])
+        };
+        for cos in [1.0, 0.5, 0.05] {
+            let wo = direction(cos, 0.3);
+            let (a, se) = albedo(&m, wo, 20_000);
+            assert!(
+                (a - 1.0).abs() < 1e-5 && se < 1e-5,
+                "dt {dt}, cos {cos}: {a} ± {se}"
+            );
+        }
+    }
 }

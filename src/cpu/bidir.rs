@@ -34,6 +34,7 @@
 // `!(x > 0.0)` rejects NaN along with the non-positive, on purpose, as the GLSL twin does.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::bsdf::volume::{transmittance, volume_sigma};
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::cpu::path::{sample_pair, RayCounts};
@@ -463,6 +464,12 @@ impl<'a> Bidir<'a> {
                 beta *= punctual_window(&self.scene.punctual[prev.index as usize], hit.t);
             }
             let mut v = self.surface_vertex(hit, instance, &ray, beta);
+            // KHR_materials_volume: the segment's attenuation, its medium read from either end.
+            beta *= transmittance(
+                vertex_sigma(&prev, ray.dir).max(vertex_sigma(&v, -ray.dir)),
+                hit.t,
+            );
+            v.beta = beta;
             v.pdf_fwd = if pdf_dir < 0.0 {
                 1.0
             } else {
@@ -637,6 +644,16 @@ impl<'a> Bidir<'a> {
     }
 
     // --- connections ------------------------------------------------------------------------
+
+    /// KHR_materials_volume: the transmittance of the segment between two vertices, its medium
+    /// read from either end (`volume::volume_sigma` of a surface or emitter's material; the
+    /// camera and punctual lights lie in no volume).
+    fn segment_transmittance(&self, a: &Vertex, b: &Vertex) -> Vec3 {
+        let d = b.p - a.p;
+        let dist = d.length();
+        let w = d / dist;
+        transmittance(vertex_sigma(a, w).max(vertex_sigma(b, -w)), dist)
+    }
 
     /// Whether the segment between two vertices is free (the camera's near plane respected).
     fn visible(
@@ -871,7 +888,7 @@ impl<'a> Bidir<'a> {
                 self.emission(qs, w, dist)
             };
             let g = qs.cos(w) * z0.cos(w) / (dist * dist);
-            let c = qs.beta * value * (g * we);
+            let c = qs.beta * value * (g * we) * self.segment_transmittance(qs, z0);
             if !(c.max_element() > 0.0) || !self.visible(qs, z0, conn, counts) {
                 return None;
             }
@@ -904,7 +921,12 @@ impl<'a> Bidir<'a> {
             self.emission(&qs, -w, dist)
         };
         let g = qs.cos(w) * pt.cos(w) / (dist * dist);
-        let c = qs.beta * at_light * self.phi(pt, pt.wo, w) * pt.beta * g;
+        let c = qs.beta
+            * at_light
+            * self.phi(pt, pt.wo, w)
+            * pt.beta
+            * g
+            * self.segment_transmittance(pt, &qs);
         if !(c.max_element() > 0.0) || !c.is_finite() || !self.visible(pt, &qs, conn, counts) {
             return None;
         }
@@ -1005,6 +1027,15 @@ impl<'a> Bidir<'a> {
             }
         }
         out
+    }
+}
+
+/// The attenuation coefficient of the medium direction `w` enters at vertex `v`
+/// (`volume::volume_sigma` at a surface or an emitting triangle; 0 elsewhere).
+fn vertex_sigma(v: &Vertex, w: Vec3) -> Vec3 {
+    match v.kind {
+        Kind::Surface | Kind::AreaLight => volume_sigma(&v.mat, v.ng, w),
+        _ => Vec3::ZERO,
     }
 }
 

@@ -2,6 +2,7 @@
 //! (and of the helpers in `shaders/inc/scene.glsl`), with the same names and the same order of
 //! random numbers, so that a disagreement between the two integrators points at one stage.
 
+use crate::bsdf::volume::{transmittance, volume_sigma};
 use crate::bsdf::{BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
@@ -259,8 +260,9 @@ fn shade(
     let mut radiance = Vec3::from(state.radiance);
 
     // Escaped: the environment's radiance, weighted against sampling the environment from the
-    // previous vertex.
+    // previous vertex (a ray that leaves into a volume and escapes crossed an infinite medium).
     let Some((hit, instance)) = hit else {
+        throughput *= transmittance(Vec3::from(state.medium), f32::MAX);
         if frame.aov == AOV_RADIANCE && frame.env_width > 0 && class.ends_here(&[]) {
             let le = env_radiance(env, frame, ray.dir);
             let mut w = 1.0;
@@ -286,6 +288,10 @@ fn shade(
     let cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
     let raw = &scene.materials[tri.material_index() as usize];
+    // KHR_materials_volume: the segment's attenuation, its medium read from either end.
+    let sigma = Vec3::from(state.medium).max(volume_sigma(raw, ng, wo));
+    throughput *= transmittance(sigma, hit.t);
+    state.throughput = throughput.to_array();
     let lod = if raw.flags & MATERIAL_TEXTURED != 0 {
         surface_lod_base(&sp, cone_width, cos_out)
     } else {
@@ -391,6 +397,8 @@ fn shade(
                     }
                     None => (ls.wi, f32::MAX),
                 };
+                // The shadow segment's attenuation, its medium read from either end.
+                let sigma = volume_sigma(mat, ng, ls.wi).max(ls.medium);
                 shadow = Some(ShadowRay {
                     ray: Ray { origin, dir },
                     t_max,
@@ -398,6 +406,7 @@ fn shade(
                         * f
                         * bsdf.cos_theta(ls.wi)
                         * ls.radiance
+                        * transmittance(sigma, t_max)
                         * (w / ls.pdf),
                 });
             }
@@ -422,6 +431,7 @@ fn shade(
     state.prev_specular = u32::from(s.delta);
     state.prev_position = p.to_array();
     state.prev_normal = ng.to_array();
+    state.medium = volume_sigma(mat, ng, s.wi).to_array();
     if throughput.max_element() <= 0.0 {
         return (None, shadow);
     }
@@ -486,6 +496,9 @@ struct LightSample {
     radiance: Vec3,
     pdf: f32,
     delta: bool,
+    /// The attenuation coefficient behind the light's surface where the shading point lies
+    /// there (`volume_sigma` at the light's end of the shadow segment).
+    medium: Vec3,
 }
 
 /// Next event estimation towards the environment (shade.comp, `sample_environment`): a
@@ -498,6 +511,7 @@ fn sample_environment(env: &EnvironmentMap, frame: &FrameParams, u: Vec2) -> Opt
         radiance: env_radiance(env, frame, wi),
         pdf: frame.env_pmf * pdf,
         delta: false,
+        medium: Vec3::ZERO,
     })
 }
 
@@ -539,6 +553,7 @@ fn sample_emitter(
             radiance: li,
             pdf: pmf,
             delta: true,
+            medium: Vec3::ZERO,
         });
     }
     let light = &scene.triangles[entry.triangle as usize];
@@ -574,5 +589,6 @@ fn sample_emitter(
         // Solid-angle pdf: pmf · (1/area) · dist² / |cos at the light|.
         pdf: pmf * dist2 / (cos_light.abs() * light.area),
         delta: false,
+        medium: volume_sigma(&light_mat, light_n, -wi),
     })
 }

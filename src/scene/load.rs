@@ -57,6 +57,10 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
+    "KHR_materials_anisotropy",
+    "KHR_materials_iridescence",
+    "KHR_materials_volume",
+    "KHR_materials_diffuse_transmission",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -695,6 +699,143 @@ fn convert_material(
             *slot = Some(reference(&property, info, srgb)?);
         }
     }
+    // KHR_materials_anisotropy, read from the raw JSON.
+    let (mut anisotropy, mut anisotropy_rotation) = (0.0, 0.0);
+    if let Some(ext) = material.extension_value("KHR_materials_anisotropy") {
+        let what = path("extensions.KHR_materials_anisotropy");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        anisotropy = raw_unit_factor(ext, "anisotropyStrength", 0.0, &what, &owner)?;
+        if let Some(v) = ext.get("anisotropyRotation") {
+            match v.as_f64() {
+                Some(x) if x.is_finite() => anisotropy_rotation = x as f32,
+                _ => bail!("{what}.anisotropyRotation{owner}: {v} must be a finite number"),
+            }
+        }
+        if let Some(value) = ext.get("anisotropyTexture") {
+            let property = "extensions.KHR_materials_anisotropy.anisotropyTexture";
+            let (info, _) = raw_texture_info(document, value, &path(property), &owner)?;
+            textures.anisotropy = Some(reference(property, info, false)?);
+        }
+    }
+    // KHR_materials_iridescence, read from the raw JSON.
+    let (mut iridescence, mut iridescence_ior) = (0.0, 1.3);
+    let (mut thickness_min, mut thickness_max) = (100.0, 400.0);
+    if let Some(ext) = material.extension_value("KHR_materials_iridescence") {
+        let what = path("extensions.KHR_materials_iridescence");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        iridescence = raw_unit_factor(ext, "iridescenceFactor", 0.0, &what, &owner)?;
+        for (key, slot, least) in [
+            ("iridescenceIor", &mut iridescence_ior, 1.0),
+            ("iridescenceThicknessMinimum", &mut thickness_min, 0.0),
+            ("iridescenceThicknessMaximum", &mut thickness_max, 0.0),
+        ] {
+            if let Some(v) = ext.get(key) {
+                match v.as_f64() {
+                    Some(x) if x.is_finite() && x >= least && x <= 1e6 => *slot = x as f32,
+                    _ => bail!(
+                        "{what}.{key}{owner}: {v} must be a finite number of at least {least}"
+                    ),
+                }
+            }
+        }
+        for (key, slot) in [
+            ("iridescenceTexture", &mut textures.iridescence),
+            (
+                "iridescenceThicknessTexture",
+                &mut textures.iridescence_thickness,
+            ),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_iridescence.{key}");
+            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
+            *slot = Some(reference(&property, info, false)?);
+        }
+    }
+    // KHR_materials_volume, read from the raw JSON (thicknessTexture is a rasteriser's estimate
+    // of the distance a path tracer measures: not read).
+    let (mut thickness, mut attenuation_color, mut attenuation_distance) =
+        (0.0, Vec3::ONE, f32::INFINITY);
+    if let Some(ext) = material.extension_value("KHR_materials_volume") {
+        let what = path("extensions.KHR_materials_volume");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        if let Some(v) = ext.get("thicknessFactor") {
+            match v.as_f64() {
+                Some(x) if x.is_finite() && x >= 0.0 => thickness = x as f32,
+                _ => bail!("{what}.thicknessFactor{owner}: {v} must be a non-negative number"),
+            }
+        }
+        if let Some(v) = ext.get("attenuationDistance") {
+            match v.as_f64() {
+                Some(x) if x > 0.0 => attenuation_distance = x as f32,
+                _ => bail!("{what}.attenuationDistance{owner}: {v} must be a positive number"),
+            }
+        }
+        if let Some(v) = ext.get("attenuationColor") {
+            let c: Option<Vec<f64>> = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+            match c {
+                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+                    attenuation_color =
+                        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
+                }
+                _ => bail!("{what}.attenuationColor{owner}: {v} must be three numbers in [0, 1]"),
+            }
+        }
+    }
+    // KHR_materials_diffuse_transmission, read from the raw JSON.
+    let (mut diffuse_transmission, mut diffuse_transmission_color) = (0.0, Vec3::ONE);
+    if let Some(ext) = material.extension_value("KHR_materials_diffuse_transmission") {
+        let what = path("extensions.KHR_materials_diffuse_transmission");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        diffuse_transmission =
+            raw_unit_factor(ext, "diffuseTransmissionFactor", 0.0, &what, &owner)?;
+        if let Some(v) = ext.get("diffuseTransmissionColorFactor") {
+            let c: Option<Vec<f64>> = v
+                .as_array()
+                .filter(|a| a.len() == 3)
+                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+            match c {
+                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+                    diffuse_transmission_color =
+                        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
+                }
+                _ => bail!(
+                    "{what}.diffuseTransmissionColorFactor{owner}: {v} must be three numbers in [0, 1]"
+                ),
+            }
+        }
+        for (key, slot, srgb) in [
+            (
+                "diffuseTransmissionTexture",
+                &mut textures.diffuse_transmission,
+                false,
+            ),
+            (
+                "diffuseTransmissionColorTexture",
+                &mut textures.diffuse_transmission_color,
+                true,
+            ),
+        ] {
+            let Some(value) = ext.get(key) else {
+                continue;
+            };
+            let property = format!("extensions.KHR_materials_diffuse_transmission.{key}");
+            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
+            *slot = Some(reference(&property, info, srgb)?);
+        }
+    }
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
         normal_scale = normal.scale();
@@ -721,6 +862,15 @@ fn convert_material(
     if let (None, Some(r)) = (needs.normal_map, textures.clearcoat_normal) {
         needs.normal_map = Some(builder.set.refs[r as usize].texcoord);
     }
+    // So does anisotropy (its direction lies in the tangent frame): that of its texture's set,
+    // else set 0.
+    if needs.normal_map.is_none() && anisotropy > 0.0 {
+        needs.normal_map = Some(
+            textures
+                .anisotropy
+                .map_or(0, |r| builder.set.refs[r as usize].texcoord),
+        );
+    }
     Ok((
         Material {
             name: material
@@ -739,6 +889,17 @@ fn convert_material(
             clearcoat_normal_scale,
             sheen_color,
             sheen_roughness,
+            anisotropy,
+            anisotropy_rotation,
+            iridescence,
+            iridescence_ior,
+            iridescence_thickness_min: thickness_min,
+            iridescence_thickness_max: thickness_max,
+            thickness,
+            attenuation_color,
+            attenuation_distance,
+            diffuse_transmission,
+            diffuse_transmission_color,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),

@@ -182,11 +182,22 @@ pub struct MaterialTextures {
     /// KHR_materials_sheen's sheenColorTexture (RGB, sRGB) and sheenRoughnessTexture (A).
     pub sheen_color: Option<u32>,
     pub sheen_roughness: Option<u32>,
+    /// KHR_materials_anisotropy's anisotropyTexture (RG direction, B strength).
+    pub anisotropy: Option<u32>,
+    /// KHR_materials_iridescence's iridescenceTexture (R) and iridescenceThicknessTexture (G).
+    pub iridescence: Option<u32>,
+    pub iridescence_thickness: Option<u32>,
+    /// KHR_materials_diffuse_transmission's diffuseTransmissionTexture (A) and
+    /// diffuseTransmissionColorTexture (RGB, sRGB).
+    pub diffuse_transmission: Option<u32>,
+    pub diffuse_transmission_color: Option<u32>,
 }
 
 /// A glTF metallic-roughness material with emission: `pbrMetallicRoughness` factors,
 /// `KHR_materials_ior`, `KHR_materials_transmission`, `KHR_materials_specular`,
-/// `KHR_materials_unlit`, `KHR_materials_clearcoat`, `KHR_materials_sheen` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
+/// `KHR_materials_unlit`, `KHR_materials_clearcoat`, `KHR_materials_sheen`,
+/// `KHR_materials_anisotropy`, `KHR_materials_iridescence`, `KHR_materials_volume`,
+/// `KHR_materials_diffuse_transmission` and `emissiveFactor × KHR_materials_emissive_strength`, alpha, and the
 /// textures that modulate them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -217,6 +228,25 @@ pub struct Material {
     /// sheenRoughnessFactor in [0, 1].
     pub sheen_color: Vec3,
     pub sheen_roughness: f32,
+    /// KHR_materials_anisotropy: anisotropyStrength in [0, 1] (0: isotropic) and
+    /// anisotropyRotation (radians, counter-clockwise from the tangent).
+    pub anisotropy: f32,
+    pub anisotropy_rotation: f32,
+    /// KHR_materials_iridescence: iridescenceFactor in [0, 1] (0: no film), iridescenceIor
+    /// (≥ 1) and iridescenceThicknessMinimum/Maximum (nm, non-negative).
+    pub iridescence: f32,
+    pub iridescence_ior: f32,
+    pub iridescence_thickness_min: f32,
+    pub iridescence_thickness_max: f32,
+    /// KHR_materials_volume: thicknessFactor (≥ 0; 0: thin-walled), attenuationColor (linear
+    /// RGB in [0, 1]) and attenuationDistance (> 0; infinite: no attenuation).
+    pub thickness: f32,
+    pub attenuation_color: Vec3,
+    pub attenuation_distance: f32,
+    /// KHR_materials_diffuse_transmission: diffuseTransmissionFactor in [0, 1] (0: none) and
+    /// diffuseTransmissionColorFactor (linear RGB in [0, 1]).
+    pub diffuse_transmission: f32,
+    pub diffuse_transmission_color: Vec3,
     /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
@@ -249,6 +279,17 @@ impl Material {
             clearcoat_normal_scale: 1.0,
             sheen_color: Vec3::ZERO,
             sheen_roughness: 0.0,
+            anisotropy: 0.0,
+            anisotropy_rotation: 0.0,
+            iridescence: 0.0,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness_max: 400.0,
+            thickness: 0.0,
+            attenuation_color: Vec3::ONE,
+            attenuation_distance: f32::INFINITY,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_color: Vec3::ONE,
             emission: Vec3::ZERO,
             double_sided: false,
             alpha: 1.0,

@@ -259,3 +259,58 @@ pub fn assert_bitwise_equal(a: &Path, b: &Path) {
     );
     assert!(fa.image == fb.image, "{what}: layers differ");
 }
+
+const TILE: u32 = 8;
+pub const BATCHES: u32 = 12;
+
+/// Per 8 × 8 tile and channel: the mean over `BATCHES` independent renders (seeds of their own)
+/// and the variance of that mean from the spread of the batch means — light tracing and BDPT
+/// splat into many pixels, so a per-pixel variance would understate a tile's (as
+/// tests/bidir.rs does with its own).
+pub fn batch_tiles(
+    settings: &RenderSettings,
+    seed: u32,
+    render: &dyn Fn(&RenderSettings) -> Option<wavetrace::film::Film>,
+) -> Option<Vec<[(f64, f64); 3]>> {
+    let (w, h) = (settings.width, settings.height);
+    let tx = w.div_ceil(TILE);
+    let tiles = (tx * h.div_ceil(TILE)) as usize;
+    let mut means = vec![[Vec::new(), Vec::new(), Vec::new()]; tiles];
+    for b in 0..BATCHES {
+        let film = render(&RenderSettings {
+            seed: seed * 1000 + b,
+            ..settings.clone()
+        })?;
+        assert_eq!(film.dropped, 0, "{:?} dropped samples", settings.integrator);
+        let mut sum = vec![[0.0f64; 3]; tiles];
+        let mut count = vec![0f64; tiles];
+        for y in 0..h {
+            for x in 0..w {
+                let m = film.mean_f64((x + y * w) as usize);
+                let t = ((x / TILE) + (y / TILE) * tx) as usize;
+                for c in 0..3 {
+                    sum[t][c] += m[c];
+                }
+                count[t] += 1.0;
+            }
+        }
+        for t in 0..tiles {
+            for c in 0..3 {
+                means[t][c].push(sum[t][c] / count[t]);
+            }
+        }
+    }
+    Some(
+        means
+            .iter()
+            .map(|chans| {
+                chans.clone().map(|v| {
+                    let n = v.len() as f64;
+                    let mean = v.iter().sum::<f64>() / n;
+                    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+                    (mean, var / n)
+                })
+            })
+            .collect(),
+    )
+}

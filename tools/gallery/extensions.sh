@@ -10,8 +10,13 @@
 #   UnlitTest, SpecularTest, ClearCoatTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
 #   ClearCoatCarPaint: Eric Chadwick (CC0 1.0)
 #   SheenCloth: Microsoft (CC0 1.0)
+#   AnisotropyStrengthTest: Ed Mackey (CC0 1.0)
+#   AnisotropyRotationTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
+#   IridescenceSuzanne: Mathias Kanzler, Pascal Schoen, UX3D (CC0 1.0)
+#   AttenuationTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
 # They are lit by the Poly Haven map studio_small_03_1k.hdr (CC0) from ../shared/gltf-samples/env/,
-# SpecularTest by a uniform white environment and UnlitTest by nothing (it is its own light).
+# SpecularTest by a uniform white environment and UnlitTest by nothing (it is its own light);
+# scenes/leaf.gltf (ours, tools/gen_scenes.py) by its own light.
 set -eu
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 SAMPLES=${SAMPLES:-$ROOT/../shared/gltf-samples/valid/extensions}
@@ -33,3 +38,8 @@ render ext-specular "$SAMPLES/SpecularTest.glb" --width 240 --height 200 --envir
 render ext-clearcoat "$SAMPLES/ClearCoatTest.glb" --width 240 --height 240 --env "$ENV"
 render ext-clearcoat-car-paint "$SAMPLES/ClearCoatCarPaint.glb" --width 200 --height 200 --env "$ENV"
 render ext-sheen-cloth "$SAMPLES/SheenCloth/SheenCloth.gltf" --width 200 --height 200 --env "$ENV"
+render ext-anisotropy-strength "$SAMPLES/AnisotropyStrengthTest.glb" --width 240 --height 160 --env "$ENV"
+render ext-anisotropy-rotation "$SAMPLES/AnisotropyRotationTest.glb" --width 240 --height 160 --env "$ENV"
+render ext-iridescence-suzanne "$SAMPLES/IridescenceSuzanne.glb" --width 200 --height 200 --env "$ENV"
+render ext-attenuation "$SAMPLES/AttenuationTest.glb" --width 240 --height 200 --environment 1
+render ext-leaf "$ROOT/scenes/leaf.gltf" --width 200 --height 200 --environment 0
