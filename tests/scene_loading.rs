@@ -755,6 +755,7 @@ fn committed_scenes_match_their_generator() {
             "cornell-materials.gltf",
             "furnace.gltf",
             "instances.gltf",
+            "leaf.gltf",
             "many-lights.gltf",
             "veach-mis.gltf"
         ]
