@@ -339,40 +339,37 @@ fn gpu_matches_cpu_on_the_slab_and_the_attenuation_test() {
     assert_agree_at(&gpu.film, &cpu.film, alpha, "AttenuationTest.glb");
 }
 
-#[test]
-fn light_tracing_and_bdpt_attenuate_as_the_path_tracer_does() {
+/// The CPU path tracer's batch tiles of `prepared` at `max_depth` (24², independent sampler),
+/// checked by `check_path`, then each case's (name, integrator, spp, GPU?) batch tiles against
+/// them by Welch tests at family-wise α = 0.01, Šidák-corrected over cases × tiles × channels.
+/// Returns early without a GPU.
+fn assert_integrators_agree_with_the_path_tracer(
+    prepared: &PreparedScene,
+    max_depth: u32,
+    cases: &[(&str, wavetrace::cpu::Integrator, u32, bool)],
+    check_path: impl Fn(&[[(f64, f64); 3]]),
+) {
     use wavetrace::cpu::Integrator;
     use wavetrace::layout::SAMPLER_INDEPENDENT;
-    let scene = Scene::load(&lit_block_gltf()).unwrap_or_else(|e| panic!("{e:#}"));
-    let prepared = PreparedScene::new(&scene);
     let settings = |integrator, spp| RenderSettings {
         width: 24,
         height: 24,
         spp,
-        max_depth: 5,
+        max_depth,
         sampler: SAMPLER_INDEPENDENT,
         integrator,
         ..RenderSettings::default()
     };
-    let cpu = |s: &RenderSettings| Some(wavetrace::cpu::render(&prepared, s).film);
-    let gpu = |s: &RenderSettings| render_gpu(&prepared, s, None).map(|o| o.film);
+    let cpu = |s: &RenderSettings| Some(wavetrace::cpu::render(prepared, s).film);
+    let gpu = |s: &RenderSettings| render_gpu(prepared, s, None).map(|o| o.film);
     let path = batch_tiles(&settings(Integrator::Path, 8), 1, &cpu).unwrap();
-    // The floor seen through the block is tinted by the volume (red absorbed most): the centre
-    // tile's blue exceeds its red by more than four standard errors.
-    let centre = &path[path.len() / 2];
-    println!("path tracer, a centre tile: {centre:?}");
-    assert!(centre[2].0 - centre[0].0 > 4.0 * (centre[2].1 + centre[0].1).sqrt());
-    let cases: [(&str, Integrator, u32, &Render); 4] = [
-        ("CPU light", Integrator::Light, 8, &cpu),
-        ("CPU bdpt", Integrator::Bdpt, 4, &cpu),
-        ("GPU light", Integrator::Light, 8, &gpu),
-        ("GPU bdpt", Integrator::Bdpt, 4, &gpu),
-    ];
+    check_path(&path);
     let per_test = sidak(0.01, cases.len() * path.len() * 3);
     let df = (BATCHES - 1) as f64;
     let mut failures = Vec::new();
-    for (k, (name, integrator, spp, render)) in cases.iter().enumerate() {
-        let Some(ours) = batch_tiles(&settings(*integrator, *spp), 2 + k as u32, *render) else {
+    for (k, &(name, integrator, spp, on_gpu)) in cases.iter().enumerate() {
+        let render: &Render = if on_gpu { &gpu } else { &cpu };
+        let Some(ours) = batch_tiles(&settings(integrator, spp), 2 + k as u32, render) else {
             return;
         };
         let mut min_p = 1.0f64;
@@ -389,15 +386,34 @@ fn light_tracing_and_bdpt_attenuate_as_the_path_tracer_does() {
                 }
             }
         }
-        println!("{name} vs path: smallest p {min_p:.3e} (per-test α {per_test:.2e})");
+        println!("{name} vs CPU path: smallest p {min_p:.3e} (per-test α {per_test:.2e})");
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 #[test]
+fn light_tracing_and_bdpt_attenuate_as_the_path_tracer_does() {
+    use wavetrace::cpu::Integrator;
+    let scene = Scene::load(&lit_block_gltf()).unwrap_or_else(|e| panic!("{e:#}"));
+    let prepared = PreparedScene::new(&scene);
+    let cases = [
+        ("CPU light", Integrator::Light, 8, false),
+        ("CPU bdpt", Integrator::Bdpt, 4, false),
+        ("GPU light", Integrator::Light, 8, true),
+        ("GPU bdpt", Integrator::Bdpt, 4, true),
+    ];
+    assert_integrators_agree_with_the_path_tracer(&prepared, 5, &cases, |path| {
+        // The floor seen through the block is tinted by the volume (red absorbed most): the
+        // centre tile's blue exceeds its red by more than four standard errors.
+        let centre = &path[path.len() / 2];
+        println!("path tracer, a centre tile: {centre:?}");
+        assert!(centre[2].0 - centre[0].0 > 4.0 * (centre[2].1 + centre[0].1).sqrt());
+    });
+}
+
+#[test]
 fn a_leaf_lit_from_behind_shines_through_on_every_integrator() {
     use wavetrace::cpu::Integrator;
-    use wavetrace::layout::SAMPLER_INDEPENDENT;
     let scene = Scene::load(&common::scene_path("leaf.gltf")).unwrap_or_else(|e| panic!("{e:#}"));
     assert!(scene
         .notes
@@ -409,52 +425,18 @@ fn a_leaf_lit_from_behind_shines_through_on_every_integrator() {
         (0.7, Vec3::new(0.5, 0.9, 0.2))
     );
     let prepared = PreparedScene::new(&scene);
-    let settings = |integrator, spp| RenderSettings {
-        width: 24,
-        height: 24,
-        spp,
-        max_depth: 4,
-        sampler: SAMPLER_INDEPENDENT,
-        integrator,
-        ..RenderSettings::default()
-    };
-    let cpu = |s: &RenderSettings| Some(wavetrace::cpu::render(&prepared, s).film);
-    let gpu = |s: &RenderSettings| render_gpu(&prepared, s, None).map(|o| o.film);
-    let path = batch_tiles(&settings(Integrator::Path, 8), 1, &cpu).unwrap();
-    // The leaf's front faces away from the light: the centre tile is lit through the leaf,
-    // green (dtColor's G and the base's) well above red, by more than four standard errors.
-    let centre = &path[path.len() / 2];
-    println!("path tracer, the centre tile: {centre:?}");
-    assert!(centre[1].0 - centre[0].0 > 4.0 * (centre[1].1 + centre[0].1).sqrt());
-    let cases: [(&str, Integrator, u32, &Render); 5] = [
-        ("GPU path", Integrator::Path, 8, &gpu),
-        ("CPU light", Integrator::Light, 8, &cpu),
-        ("CPU bdpt", Integrator::Bdpt, 4, &cpu),
-        ("GPU light", Integrator::Light, 8, &gpu),
-        ("GPU bdpt", Integrator::Bdpt, 4, &gpu),
+    let cases = [
+        ("GPU path", Integrator::Path, 8, true),
+        ("CPU light", Integrator::Light, 8, false),
+        ("CPU bdpt", Integrator::Bdpt, 4, false),
+        ("GPU light", Integrator::Light, 8, true),
+        ("GPU bdpt", Integrator::Bdpt, 4, true),
     ];
-    let per_test = sidak(0.01, cases.len() * path.len() * 3);
-    let df = (BATCHES - 1) as f64;
-    let mut failures = Vec::new();
-    for (k, (name, integrator, spp, render)) in cases.iter().enumerate() {
-        let Some(ours) = batch_tiles(&settings(*integrator, *spp), 2 + k as u32, *render) else {
-            return;
-        };
-        let mut min_p = 1.0f64;
-        for (t, (x, y)) in ours.iter().zip(&path).enumerate() {
-            for c in 0..3 {
-                let (_, _, p) =
-                    wavetrace::stats::welch_t_test(x[c].0, x[c].1, df, y[c].0, y[c].1, df);
-                min_p = min_p.min(p);
-                if p < per_test {
-                    failures.push(format!(
-                        "{name}: tile {t} channel {c}: {:.5} vs path {:.5} (p = {p:.2e})",
-                        x[c].0, y[c].0
-                    ));
-                }
-            }
-        }
-        println!("leaf, {name} vs CPU path: smallest p {min_p:.3e} (per-test α {per_test:.2e})");
-    }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert_integrators_agree_with_the_path_tracer(&prepared, 4, &cases, |path| {
+        // The leaf's front faces away from the light: the centre tile is lit through the leaf,
+        // green (dtColor's G and the base's) well above red, by more than four standard errors.
+        let centre = &path[path.len() / 2];
+        println!("path tracer, the centre tile: {centre:?}");
+        assert!(centre[1].0 - centre[0].0 > 4.0 * (centre[1].1 + centre[0].1).sqrt());
+    });
 }
