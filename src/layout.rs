@@ -27,6 +27,9 @@ pub mod dim {
     /// `light_block(0) + 1` = emission direction u, v; `light_block(i)` for the i-th scattering
     /// vertex = BSDF u, BSDF v, lobe, roulette.
     pub const LIGHT_BLOCK_BASE: u32 = 1 << 24;
+    /// The sample's wavelength (`spectrum::sample_wavelength` of its x), shared by both
+    /// subpaths of a BDPT sample: the block just below the light subpaths'.
+    pub const WAVELENGTH_BLOCK: u32 = LIGHT_BLOCK_BASE - 1;
     pub const fn light_block(vertex: u32) -> u32 {
         LIGHT_BLOCK_BASE + 2 * vertex
     }
@@ -163,7 +166,8 @@ pub struct GpuMaterial {
     pub diffuse_transmission: f32, // 4 bytes
     pub diffuse_transmission_texture: u32, // 4 bytes: A × diffuse_transmission
     pub diffuse_transmission_color_texture: u32, // 4 bytes: sRGB; RGB × the colour
-    pub pad0: u32,            // 4 bytes
+    /// KHR_materials_dispersion: 20 / Abbe number (0: none; `spectrum::dispersive_ior`).
+    pub dispersion: f32, // 4 bytes
     pub pad1: u32,            // 4 bytes
 }
 
@@ -217,7 +221,7 @@ impl Default for GpuMaterial {
             diffuse_transmission: 0.0,
             diffuse_transmission_texture: NO_TEXTURE,
             diffuse_transmission_color_texture: NO_TEXTURE,
-            pad0: 0,
+            dispersion: 0.0,
             pad1: 0,
         }
     }
@@ -416,7 +420,9 @@ pub struct FrameParams {
     pub active_pixel_count: u32, // 4 bytes
     /// `INTEGRATOR_*`: which estimator the kernels run (`--integrator`).
     pub integrator: u32, // 4 bytes
-    pub pad0: u32,              // 4 bytes
+    /// 1 when the scene has a dispersive material (`spectrum::is_dispersive`): light tracing
+    /// and BDPT then carry one wavelength per sample (`spectrum`'s module docs).
+    pub spectral: u32, // 4 bytes
     pub pad1: u32,              // 4 bytes
     pub pad2: u32,              // 4 bytes
     /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
@@ -528,7 +534,9 @@ pub struct PathState {
     /// KHR_materials_volume: the attenuation coefficient of the medium the current ray enters
     /// at its origin (`volume::volume_sigma`; 0 outside every volume).
     pub medium: [f32; 3], // 12 bytes
-    pub pad1: u32,            // 4 bytes
+    /// KHR_materials_dispersion: the wavelength (nm) the path carries since its first
+    /// dispersive vertex, its throughput weighted by `spectrum::wavelength_weight`; 0 before.
+    pub wavelength: f32, // 4 bytes
 }
 
 /// A ray in the extension queue. Total: 32 bytes.
@@ -729,7 +737,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         diffuse_transmission,
         diffuse_transmission_texture,
         diffuse_transmission_color_texture,
-        pad0,
+        dispersion,
         pad1
     }),
     struct_layout!(GpuVertex {
@@ -812,7 +820,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         light_bounded_cdf,
         active_pixel_count,
         integrator,
-        pad0,
+        spectral,
         pad1,
         pad2,
         sheen_albedo
@@ -837,7 +845,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         prev_normal,
         pad0,
         medium,
-        pad1
+        wavelength
     }),
     struct_layout!(QueuedRay {
         origin,

@@ -20,6 +20,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shard;
 pub mod sobol;
+pub mod spectrum;
 pub mod stats;
 pub mod surface;
 pub mod texture;

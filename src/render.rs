@@ -258,6 +258,7 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         diffuse_transmission_color: m.diffuse_transmission_color.to_array(),
         diffuse_transmission_texture: slot(m.textures.diffuse_transmission),
         diffuse_transmission_color_texture: slot(m.textures.diffuse_transmission_color),
+        dispersion: m.dispersion,
         ..GpuMaterial::default()
     }
 }
@@ -659,6 +660,8 @@ impl PreparedScene {
                 crate::cpu::Integrator::Light => crate::layout::INTEGRATOR_LIGHT,
                 crate::cpu::Integrator::Bdpt => crate::layout::INTEGRATOR_BDPT,
             },
+            // KHR_materials_dispersion: light tracing and BDPT carry a wavelength per sample.
+            spectral: u32::from(self.materials.iter().any(crate::spectrum::is_dispersive)),
             // The camera's fields: written below.
             ..FrameParams::default()
         };

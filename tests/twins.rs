@@ -20,10 +20,11 @@ use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
 use wavetrace::scene::{camera_ray, Camera, Projection, ThinLens};
 use wavetrace::sobol::*;
+use wavetrace::spectrum::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 24;
+const OUTPUTS_PER_CASE: usize = 26;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -87,6 +88,7 @@ fn twin_material(i: u32) -> GpuMaterial {
         iridescence_thickness: 350.0,
         diffuse_transmission: if (i / 5) % 3 == 1 { 0.6 } else { 0.0 },
         diffuse_transmission_color: [0.3, 0.9, 0.5],
+        dispersion: if (i / 8) % 2 == 1 { 1.5 } else { 0.0 },
         ..Default::default()
     }
 }
@@ -513,6 +515,28 @@ fn glsl_functions_equal_their_rust_twins() {
         check(23, "camera_ray (dir)", ray.dir.extend(0.0), &|a, b| {
             close(a, b, ANGLE_TOL)
         });
+        // Spectral sampling: atanh, cosh and exp are built from exp and log, which Vulkan
+        // holds to 3 + 2|x| ulp: 1e-4 relative.
+        let lambda = sample_wavelength(c.u.x);
+        check(
+            24,
+            "sample_wavelength / wavelength_pdf / dispersive_ior / is_dispersive",
+            Vec4::new(
+                lambda,
+                wavelength_pdf(lambda),
+                dispersive_ior(1.3 + c.u.y, 4.0 * c.u.z, lambda),
+                if is_dispersive(&m) { 1.0 } else { 0.0 },
+            ),
+            &|a, b| a.w == b.w && close(a, b, 1e-4),
+        );
+        // The response at the GPU's wavelength (the curves are steep: 1e-4 of λ moves them).
+        let gl = g(24).x;
+        check(
+            25,
+            "wavelength_rgb / wavelength_weight",
+            wavelength_rgb(gl).extend(wavelength_weight(gl).y),
+            &|a, b| close(a, b, 1e-4),
+        );
     }
     assert!(
         failures.is_empty(),

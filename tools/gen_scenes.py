@@ -31,6 +31,8 @@ KHR_materials_emissive_strength.
 - many-lights.gltf: 10,240 small emissive triangles of 16 colours and strengths in a canopy
   above a floor with a few diffuse boxes, for many-light sampling, see many_lights().
 - leaf.gltf: a leaf lit from behind (KHR_materials_diffuse_transmission), see leaf().
+- prism.gltf: a dispersive glass prism (KHR_materials_dispersion) showing a white slit's
+  spectrum, see prism().
 """
 
 import base64
@@ -582,9 +584,161 @@ def leaf():
     return g
 
 
+# The prism: glass of KHR_materials_ior 1.5 with KHR_materials_dispersion 2.0 (Abbe number 10: a
+# rutile-like spread, beyond common glass, which the extension allows for effect).
+PRISM_IOR, PRISM_DISPERSION = 1.5, 2.0
+PRISM_SIDE, PRISM_HEIGHT, PRISM_TURN = 1.2, 1.2, math.radians(18.6)
+PRISM_CAMERA_Z, PRISM_SLIT_DISTANCE = 4.0, 8.0
+
+
+def dispersive_ior(wavelength):
+    """KHR_materials_dispersion's n(lambda) (src/spectrum.rs, dispersive_ior)."""
+    return max(PRISM_IOR + (PRISM_IOR - 1.0) * PRISM_DISPERSION / 20.0
+               * (523655.0 / wavelength ** 2 - 1.5168), 1.0)
+
+
+def prism_section():
+    """The prism's cross-section in the XZ plane: an equilateral triangle of side PRISM_SIDE
+    about the origin, apex towards +X, then turned by PRISM_TURN about +Y (x' = x cos + z sin,
+    z' = -x sin + z cos) so that a camera ray along -Z meets its first face at the angle of
+    minimum deviation, asin(1.5 sin 30 deg) = 48.6 deg. Corners counter-clockwise seen from +Y
+    is not needed: returned in angle order 0, 120, 240 deg before the turn."""
+    r = PRISM_SIDE / math.sqrt(3.0)
+    c, s_ = math.cos(PRISM_TURN), math.sin(PRISM_TURN)
+    corners = []
+    for k in range(3):
+        a = 2.0 * math.pi * k / 3.0
+        x, z = r * math.cos(a), r * math.sin(a)
+        corners.append((x * c + z * s_, -x * s_ + z * c))
+    return corners
+
+
+def trace_section(origin, direction, wavelength):
+    """A ray in the XZ plane through the prism's cross-section (Snell's law at each face, no
+    reflection): the exit point and direction, or None where it misses or is totally reflected."""
+    corners = prism_section()
+    n = dispersive_ior(wavelength)
+    inside = False
+    p, d = origin, direction
+    for _ in range(2):
+        best = None
+        for k in range(3):
+            a, b = corners[k], corners[(k + 1) % 3]
+            e = (b[0] - a[0], b[1] - a[1])
+            denom = d[0] * e[1] - d[1] * e[0]
+            if abs(denom) < 1e-12:
+                continue
+            t = ((a[0] - p[0]) * e[1] - (a[1] - p[1]) * e[0]) / denom
+            u = ((a[0] - p[0]) * d[1] - (a[1] - p[1]) * d[0]) / denom
+            if t > 1e-9 and 0.0 <= u <= 1.0 and (best is None or t < best[0]):
+                # Outward normal of a counter-clockwise (in x, z) edge: (e_z, -e_x) or its
+                # opposite; pick the one pointing away from the centroid (the origin).
+                normal = (e[1], -e[0])
+                mid = ((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)
+                if normal[0] * mid[0] + normal[1] * mid[1] < 0:
+                    normal = (-normal[0], -normal[1])
+                length = math.hypot(*normal)
+                best = (t, (normal[0] / length, normal[1] / length))
+        if best is None:
+            return None
+        t, normal = best
+        p = (p[0] + t * d[0], p[1] + t * d[1])
+        eta = 1.0 / n if not inside else n
+        m = normal if not inside else (-normal[0], -normal[1])  # on the incident side
+        cos_i = -(d[0] * m[0] + d[1] * m[1])
+        sin2_t = eta * eta * (1.0 - cos_i * cos_i)
+        if sin2_t >= 1.0:
+            return None
+        cos_t = math.sqrt(1.0 - sin2_t)
+        d = (eta * d[0] + (eta * cos_i - cos_t) * m[0], eta * d[1] + (eta * cos_i - cos_t) * m[1])
+        inside = not inside
+    return p, d
+
+
+def prism_slit():
+    """The slit's centre (x, z) and the direction from it back towards the prism: on the exit
+    ray of the camera's central ray at the Fraunhofer d line, PRISM_SLIT_DISTANCE beyond the
+    prism."""
+    p, d = trace_section((0.0, PRISM_CAMERA_Z), (0.0, -1.0), 587.6)
+    return (p[0] + PRISM_SLIT_DISTANCE * d[0], p[1] + PRISM_SLIT_DISTANCE * d[1]), (-d[0], -d[1])
+
+
+def prism_apparent_angle(wavelength):
+    """The angle (radians, positive towards +X) of the camera ray that, refracted at
+    `wavelength`, meets the slit's centre: where the camera sees the slit in that colour."""
+    (sx, sz), back = prism_slit()
+
+    def miss(angle):
+        d = (math.sin(angle), -math.cos(angle))
+        out = trace_section((0.0, PRISM_CAMERA_Z), d, wavelength)
+        p, e = out
+        # Signed distance of the slit's centre from the exit ray.
+        return (sx - p[0]) * e[1] - (sz - p[1]) * e[0]
+    lo, hi = math.radians(-1.5), math.radians(6.0)
+    f_lo = miss(lo)
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        if (miss(mid) > 0) == (f_lo > 0):
+            lo, f_lo = mid, miss(mid)
+        else:
+            hi = mid
+    return (lo + hi) / 2
+
+
+def prism():
+    """A glass prism splitting a white slit into its spectrum: KHR_materials_dispersion. The
+    prism (see prism_section; 1.2 tall, standing on the floor at y = -0.6) is smooth glass
+    (KHR_materials_transmission 1, ior 1.5, KHR_materials_volume thicknessFactor 1, dispersion
+    2.0: Abbe number 10). The camera at (0, 0, 4) looks down -Z through it; its
+    central ray leaves the prism deviated about 37 deg towards -X and meets, 8 further on, a
+    white slit (0.12 wide, 1.2 tall, strength 12) facing back along it; the slit is outside the
+    camera's view (25 deg to the left, the view's half-width is 22), so the camera sees it only through the prism, spread into a spectrum. Blue
+    refracts more than red (n(450 nm) > n(650 nm)), so the camera must look further towards +X
+    to see the slit in blue: the spectrum runs red to blue from left to right across the image
+    (prism_apparent_angle gives 450, 550 and 650 nm at +3.3, +0.6 and -0.8 deg). A grey
+    floor 0.01 below the prism, lit by the slit directly and through the prism; nothing else
+    lights the scene.
+    """
+    g = Gltf()
+    grey = g.lambertian("floor", (0.5, 0.5, 0.5))
+    slit = g.lambertian("slit", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 12.0)
+    glass = g.material("dispersive glass", (1.0, 1.0, 1.0), metallic=0.0, roughness=0.0, extensions={
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_ior": {"ior": PRISM_IOR},
+        "KHR_materials_volume": {"thicknessFactor": 1.0},
+        "KHR_materials_dispersion": {"dispersion": PRISM_DISPERSION}})
+    corners = [(round(x, 6), round(z, 6)) for x, z in prism_section()]
+    half = PRISM_HEIGHT / 2
+    positions = [(x, -half, z) for x, z in corners] + [(x, half, z) for x, z in corners]
+    triangles = [(0, 1, 2), (3, 5, 4)]
+    for k in range(3):
+        j = (k + 1) % 3
+        triangles += [(k, 3 + k, 3 + j), (k, 3 + j, j)]
+    def outward(centroid):
+        return (centroid[0], 0.0, centroid[2]) if abs(centroid[1]) < half - 1e-6 else (0.0, centroid[1], 0.0)
+    triangles = [t if sum(cross(sub(positions[t[1]], positions[t[0]]), sub(positions[t[2]], positions[t[0]]))[q]
+                          * outward([sum(positions[i][q] for i in t) / 3 for q in range(3)])[q]
+                          for q in range(3)) > 0 else (t[0], t[2], t[1]) for t in triangles]
+    check_winding(positions, triangles, outward)
+    g.node({"name": "prism", "mesh": g.mesh("prism", g.geometry(positions, triangles), glass)})
+    (sx, sz), (bx, bz) = prism_slit()
+    # The slit: the unit rectangle (normal +Z) scaled to 0.06 x 0.6 half-sizes and turned to
+    # face (bx, 0, bz): local X -> (bz, 0, -bx), Y -> Y, Z -> (bx, 0, bz), a rotation (X x Y = Z).
+    w, h = 0.06, 0.6
+    rows = [[bz * w, 0, bx, round(sx, 6)], [0, h, 0, 0.0], [-bx * w, 0, bz, round(sz, 6)]]
+    rows = [[round(v, 6) for v in row] for row in rows]
+    g.node({"name": "slit", "mesh": g.mesh("slit", g.geometry(*rectangle()), slit),
+            "matrix": column_major(rows)})
+    g.node({"name": "floor", "mesh": g.mesh("floor", g.geometry(*rectangle()), grey),
+            "matrix": column_major([[8, 0, 0, -2], [0, 0, 8, -half - 0.01], [0, -8, 0, -2]])})
+    g.camera("camera", math.radians(30.0), (0.0, 0.0, PRISM_CAMERA_Z), aspect_ratio=1.5)
+    return g
+
+
 SCENES = [("cornell-box.gltf", cornell_box), ("cornell-materials.gltf", cornell_materials),
           ("furnace.gltf", furnace), ("veach-mis.gltf", veach_mis), ("instances.gltf", instances),
-          ("many-lights.gltf", many_lights), ("caustic.gltf", caustic), ("leaf.gltf", leaf)]
+          ("many-lights.gltf", many_lights), ("caustic.gltf", caustic), ("leaf.gltf", leaf),
+          ("prism.gltf", prism)]
 
 
 def main():

@@ -8,6 +8,7 @@
 #ifndef BDPT_GLSL
 #define BDPT_GLSL
 #include "scene_arrays.glsl"
+#include "spectrum.glsl"
 // (Kernels that include it enable GL_EXT_control_flow_attributes for [[dont_unroll]].)
 
 uint bdpt_stride() { return 2u * frame.max_depth + 3u; }
@@ -57,8 +58,9 @@ BdptVertex bdpt_camera(uint path, uint k) {
 }
 
 // The material of a surface vertex with its textures at level 0, or of an emitter's own point
-// (the factors with the emission resolved), rebuilt from the triangle it lies on.
-GpuMaterial bdpt_material(BdptVertex v) {
+// (the factors with the emission resolved), rebuilt from the triangle it lies on; a surface's
+// ior at the sample's wavelength `lambda` (0: none; spectrum.glsl).
+GpuMaterial bdpt_material(BdptVertex v, float lambda) {
     GpuTriangle tri = triangle_at(v.index);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(v.index), v.bary.x, v.bary.y);
     GpuMaterial raw = materials[triangle_material(tri)];
@@ -67,7 +69,9 @@ GpuMaterial bdpt_material(BdptVertex v) {
         return raw;
     }
     surface_to_world(sp, tri, instances[v.instance]);
-    return surface_material(raw, sp, LOD_MAGNIFY);
+    GpuMaterial m = surface_material(raw, sp, LOD_MAGNIFY);
+    material_at_wavelength(m, lambda);
+    return m;
 }
 
 // A light subpath's origin y0 for the numbers u (emitter) and u_point: an emitter of the table

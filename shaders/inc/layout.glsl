@@ -12,6 +12,7 @@ uint bounce_block(uint depth) { return 1u + depth * BLOCKS_PER_BOUNCE; }
 // Light subpaths (--integrator light): blocks of their own above every camera bounce's.
 #define LIGHT_BLOCK_BASE (1u << 24)
 uint light_block(uint vertex) { return LIGHT_BLOCK_BASE + 2u * vertex; }
+#define WAVELENGTH_BLOCK (LIGHT_BLOCK_BASE - 1u)  // the sample's wavelength (spectrum.glsl)
 
 // Flattened BVH node, depth-first; interior: left child = next node. Total: 32 bytes.
 struct BvhNode {
@@ -91,7 +92,7 @@ struct GpuMaterial {
     float diffuse_transmission;       // 4 bytes: diffuseTransmissionFactor (0: none)
     uint diffuse_transmission_texture;       // 4 bytes: A x diffuse_transmission
     uint diffuse_transmission_color_texture; // 4 bytes: sRGB; RGB x the colour
-    uint pad0;                        // 4 bytes
+    float dispersion;                 // 4 bytes: KHR_materials_dispersion, 20 / Abbe number
     uint pad1;                        // 4 bytes
 };
 
@@ -209,7 +210,7 @@ struct FrameParams {
     uint active_pixel_count;  // 4 bytes: 0 = the band's pixels in order; n > 0 = the first n
                               //   entries of active_pixels (bindings.glsl, scene.glsl)
     uint integrator;        // 4 bytes: INTEGRATOR_*
-    uint pad0;              // 4 bytes
+    uint spectral;          // 4 bytes: 1 = the scene has a dispersive material (spectrum.glsl)
     uint pad1;              // 4 bytes
     uint pad2;              // 4 bytes
     vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
@@ -257,7 +258,7 @@ struct PathState {
     vec3 prev_normal;     // 12 bytes: its geometric normal
     uint pad0;            // 4 bytes
     vec3 medium;          // 12 bytes: attenuation coefficient of the medium the ray enters at its origin
-    uint pad1;            // 4 bytes
+    float wavelength;     // 4 bytes: nm, since the path's first dispersive vertex; 0 before
 };
 
 // Extension-queue ray. Total: 32 bytes.

@@ -22,9 +22,10 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "mis.glsl"
 #include "bvh.glsl"
 #include "camera.glsl"
+#include "spectrum.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 24u
+#define OUTPUTS_PER_CASE 26u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -74,6 +75,7 @@ GpuMaterial twin_material(uint i) {
     m.diffuse_transmission_color = vec3(0.3, 0.9, 0.5);
     m.diffuse_transmission_texture = NO_TEXTURE;
     m.diffuse_transmission_color_texture = NO_TEXTURE;
+    m.dispersion = (i / 8u) % 2u == 1u ? 1.5 : 0.0;
     return m;
 }
 
@@ -150,4 +152,10 @@ void main() {
     camera_ray(f, key.w % (f.width * f.height), u.xy, u.zw, ray_origin, ray_dir);
     outputs[o + 22u] = vec4(ray_origin, 0.0);
     outputs[o + 23u] = vec4(ray_dir, 0.0);
+    // Spectral sampling (KHR_materials_dispersion): a wavelength from u.x, its pdf, a
+    // dispersive ior, the material's gate, the RGB response and the path's weight.
+    float lambda = sample_wavelength(u.x);
+    outputs[o + 24u] = vec4(lambda, wavelength_pdf(lambda), dispersive_ior(1.3 + u.y, 4.0 * u.z, lambda),
+                            is_dispersive(m) ? 1.0 : 0.0);
+    outputs[o + 25u] = vec4(wavelength_rgb(lambda), wavelength_weight(lambda).y);
 }

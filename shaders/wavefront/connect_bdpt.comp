@@ -34,6 +34,8 @@ void main() {
     if (t > bdpt_camera_length(path) || (s >= 2u && s > bdpt_light_length(path))) return;
     uint pixel, sample_index;
     path_pixel_sample(path, pixel, sample_index);
+    // KHR_materials_dispersion: the sample's wavelength (src/spectrum.rs), 0 for none.
+    float lambda = frame.spectral != 0u ? sample_wavelength_of(frame.seed, pixel, sample_index) : 0.0;
 
     BdptVertex pt = bdpt_camera(path, t - 1u);
     BdptVertex qs = pt;
@@ -55,7 +57,7 @@ void main() {
     [[dont_unroll]] for (uint e = 0u; e < 2u; e++) {
         BdptVertex v = e == 0u ? pt : qs;
         if (!bdpt_on_surface(v) || (e == 1u && s == 0u)) continue;
-        GpuMaterial m = bdpt_material(v);
+        GpuMaterial m = bdpt_material(v, lambda);
         if (e == 0u) {
             mat_pt = m;
         } else {
@@ -120,7 +122,11 @@ void main() {
     float weight = bdpt_mis_weight(path, s, t, sampled, mat_qs, mat_pt);
     if (!(weight > 0.0)) return;
     if (s == 0u) {
-        splat_add(sample_index - params.first_sample, target, c * weight);
+        // KHR_materials_dispersion: a spectral sample's weight (connect_light applies it to
+        // the other strategies).
+        vec3 cw = c * weight;
+        if (frame.spectral != 0u) cw *= wavelength_weight(lambda);
+        splat_add(sample_index - params.first_sample, target, cw);
         return;
     }
     shadow.path = path;

@@ -17,6 +17,7 @@
 #include "bvh.glsl"
 #include "tlas.glsl"
 #include "light_tracing.glsl"
+#include "spectrum.glsl"
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -30,6 +31,9 @@ void main() {
     // A join to the camera (t = 1) runs from the light vertex: towards the eye.
     if (params.depth % 64u == 1u) key = towards_eye(key);
     if (!scene_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
-        splat_add(sample_index - params.first_sample, shadow.pad, shadow.contribution);
+        // KHR_materials_dispersion: a spectral sample's weight r(λ)/p(λ) (Bidir::sample).
+        vec3 c = shadow.contribution;
+        if (frame.spectral != 0u) c *= wavelength_weight(sample_wavelength_of(frame.seed, pixel, sample_index));
+        splat_add(sample_index - params.first_sample, shadow.pad, c);
     }
 }

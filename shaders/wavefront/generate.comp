@@ -28,7 +28,7 @@ void main() {
     state.prev_position = vec3(0.0);
     state.prev_normal = vec3(0.0);
     state.medium = vec3(0.0);
-    state.pad1 = 0u;
+    state.wavelength = 0.0;
     // --paths: the eye-first automaton's state after E.
     state.pad0 = paths_enabled() ? dfa_step_reversed(0u, SYM_E) : 0u;
     paths[i] = state;

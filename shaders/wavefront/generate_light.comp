@@ -38,7 +38,7 @@ void main() {
     state.prev_normal = vec3(0.0);
     state.pad0 = 0u;
     state.medium = vec3(0.0);
-    state.pad1 = 0u;
+    state.wavelength = 0.0;
     paths[i] = state;
     bool bdpt = frame.integrator == INTEGRATOR_BDPT;
     if (bdpt) {
@@ -54,7 +54,7 @@ void main() {
     GpuMaterial mat;
     if (!bdpt_sample_light_vertex(pixel, sample_index, u.x, u_point, y0)) return;
     bool point = bdpt_kind(y0) == BDPT_VERTEX_POINT_LIGHT;
-    if (!point) mat = bdpt_material(y0);
+    if (!point) mat = bdpt_material(y0, 0.0);
     if (bdpt) {
         bdpt_vertices[bdpt_light_index(i, 0u)] = y0;
         bdpt_set_light_length(i, 1u);

@@ -16,6 +16,7 @@
 #include "environment.glsl"
 #include "light_bvh.glsl"
 #include "paths.glsl"
+#include "spectrum.glsl"
 
 // The probability that NEE at the path's previous vertex picks emitting triangle `index` from
 // the table (the environment's share left out): through the light BVH at that vertex, or its
@@ -181,6 +182,15 @@ void main() {
             w = mis_weight2(frame.mis_heuristic, frame.mis_beta, state.prev_bsdf_pdf, light_pdf, false);
         }
         state.radiance += state.throughput * w * le;
+    }
+    // KHR_materials_dispersion: the path turns spectral at its first dispersive vertex, before
+    // the vertex's emitter sample (src/spectrum.rs).
+    if (depth < frame.max_depth && is_dispersive(mat)) {
+        if (state.wavelength == 0.0) {
+            state.wavelength = sample_wavelength_of(frame.seed, pixel, sample_index);
+            state.throughput *= wavelength_weight(state.wavelength);
+        }
+        material_at_wavelength(mat, state.wavelength);
     }
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
     // the surface exactly (nothing scatters along it).

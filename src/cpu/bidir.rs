@@ -52,6 +52,7 @@ use crate::sampling::{
     build_frame, offset_ray_origin, rng_uniform4, sample_cosine_hemisphere, sample_light,
     sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
+use crate::spectrum::{material_at_wavelength, sample_wavelength_of, wavelength_weight};
 use crate::surface::{
     alpha_key, surface_emission, surface_material, surface_normal, surface_point, towards_eye,
     LOD_MAGNIFY,
@@ -408,15 +409,25 @@ impl<'a> Bidir<'a> {
     // --- subpaths ---------------------------------------------------------------------------
 
     /// The surface the subpath's ray hits: its vertex with textures at level 0.
-    fn surface_vertex(&self, hit: crate::bvh::Hit, instance: u32, ray: &Ray, beta: Vec3) -> Vertex {
+    fn surface_vertex(
+        &self,
+        hit: crate::bvh::Hit,
+        instance: u32,
+        ray: &Ray,
+        beta: Vec3,
+        lambda: f32,
+    ) -> Vertex {
         let (sp, tri) = self.scene.hit_surface(&hit, instance);
         let raw = &self.scene.materials[tri.material_index() as usize];
+        let mut mat = surface_material(&self.textures, raw, &sp, LOD_MAGNIFY);
+        // KHR_materials_dispersion: n(λ) of the sample's wavelength (0: none).
+        material_at_wavelength(&mut mat, lambda);
         Vertex {
             kind: Kind::Surface,
             p: sp.p,
             ng: sp.ng,
             ns: surface_normal(&self.textures, raw, &sp, LOD_MAGNIFY),
-            mat: surface_material(&self.textures, raw, &sp, LOD_MAGNIFY),
+            mat,
             wo: -ray.dir,
             beta,
             pdf_fwd: 0.0,
@@ -463,7 +474,8 @@ impl<'a> Bidir<'a> {
                 // The range window of a punctual light, now that the distance is known.
                 beta *= punctual_window(&self.scene.punctual[prev.index as usize], hit.t);
             }
-            let mut v = self.surface_vertex(hit, instance, &ray, beta);
+            let mut v =
+                self.surface_vertex(hit, instance, &ray, beta, self.wavelength(pixel, sample));
             // KHR_materials_volume: the segment's attenuation, its medium read from either end.
             beta *= transmittance(
                 vertex_sigma(&prev, ray.dir).max(vertex_sigma(&v, -ray.dir)),
@@ -953,10 +965,50 @@ impl<'a> Bidir<'a> {
         }
     }
 
+    /// The wavelength sample (`pixel`, `sample`) carries where the scene has a dispersive
+    /// material (`FrameParams::spectral`), else 0: one for both subpaths (`spectrum`'s module
+    /// docs).
+    fn wavelength(&self, pixel: u32, sample: u32) -> f32 {
+        if self.frame.spectral != 0 {
+            sample_wavelength_of(self.frame.seed, pixel, sample)
+        } else {
+            0.0
+        }
+    }
+
     /// Every contribution of sample `sample` of `pixel`: its light subpath's splats and, for
     /// BDPT, its camera subpath's strategies. `strategies` receives (s, t, weighted, pixel) of
-    /// each nonzero strategy when given.
+    /// each nonzero strategy when given. A spectral sample's contributions carry its
+    /// wavelength's weight r(λ)/p(λ) once.
     pub fn sample(
+        &self,
+        pixel: u32,
+        sample: u32,
+        scratch: &mut (Vec<Vertex>, Vec<Vertex>),
+        counts: &mut RayCounts,
+        mut strategies: Option<&mut Vec<Strategy>>,
+    ) -> Contributions {
+        let first = strategies.as_deref().map_or(0, Vec::len);
+        let mut out = self.sample_rgb(pixel, sample, scratch, counts, strategies.as_deref_mut());
+        let lambda = self.wavelength(pixel, sample);
+        if lambda > 0.0 {
+            let w = wavelength_weight(lambda);
+            out.own *= w;
+            for (_, c) in &mut out.splats {
+                *c *= w;
+            }
+            if let Some(list) = strategies {
+                for entry in &mut list[first..] {
+                    entry.2 *= w;
+                    entry.3 *= w;
+                }
+            }
+        }
+        out
+    }
+
+    /// [`Bidir::sample`] before the wavelength's weight.
+    fn sample_rgb(
         &self,
         pixel: u32,
         sample: u32,

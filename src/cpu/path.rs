@@ -22,6 +22,9 @@ use crate::sampling::{
     ONE_MINUS_EPSILON,
 };
 use crate::scene::camera_ray;
+use crate::spectrum::{
+    is_dispersive, material_at_wavelength, sample_wavelength_of, wavelength_weight,
+};
 use crate::surface::{
     alpha_key, surface_emission, surface_lod_base, surface_material, surface_normal, surface_point,
     LOD_MAGNIFY,
@@ -297,7 +300,7 @@ fn shade(
     } else {
         [0.0; 2]
     };
-    let mat = &surface_material(&textures, raw, &sp, lod);
+    let mut mat = surface_material(&textures, raw, &sp, lod);
     // --aov: a property of the first hit instead of radiance.
     if frame.aov != AOV_RADIANCE {
         let value = match frame.aov {
@@ -311,7 +314,7 @@ fn shade(
     }
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
-    let le = emitted_radiance(mat, cos_out);
+    let le = emitted_radiance(&mat, cos_out);
     if le.max_element() > 0.0 && class.ends_here(&[]) {
         let mut w = 1.0;
         if state.prev_specular == 0 {
@@ -332,6 +335,17 @@ fn shade(
     if depth >= frame.max_depth {
         return (None, None);
     }
+    // KHR_materials_dispersion: the path turns spectral at its first dispersive vertex, before
+    // the vertex's emitter sample (`spectrum`'s module docs).
+    if is_dispersive(&mat) {
+        if state.wavelength == 0.0 {
+            let lambda = sample_wavelength_of(frame.seed, pixel, sample);
+            throughput *= wavelength_weight(lambda);
+            state.wavelength = lambda;
+        }
+        material_at_wavelength(&mut mat, state.wavelength);
+    }
+    let mat = &mat;
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
     // the surface exactly (nothing scatters along it).
     let ns = surface_normal(&textures, raw, &sp, lod);

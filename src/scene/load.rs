@@ -61,6 +61,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_iridescence",
     "KHR_materials_volume",
     "KHR_materials_diffuse_transmission",
+    "KHR_materials_dispersion",
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
@@ -836,6 +837,21 @@ fn convert_material(
             *slot = Some(reference(&property, info, srgb)?);
         }
     }
+    // KHR_materials_dispersion, read from the raw JSON: 20 / Abbe number, any non-negative
+    // value (the extension calls [0, 1] realistic and allows more for effect).
+    let mut dispersion = 0.0;
+    if let Some(ext) = material.extension_value("KHR_materials_dispersion") {
+        let what = path("extensions.KHR_materials_dispersion");
+        if !ext.is_object() {
+            bail!("{what}{owner}: expected an object");
+        }
+        if let Some(v) = ext.get("dispersion") {
+            match v.as_f64() {
+                Some(x) if x.is_finite() && (0.0..=1e6).contains(&x) => dispersion = x as f32,
+                _ => bail!("{what}.dispersion{owner}: {v} must be a non-negative number"),
+            }
+        }
+    }
     let mut normal_scale = 1.0;
     if let Some(normal) = material.normal_texture() {
         normal_scale = normal.scale();
@@ -900,6 +916,7 @@ fn convert_material(
             attenuation_distance,
             diffuse_transmission,
             diffuse_transmission_color,
+            dispersion,
             emission,
             double_sided: material.double_sided(),
             alpha: alpha.min(1.0),

@@ -247,6 +247,8 @@ pub struct Material {
     /// diffuseTransmissionColorFactor (linear RGB in [0, 1]).
     pub diffuse_transmission: f32,
     pub diffuse_transmission_color: Vec3,
+    /// KHR_materials_dispersion: 20 / Abbe number (≥ 0; 0: none).
+    pub dispersion: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻², non-negative.
     pub emission: Vec3,
     /// Emits from both faces (the BSDF shades both sides either way).
@@ -290,6 +292,7 @@ impl Material {
             attenuation_distance: f32::INFINITY,
             diffuse_transmission: 0.0,
             diffuse_transmission_color: Vec3::ONE,
+            dispersion: 0.0,
             emission: Vec3::ZERO,
             double_sided: false,
             alpha: 1.0,
