@@ -757,6 +757,7 @@ fn committed_scenes_match_their_generator() {
             "instances.gltf",
             "leaf.gltf",
             "many-lights.gltf",
+            "prism.gltf",
             "veach-mis.gltf"
         ]
     );

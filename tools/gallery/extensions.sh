@@ -16,7 +16,8 @@
 #   AttenuationTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
 # They are lit by the Poly Haven map studio_small_03_1k.hdr (CC0) from ../shared/gltf-samples/env/,
 # SpecularTest by a uniform white environment and UnlitTest by nothing (it is its own light);
-# scenes/leaf.gltf (ours, tools/gen_scenes.py) by its own light.
+# scenes/leaf.gltf and scenes/prism.gltf (ours, tools/gen_scenes.py) by their own lights; the
+# prism with BDPT at 256 samples (its slit is seen only through the glass).
 set -eu
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 SAMPLES=${SAMPLES:-$ROOT/../shared/gltf-samples/valid/extensions}
@@ -43,3 +44,6 @@ render ext-anisotropy-rotation "$SAMPLES/AnisotropyRotationTest.glb" --width 240
 render ext-iridescence-suzanne "$SAMPLES/IridescenceSuzanne.glb" --width 200 --height 200 --env "$ENV"
 render ext-attenuation "$SAMPLES/AttenuationTest.glb" --width 240 --height 200 --environment 1
 render ext-leaf "$ROOT/scenes/leaf.gltf" --width 200 --height 200 --environment 0
+echo "$WAVETRACE render $ROOT/scenes/prism.gltf --integrator bdpt --device $DEVICE -o $OUT/ext-prism.png"
+"$WAVETRACE" render "$ROOT/scenes/prism.gltf" --integrator bdpt --device "$DEVICE" --spp 256 --max-depth 6 \
+    --width 240 --height 160 -o "$OUT/ext-prism.png"
