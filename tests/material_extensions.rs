@@ -24,6 +24,14 @@ const MODELS: &[(&str, &[&str])] = &[
     ("AnisotropyStrengthTest.glb", &["KHR_materials_anisotropy"]),
     ("AnisotropyRotationTest.glb", &["KHR_materials_anisotropy"]),
     ("IridescenceSuzanne.glb", &["KHR_materials_iridescence"]),
+    (
+        "TransmissionRoughnessTest.glb",
+        &[
+            "KHR_materials_transmission",
+            "KHR_materials_ior",
+            "KHR_materials_volume",
+        ],
+    ),
 ];
 
 fn model(name: &str) -> Option<PathBuf> {

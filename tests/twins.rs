@@ -65,7 +65,7 @@ fn twin_material(i: u32) -> GpuMaterial {
         roughness: [0.0, 0.05, 0.3, 0.8][(i % 4) as usize],
         metallic: [0.0, 1.0, 0.0, 0.5][k as usize],
         transmission: [0.0, 0.0, 1.0, 0.5][k as usize],
-        ior: 1.5,
+        ior: if i % 7 == 3 { 1.0 } else { 1.5 },
         specular: if (i / 16).is_multiple_of(2) { 1.0 } else { 0.5 },
         specular_color: [[1.0; 3], [0.3, 1.8, 0.9], [40.0, 0.0, 1.0]][((i / 128) % 3) as usize],
         flags: if i / 512 == 7 { MATERIAL_UNLIT } else { 0 },

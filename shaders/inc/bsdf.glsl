@@ -265,6 +265,14 @@ bool bsdf_is_delta(BsdfFrame f) {
     return f.alpha.x < ALPHA_DELTA;
 }
 
+// The transmission lobe is a delta where the reflection is and where |eta - 1| < ETA_DELTA:
+// every microfacet then refracts within about |eta - 1|.alpha of straight through
+// (BsdfFrame::transmission_is_delta).
+#define ETA_DELTA 1e-3
+bool bsdf_transmission_is_delta(BsdfFrame f) {
+    return bsdf_is_delta(f) || abs(f.etap - 1.0) < ETA_DELTA;
+}
+
 // Generalised half vector of a refraction (Walter et al. 2007, eq. 16) on wo's side.
 bool refraction_half_vector(BsdfFrame f, vec3 wi, out vec3 m) {
     m = normalize(f.wo + f.etap * wi);
@@ -315,7 +323,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     }
     if (wi.z < 0.0) {
         vec3 diffuse = bsdf_eval_diffuse_transmission(f, wi);
-        if (f.transmission <= 0.0 || bsdf_is_delta(f)) return diffuse;
+        if (f.transmission <= 0.0 || bsdf_transmission_is_delta(f)) return diffuse;
         vec3 m;
         if (!refraction_half_vector(f, wi, m)) return diffuse;
         float om = dot(wo, m);
@@ -348,7 +356,7 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
     }
     if (wi.z < 0.0) {
         float diffuse = f.dt_pmf * cosine_hemisphere_pdf(-wi.z);
-        if (bsdf_is_delta(f) || f.lobe_pmf.z <= 0.0) return diffuse;
+        if (bsdf_transmission_is_delta(f) || f.lobe_pmf.z <= 0.0) return diffuse;
         vec3 m;
         if (!refraction_half_vector(f, wi, m)) return diffuse;
         float denom = f.etap * dot(wi, m) + dot(wo, m);
@@ -487,7 +495,8 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
         }
     } else {
         vec3 local;
-        if ((lobe == LOBE_REFLECTION || lobe == LOBE_TRANSMISSION) && bsdf_is_delta(f)) {
+        if ((lobe == LOBE_REFLECTION && bsdf_is_delta(f))
+            || (lobe == LOBE_TRANSMISSION && bsdf_transmission_is_delta(f))) {
             vec3 value;
             if (!bsdf_delta_lobe(f, lobe, mode, local, value) || !bsdf_consistent(f, local)) return false;
             wi = bsdf_to_world(f, local);

@@ -41,7 +41,7 @@ GpuMaterial twin_material(uint i) {
     uint k = (i / 4u) % 4u;
     m.metallic = k == 1u ? 1.0 : (k == 3u ? 0.5 : 0.0);
     m.transmission = k == 2u ? 1.0 : (k == 3u ? 0.5 : 0.0);
-    m.ior = 1.5;
+    m.ior = i % 7u == 3u ? 1.0 : 1.5;  // ior 1: the transmission is a delta at any roughness
     m.specular = (i / 16u) % 2u == 0u ? 1.0 : 0.5;
     uint c = (i / 128u) % 3u;
     m.specular_color = c == 0u ? vec3(1.0) : (c == 1u ? vec3(0.3, 1.8, 0.9) : vec3(40.0, 0.0, 1.0));

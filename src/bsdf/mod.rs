@@ -95,6 +95,10 @@ use microfacet::*;
 use sheen::{charlie_d, sheen_albedo, sheen_alpha, sheen_visibility};
 use std::f32::consts::FRAC_1_PI;
 
+/// Below this |η − 1| the transmission lobe is a delta whatever the roughness
+/// (`BsdfFrame::transmission_is_delta`).
+pub const ETA_DELTA: f32 = 1e-3;
+
 /// Which quantity a path carries (`mode` of every BSDF function).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TransportMode {
@@ -470,6 +474,15 @@ impl BsdfFrame {
         self.alpha.x < ALPHA_DELTA
     }
 
+    /// Whether the transmission lobe is a delta: where the reflection is, and where the two
+    /// sides' indices match, |η − 1| < [`ETA_DELTA`]: the generalised half vector of wo and a
+    /// direction wi is ∝ wo + η·wi (Walter et al. 2007, eq. 16), so every microfacet refracts
+    /// within about |η − 1|·α of straight through, whatever the roughness (an ior of 1 passes
+    /// a sharp image, as KHR_materials_transmission's TransmissionRoughnessTest shows).
+    fn transmission_is_delta(&self) -> bool {
+        self.is_delta() || (self.etap - 1.0).abs() < ETA_DELTA
+    }
+
     /// The generalised half vector of a refraction (Walter et al. 2007, eq. 16), on `wo`'s side;
     /// None if wo and wi do not lie on the sides of it that refraction requires.
     fn refraction_half_vector(&self, wi: Vec3) -> Option<Vec3> {
@@ -523,7 +536,7 @@ impl BsdfFrame {
             f
         } else if wi.z < 0.0 {
             let diffuse = self.eval_diffuse_transmission(wi);
-            if self.transmission <= 0.0 || self.is_delta() {
+            if self.transmission <= 0.0 || self.transmission_is_delta() {
                 return diffuse;
             }
             let Some(m) = self.refraction_half_vector(wi) else {
@@ -590,7 +603,7 @@ impl BsdfFrame {
             pdf
         } else if wi.z < 0.0 {
             let diffuse = p_dt * cosine_hemisphere_pdf(-wi.z);
-            if self.is_delta() || p_transmission <= 0.0 {
+            if self.transmission_is_delta() || p_transmission <= 0.0 {
                 return diffuse;
             }
             let Some(m) = self.refraction_half_vector(wi) else {
@@ -758,7 +771,12 @@ impl BsdfFrame {
             }
             wi
         } else {
-            if matches!(lobe, LOBE_REFLECTION | LOBE_TRANSMISSION) && self.is_delta() {
+            let delta = match lobe {
+                LOBE_REFLECTION => self.is_delta(),
+                LOBE_TRANSMISSION => self.transmission_is_delta(),
+                _ => false,
+            };
+            if delta {
                 let (wi, value) = self.delta_lobe(lobe, mode)?;
                 if !self.consistent(wi) {
                     return None;

@@ -316,6 +316,46 @@ fn smooth_glass_reflects_and_transmits_everything() {
 }
 
 #[test]
+fn rough_glass_of_ior_one_passes_light_straight_through() {
+    // KHR_materials_transmission at ior 1 (TransmissionRoughnessTest's "air" row): whatever the
+    // roughness, the transmitted light leaves along −wo, a delta, with weight (1 − F(wo))/p;
+    // the rough reflection stays a lobe with a density.
+    for roughness in [0.2f32, 0.5, 1.0] {
+        let m = GpuMaterial {
+            ior: 1.0,
+            ..material(1.0, 0.0, roughness, 1.0)
+        };
+        for cos in [0.9f32, 0.4] {
+            let wo = direction(cos, 0.3);
+            let frame = BsdfFrame::new(&m, NG, wo).unwrap();
+            let p = frame.lobe_pmf[LOBE_TRANSMISSION];
+            assert!(p > 0.5, "roughness {roughness}, cos {cos}: transmission pmf {p}");
+            let (mut straight, mut lobe) = (0, 0);
+            for i in 0..2000 {
+                let Some(s) = frame.sample(u3(8, i), TransportMode::Radiance) else {
+                    continue;
+                };
+                if s.wi.z < 0.0 {
+                    assert!(s.delta && (s.wi + wo).length() < 1e-6, "{:?}", s);
+                    let f = fresnel_layers(cos, frame.f0, frame.f90, 1.0, Vec3::ONE, 0.0, &frame.film).0;
+                    let want = (1.0 - f.max_element()) / p;
+                    assert!((s.weight.x - want).abs() < 1e-5 * want, "{} vs {want}", s.weight.x);
+                    straight += 1;
+                } else {
+                    assert!(!s.delta && s.pdf > 0.0);
+                    lobe += 1;
+                }
+            }
+            // (F0 is 0 at ior 1: the reflection is chosen rarely, by its Fresnel estimate.)
+            assert!(straight > 1000, "{straight} straight, {lobe} reflected");
+            // No density anywhere below: the delta is left out of eval and pdf.
+            assert_eq!(frame.pdf(-wo), 0.0);
+            assert_eq!(frame.eval(-wo, TransportMode::Radiance), Vec3::ZERO);
+        }
+    }
+}
+
+#[test]
 fn reflection_is_reciprocal_and_refraction_obeys_the_eta_squared_rule() {
     let dirs = [
         direction(0.9, 0.1),

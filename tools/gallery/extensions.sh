@@ -13,7 +13,7 @@
 #   AnisotropyStrengthTest: Ed Mackey (CC0 1.0)
 #   AnisotropyRotationTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
 #   IridescenceSuzanne: Mathias Kanzler, Pascal Schoen, UX3D (CC0 1.0)
-#   AttenuationTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
+#   AttenuationTest, TransmissionRoughnessTest: Ed Mackey, Analytical Graphics, Inc. (CC BY 4.0)
 # They are lit by the Poly Haven map studio_small_03_1k.hdr (CC0) from ../shared/gltf-samples/env/,
 # SpecularTest by a uniform white environment and UnlitTest by nothing (it is its own light);
 # scenes/leaf.gltf and scenes/prism.gltf (ours, tools/gen_scenes.py) by their own lights; the
@@ -43,6 +43,7 @@ render ext-anisotropy-strength "$SAMPLES/AnisotropyStrengthTest.glb" --width 240
 render ext-anisotropy-rotation "$SAMPLES/AnisotropyRotationTest.glb" --width 240 --height 160 --env "$ENV"
 render ext-iridescence-suzanne "$SAMPLES/IridescenceSuzanne.glb" --width 200 --height 200 --env "$ENV"
 render ext-attenuation "$SAMPLES/AttenuationTest.glb" --width 240 --height 200 --environment 1
+render ext-transmission-roughness "$SAMPLES/TransmissionRoughnessTest.glb" --width 320 --height 200 --env "$ENV"
 render ext-leaf "$ROOT/scenes/leaf.gltf" --width 200 --height 200 --environment 0
 echo "$WAVETRACE render $ROOT/scenes/prism.gltf --integrator bdpt --device $DEVICE -o $OUT/ext-prism.png"
 "$WAVETRACE" render "$ROOT/scenes/prism.gltf" --integrator bdpt --device "$DEVICE" --spp 256 --max-depth 6 \
