@@ -178,6 +178,23 @@ pub fn surface_emission(
     e * sample_texture_ref(data, m.emissive_texture, sp.uv, lod).truncate()
 }
 
+/// An emitter's material at a point as [`crate::cpu::emitted_radiance`] reads it: the
+/// emission ([`surface_emission`]) and KHR_materials_clearcoat's clearcoat × R of its texture
+/// (the coat darkens the emission below it), the rest as the factors give it.
+pub fn surface_emitter(
+    data: &TextureData,
+    m: &GpuMaterial,
+    sp: &SurfacePoint,
+    lod: [f32; 2],
+) -> GpuMaterial {
+    let mut out = *m;
+    out.emission = surface_emission(data, m, sp, lod).to_array();
+    if m.clearcoat_texture != NO_TEXTURE {
+        out.clearcoat *= sample_texture_ref(data, m.clearcoat_texture, sp.uv, lod).x;
+    }
+    out
+}
+
 /// Material `m` at the surface point: factors times textures times vertex colour.
 
 pub fn surface_material(

@@ -8,6 +8,10 @@
 //! (skipped with a notice where ../shared/gltf-samples is absent); light tracing and BDPT
 //! (CPU and GPU) agree with the path tracer on a lit absorbing block.
 //!
+//! Clearcoat over an emitter: "the emission is darkened by the Fresnel term" of the coat,
+//! exactly Le·(1 − clearcoat·0.04) seen head-on, and every integrator darkens it alike where a
+//! coated light grazes a floor (next event estimation, emitter hits, light subpaths).
+//!
 //! Diffuse transmission: scenes/leaf.gltf (tools/gen_scenes.py), a leaf lit from behind,
 //! shows its transmission colour, and every integrator on CPU and GPU agrees with the CPU path
 //! tracer per tile.
@@ -135,7 +139,7 @@ fn write_gltf(
     let json = format!(
         r#"{{
   "asset": {{"version": "2.0"}},
-  "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_specular", "KHR_materials_emissive_strength"],
+  "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_materials_dispersion", "KHR_materials_clearcoat"],
   "scene": 0,
   "scenes": [{{"nodes": [{}]}}],
   "nodes": [{}],
@@ -448,6 +452,91 @@ fn light_tracing_and_bdpt_disperse_as_the_path_tracer_does() {
         ("GPU bdpt", Integrator::Bdpt, 16, true),
     ];
     assert_integrators_agree_with_the_path_tracer(&prepared, 5, &cases, |_| {});
+}
+
+/// A square light of strength 4 under a clear coat of `clearcoat`, facing up at z = 0.3 (half
+/// size 0.6) over a grey floor at z = 0; seen from above by `camera` at `eye`.
+fn coated_light_gltf(name: &str, clearcoat: f32, camera: &str, eye: [f32; 3]) -> PathBuf {
+    let (mut light, mut li) = (Vec::new(), Vec::new());
+    add_square(&mut light, &mut li, 0.6, 0.3, true);
+    let (mut floor, mut fi) = (Vec::new(), Vec::new());
+    add_square(&mut floor, &mut fi, 3.0, 0.0, true);
+    let materials = format!(
+        r#"{{"name": "coated light", "pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 1}},
+      "emissiveFactor": [1, 1, 1], "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": 4}}, "KHR_materials_specular": {{"specularFactor": 0}},
+      "KHR_materials_clearcoat": {{"clearcoatFactor": {clearcoat}, "clearcoatRoughnessFactor": 0.2}}}}}},
+    {{"name": "floor", "pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0, "roughnessFactor": 1}},
+      "extensions": {{"KHR_materials_specular": {{"specularFactor": 0}}}}}}"#
+    );
+    write_gltf(
+        name,
+        &[(light, li, 0), (floor, fi, 1)],
+        &materials,
+        camera,
+        eye,
+    )
+}
+
+#[test]
+fn a_clear_coat_darkens_the_emission_below_it() {
+    use wavetrace::cpu::Integrator;
+    // Head-on through an orthographic camera inside the light's square: every sample sees the
+    // light along its normal, F_c = 0.04, so each pixel is exactly 4·(1 − 0.5·0.04) = 3.92.
+    let ortho = r#"{"type": "orthographic", "orthographic": {"xmag": 0.3, "ymag": 0.3, "znear": 0.01, "zfar": 100}}"#;
+    let scene = Scene::load(&coated_light_gltf(
+        "coated-light-head-on.gltf",
+        0.5,
+        ortho,
+        [0.0, 0.0, 3.0],
+    ))
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(scene
+        .notes
+        .iter()
+        .all(|n| !n.contains("KHR_materials_clearcoat")));
+    let prepared = PreparedScene::new(&scene);
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 4,
+        max_depth: 3,
+        ..RenderSettings::default()
+    };
+    let want = 4.0 * (1.0 - 0.5 * 0.04);
+    let mut films = vec![("CPU", render_cpu(&prepared, &settings).film)];
+    if let Some(out) = render_gpu(&prepared, &settings, None) {
+        films.push(("GPU", out.film));
+    }
+    for (device, film) in &films {
+        for p in 0..film.len() {
+            let m = film.mean(p);
+            assert!(
+                (m - Vec3::splat(want)).abs().max_element() < 1e-5 * want,
+                "{device}: pixel {p} is {m}, want {want}"
+            );
+        }
+    }
+    // A fully coated light low over a floor, seen in perspective: the floor around it is lit at
+    // grazing angles, where the coat's Fresnel takes most of the emission. Light tracing and BDPT
+    // (light subpaths leave the coated light) agree with the path tracer (emitter hits and
+    // next event estimation) per tile.
+    let perspective = r#"{"type": "perspective", "perspective": {"yfov": 1.0, "aspectRatio": 1.0, "znear": 0.05}}"#;
+    let scene = Scene::load(&coated_light_gltf(
+        "coated-light.gltf",
+        1.0,
+        perspective,
+        [0.0, 0.0, 3.5],
+    ))
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    let prepared = PreparedScene::new(&scene);
+    let cases = [
+        ("CPU light", Integrator::Light, 8, false),
+        ("CPU bdpt", Integrator::Bdpt, 4, false),
+        ("GPU path", Integrator::Path, 8, true),
+        ("GPU light", Integrator::Light, 8, true),
+        ("GPU bdpt", Integrator::Bdpt, 4, true),
+    ];
+    assert_integrators_agree_with_the_path_tracer(&prepared, 4, &cases, |_| {});
 }
 
 #[test]

@@ -65,8 +65,7 @@ GpuMaterial bdpt_material(BdptVertex v, float lambda) {
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(v.index), v.bary.x, v.bary.y);
     GpuMaterial raw = materials[triangle_material(tri)];
     if (bdpt_kind(v) == BDPT_VERTEX_AREA_LIGHT) {
-        raw.emission = surface_emission(raw, sp, LOD_MAGNIFY);
-        return raw;
+        return surface_emitter(raw, sp, LOD_MAGNIFY);
     }
     surface_to_world(sp, tri, instances[v.instance]);
     GpuMaterial m = surface_material(raw, sp, LOD_MAGNIFY);

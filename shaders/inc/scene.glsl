@@ -30,11 +30,20 @@ vec2 sample_pair(uint pixel, uint sample_index, uint dimension, vec2 u) {
     return u;
 }
 
+// KHR_materials_clearcoat darkens the emission below the coat: 1 - clearcoat F_c, F_c Schlick's
+// with F0 0.04 on the angle to the front-face normal (src/cpu/path.rs, coat_emission_weight).
+float coat_emission_weight(GpuMaterial m, float cos_out) {
+    if (m.clearcoat <= 0.0 || (m.flags & MATERIAL_UNLIT) != 0u) return 1.0;
+    float c = 1.0 - min(abs(cos_out), 1.0);
+    float c2 = c * c;
+    return 1.0 - m.clearcoat * (0.04 + 0.96 * (c2 * c2 * c));
+}
+
 // Radiance leaving a surface of material m towards a direction with cosine cos_out to its
-// front-face normal: one-sided unless the material is double-sided.
+// front-face normal: one-sided unless the material is double-sided, darkened by a clear coat.
 vec3 emitted_radiance(GpuMaterial m, float cos_out) {
     bool visible = cos_out > 0.0 || ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && cos_out < 0.0);
-    return visible ? m.emission : vec3(0.0);
+    return visible ? m.emission * coat_emission_weight(m, cos_out) : vec3(0.0);
 }
 
 // Radiance arriving at p from punctual light l, its direction wi and distance dist (-1 for a

@@ -95,6 +95,17 @@ vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
 
+// An emitter's material at a point as emitted_radiance reads it: the emission and the coat's
+// clearcoat x R of its texture (src/surface.rs, surface_emitter).
+GpuMaterial surface_emitter(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    GpuMaterial o = m;
+    o.emission = surface_emission(m, sp, lod);
+    if (m.clearcoat_texture != NO_TEXTURE) {
+        o.clearcoat *= sample_texture_ref(m.clearcoat_texture, sp.uv0, sp.uv1, lod).x;
+    }
+    return o;
+}
+
 // The unit tangent and bitangent of the point's tangent frame: TANGENT made orthogonal to the
 // interpolated normal, B = w cross(N, T); false where the tangent is degenerate.
 bool surface_tangent_frame(SurfacePoint sp, out vec3 t, out vec3 b) {

@@ -103,8 +103,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     float cos_light = dot(light_n, -ls.wi);
     // The light point's emission (its textures at level 0) where its surface exists.
     SurfacePoint light_sp = surface_point(light, triangle_vertices_at(entry.triangle), b.x, b.y);
-    GpuMaterial light_mat = materials[triangle_material(light)];
-    light_mat.emission = surface_emission(light_mat, light_sp, LOD_MAGNIFY);
+    GpuMaterial light_mat = surface_emitter(materials[triangle_material(light)], light_sp, LOD_MAGNIFY);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
     ls.radiance = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
         ? emitted_radiance(light_mat, cos_light) : vec3(0.0);

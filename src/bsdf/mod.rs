@@ -42,8 +42,8 @@
 //! cosine to the base's shading normal, the coat's term carries |L·N_c|/|L·N| (1 where the two
 //! normals agree). F_c on V makes the coated BSDF non-reciprocal; V is `wo` for radiance and
 //! `wi` for importance, so the importance BSDF is the radiance one transposed, as BDPT needs.
-//! Not modelled: the spec's darkening of emission under the coat (emission · (1 − clearcoat ·
-//! F_c)) — emission stays the direction-independent factor every integrator reads.
+//! The spec's darkening of the emission under the coat, emission · (1 − clearcoat · F_c), is
+//! `cpu::path::coat_emission_weight` (F_c there on the angle to the geometric normal).
 //!
 //! KHR_materials_sheen layers the Charlie microfiber lobe (`sheen`) over the base with the
 //! extension's albedo scaling, below the coat:

@@ -329,7 +329,10 @@ fn rough_glass_of_ior_one_passes_light_straight_through() {
             let wo = direction(cos, 0.3);
             let frame = BsdfFrame::new(&m, NG, wo).unwrap();
             let p = frame.lobe_pmf[LOBE_TRANSMISSION];
-            assert!(p > 0.5, "roughness {roughness}, cos {cos}: transmission pmf {p}");
+            assert!(
+                p > 0.5,
+                "roughness {roughness}, cos {cos}: transmission pmf {p}"
+            );
             let (mut straight, mut lobe) = (0, 0);
             for i in 0..2000 {
                 let Some(s) = frame.sample(u3(8, i), TransportMode::Radiance) else {
@@ -337,9 +340,15 @@ fn rough_glass_of_ior_one_passes_light_straight_through() {
                 };
                 if s.wi.z < 0.0 {
                     assert!(s.delta && (s.wi + wo).length() < 1e-6, "{:?}", s);
-                    let f = fresnel_layers(cos, frame.f0, frame.f90, 1.0, Vec3::ONE, 0.0, &frame.film).0;
+                    let f =
+                        fresnel_layers(cos, frame.f0, frame.f90, 1.0, Vec3::ONE, 0.0, &frame.film)
+                            .0;
                     let want = (1.0 - f.max_element()) / p;
-                    assert!((s.weight.x - want).abs() < 1e-5 * want, "{} vs {want}", s.weight.x);
+                    assert!(
+                        (s.weight.x - want).abs() < 1e-5 * want,
+                        "{} vs {want}",
+                        s.weight.x
+                    );
                     straight += 1;
                 } else {
                     assert!(!s.delta && s.pdf > 0.0);

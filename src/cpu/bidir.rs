@@ -54,7 +54,7 @@ use crate::sampling::{
 };
 use crate::spectrum::{material_at_wavelength, sample_wavelength_of, wavelength_weight};
 use crate::surface::{
-    alpha_key, surface_emission, surface_material, surface_normal, surface_point, towards_eye,
+    alpha_key, surface_emitter, surface_material, surface_normal, surface_point, towards_eye,
     LOD_MAGNIFY,
 };
 use crate::texture::TextureData;
@@ -288,7 +288,7 @@ impl<'a> Bidir<'a> {
         if !scene.present(&self.textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
             return None;
         }
-        let mut mat = scene.materials[tri.material_index() as usize];
+        let raw = &scene.materials[tri.material_index() as usize];
         let sp = surface_point(
             tri,
             scene.triangle_vertices[entry.triangle as usize],
@@ -296,7 +296,7 @@ impl<'a> Bidir<'a> {
             b.x,
             b.y,
         );
-        mat.emission = surface_emission(&self.textures, &mat, &sp, LOD_MAGNIFY).to_array();
+        let mat = surface_emitter(&self.textures, raw, &sp, LOD_MAGNIFY);
         let p_a = pmf / tri.area;
         let mut v = Vertex::endpoint(
             Kind::AreaLight,

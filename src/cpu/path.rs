@@ -3,14 +3,15 @@
 //! random numbers, so that a disagreement between the two integrators points at one stage.
 
 use crate::bsdf::volume::{transmittance, volume_sigma};
-use crate::bsdf::{BsdfFrame, TransportMode};
+use crate::bsdf::{fresnel_coat, BsdfFrame, TransportMode};
 use crate::bvh::Ray;
 use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
 use crate::layout::LIGHT_SAMPLER_BVH;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, GpuPunctualLight, PathState, AOV_BASE_COLOR, AOV_NORMAL,
     AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT,
-    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
+    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT, RR_ALBEDO, RR_OFF,
+    SAMPLER_STRATIFIED,
 };
 use crate::light_bvh::{light_bvh_pmf, light_bvh_sample};
 use crate::mc::roulette_f32;
@@ -26,7 +27,7 @@ use crate::spectrum::{
     is_dispersive, material_at_wavelength, sample_wavelength_of, wavelength_weight,
 };
 use crate::surface::{
-    alpha_key, surface_emission, surface_lod_base, surface_material, surface_normal, surface_point,
+    alpha_key, surface_emitter, surface_lod_base, surface_material, surface_normal, surface_point,
     LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
@@ -88,14 +89,26 @@ pub fn sample_pair(frame: &FrameParams, pixel: u32, sample: u32, dimension: u32,
 }
 
 /// Radiance leaving material `m` towards a direction with cosine `cos_out` to the front-face
-/// normal: one-sided unless the material is double-sided.
+/// normal: one-sided unless the material is double-sided, darkened by a clear coat
+/// ([`coat_emission_weight`]).
 pub fn emitted_radiance(m: &GpuMaterial, cos_out: f32) -> Vec3 {
     let visible = cos_out > 0.0 || (m.flags & MATERIAL_DOUBLE_SIDED != 0 && cos_out < 0.0);
     if visible {
-        Vec3::from(m.emission)
+        Vec3::from(m.emission) * coat_emission_weight(m, cos_out)
     } else {
         Vec3::ZERO
     }
+}
+
+/// KHR_materials_clearcoat: "the emission is darkened by the Fresnel term" of the coat above it,
+/// emission · (1 − clearcoat · F_c); F_c ([`fresnel_coat`]) is taken on the angle to the
+/// front-face normal (emitters are sampled as flat triangles; the coat's normal map is not read
+/// for them). 1 without a coat and for unlit materials.
+pub fn coat_emission_weight(m: &GpuMaterial, cos_out: f32) -> f32 {
+    if m.clearcoat <= 0.0 || m.flags & MATERIAL_UNLIT != 0 {
+        return 1.0;
+    }
+    1.0 - m.clearcoat * fresnel_coat(cos_out)
 }
 
 /// Direction to, distance to (−1 for a directional light, at infinity) and radiance arriving from punctual
@@ -582,9 +595,9 @@ fn sample_emitter(
     let cos_light = light_n.dot(-wi);
     // The light point's emission (its textures at level 0) where its surface exists.
     let textures = scene.texture_data();
-    let mut light_mat = scene.materials[light.material_index() as usize];
+    let raw = &scene.materials[light.material_index() as usize];
     let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
-    light_mat.emission = surface_emission(&textures, &light_mat, &light_sp, LOD_MAGNIFY).to_array();
+    let light_mat = surface_emitter(&textures, raw, &light_sp, LOD_MAGNIFY);
     let key = alpha_key(frame.seed, pixel, sample, depth, true);
     // (Culling does not apply: the light's own sidedness is its emission's.)
     let radiance = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
