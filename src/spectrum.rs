@@ -42,7 +42,7 @@ pub const LAMBDA_MAX: f32 = 830.0;
 /// ∫ max(0, M·xyz(λ)) dλ over [`LAMBDA_MIN`, `LAMBDA_MAX`] per channel (R, G, B), by the
 /// composite Simpson rule on 0.01 nm steps in f64 (`tests::normalisation_is_the_integral`
 /// recomputes it).
-pub const RESPONSE_NORMALISATION: [f32; 3] = [176.177_32, 115.391_275, 109.370_545];
+pub const RESPONSE_NORMALISATION: [f32; 3] = [176.177_32, 115.391_27, 109.370_545];
 
 /// The Fraunhofer d line, where KHR_materials_ior's index is given (the dispersion
 /// extension's n_d), nm.
