@@ -203,7 +203,8 @@ pub fn surface_material(
     sp: &SurfacePoint,
     lod: [f32; 2],
 ) -> GpuMaterial {
-    let mut out = *m;
+    // The emission and the coat's factor, as emitters read them.
+    let mut out = surface_emitter(data, m, sp, lod);
     let mut base = Vec4::from((Vec3::from(m.base_color), m.alpha)) * sp.color;
     if m.base_color_texture != NO_TEXTURE {
         base *= sample_texture_ref(data, m.base_color_texture, sp.uv, lod);
@@ -215,7 +216,6 @@ pub fn surface_material(
         out.metallic *= mr.z;
         out.roughness *= mr.y;
     }
-    out.emission = surface_emission(data, m, sp, lod).to_array();
     if m.transmission_texture != NO_TEXTURE {
         out.transmission *= sample_texture_ref(data, m.transmission_texture, sp.uv, lod).x;
     }
@@ -225,9 +225,6 @@ pub fn surface_material(
     if m.specular_color_texture != NO_TEXTURE {
         let c = sample_texture_ref(data, m.specular_color_texture, sp.uv, lod).truncate();
         out.specular_color = (Vec3::from(m.specular_color) * c).to_array();
-    }
-    if m.clearcoat_texture != NO_TEXTURE {
-        out.clearcoat *= sample_texture_ref(data, m.clearcoat_texture, sp.uv, lod).x;
     }
     if m.clearcoat_roughness_texture != NO_TEXTURE {
         out.clearcoat_roughness *=

@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::{batch_tiles, BATCHES};
+use common::{batch_tiles, compare_batch_tiles, BATCHES};
 use wavetrace::cpu::Integrator;
 use wavetrace::film::Film;
 use wavetrace::layout::SAMPLER_INDEPENDENT;
@@ -192,26 +192,13 @@ fn gpu_matches_cpu_on_the_prism() {
     let gpu = |s: &RenderSettings| common::render_gpu(&prepared, s, None).map(|o| o.film);
     let tiles = (48 / 8) * (32 / 8);
     let per_test = sidak(0.01, cases.len() * tiles * 3);
-    let df = (BATCHES - 1) as f64;
     let mut failures = Vec::new();
     for (k, &(name, integrator, spp)) in cases.iter().enumerate() {
         let Some(g) = batch_tiles(&small(integrator, spp), 10 + 2 * k as u32, &gpu) else {
             return;
         };
         let c = batch_tiles(&small(integrator, spp), 11 + 2 * k as u32, &cpu).unwrap();
-        let mut min_p = 1.0f64;
-        for (t, (a, b)) in g.iter().zip(&c).enumerate() {
-            for ch in 0..3 {
-                let (_, _, p) = welch_t_test(a[ch].0, a[ch].1, df, b[ch].0, b[ch].1, df);
-                min_p = min_p.min(p);
-                if p < per_test {
-                    failures.push(format!(
-                        "{name}: tile {t} channel {ch}: GPU {:.5} vs CPU {:.5} (p = {p:.2e})",
-                        a[ch].0, b[ch].0
-                    ));
-                }
-            }
-        }
+        let min_p = compare_batch_tiles(name, &g, &c, "CPU", per_test, &mut failures);
         println!("{name}: GPU vs CPU smallest p {min_p:.3e} (per-test α {per_test:.2e})");
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

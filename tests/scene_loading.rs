@@ -446,6 +446,37 @@ fn malformed_inputs_name_the_object_and_problem() {
         ),
         &["KHR_draco_mesh_compression"],
     );
+    // An archived extension is refused by name, with the reason and the way out.
+    expect_error(
+        "required-spec-gloss",
+        &quad_gltf(
+            "",
+            "",
+            r#""extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"], "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],"#,
+        ),
+        &[
+            "extensionsRequired",
+            "KHR_materials_pbrSpecularGlossiness",
+            "archived",
+            "KHR_materials_specular",
+        ],
+    );
+    // Only used: the file loads, and the note says what is ignored and why.
+    let (_, used) = load_text(
+        "used-spec-gloss",
+        &quad_gltf(
+            "",
+            "",
+            r#""extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],"#,
+        ),
+    );
+    let notes = used.unwrap_or_else(|e| panic!("{e:#}")).notes;
+    assert!(
+        notes.iter().any(|n| n.contains("ignored glTF extensions")
+            && n.contains("KHR_materials_pbrSpecularGlossiness")
+            && n.contains("archived")),
+        "{notes:?}"
+    );
     expect_error(
         "overflow",
         &quad_gltf(

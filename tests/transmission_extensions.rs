@@ -19,7 +19,7 @@
 mod common;
 
 use base64::Engine;
-use common::{assert_agree_at, batch_tiles, render_cpu, render_gpu, BATCHES};
+use common::{assert_agree_at, batch_tiles, compare_batch_tiles, render_cpu, render_gpu};
 use glam::Vec3;
 use std::path::PathBuf;
 use wavetrace::render::{PreparedScene, RenderSettings};
@@ -379,27 +379,13 @@ fn assert_integrators_agree_with_the_path_tracer(
     let path = batch_tiles(&settings(Integrator::Path, 8), 1, &cpu).unwrap();
     check_path(&path);
     let per_test = sidak(0.01, cases.len() * path.len() * 3);
-    let df = (BATCHES - 1) as f64;
     let mut failures = Vec::new();
     for (k, &(name, integrator, spp, on_gpu)) in cases.iter().enumerate() {
         let render: &Render = if on_gpu { &gpu } else { &cpu };
         let Some(ours) = batch_tiles(&settings(integrator, spp), 2 + k as u32, render) else {
             return;
         };
-        let mut min_p = 1.0f64;
-        for (t, (x, y)) in ours.iter().zip(&path).enumerate() {
-            for c in 0..3 {
-                let (_, _, p) =
-                    wavetrace::stats::welch_t_test(x[c].0, x[c].1, df, y[c].0, y[c].1, df);
-                min_p = min_p.min(p);
-                if p < per_test {
-                    failures.push(format!(
-                        "{name}: tile {t} channel {c}: {:.5} vs path {:.5} (p = {p:.2e})",
-                        x[c].0, y[c].0
-                    ));
-                }
-            }
-        }
+        let min_p = compare_batch_tiles(name, &ours, &path, "path", per_test, &mut failures);
         println!("{name} vs CPU path: smallest p {min_p:.3e} (per-test α {per_test:.2e})");
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

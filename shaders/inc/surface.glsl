@@ -164,7 +164,8 @@ vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
 // Material m at the surface point: factors times textures times vertex colour.
 
 GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    GpuMaterial o = m;
+    // The emission and the coat's factor, as emitters read them.
+    GpuMaterial o = surface_emitter(m, sp, lod);
     vec4 base = vec4(m.base_color, m.alpha) * sp.color;
     if (m.base_color_texture != NO_TEXTURE) base *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, lod);
     o.base_color = base.xyz;
@@ -174,7 +175,6 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
         o.metallic *= mr.z;
         o.roughness *= mr.y;
     }
-    o.emission = surface_emission(m, sp, lod);
     if (m.transmission_texture != NO_TEXTURE) {
         o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
     }
@@ -183,9 +183,6 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     }
     if (m.specular_color_texture != NO_TEXTURE) {
         o.specular_color = m.specular_color * sample_texture_ref(m.specular_color_texture, sp.uv0, sp.uv1, lod).xyz;
-    }
-    if (m.clearcoat_texture != NO_TEXTURE) {
-        o.clearcoat *= sample_texture_ref(m.clearcoat_texture, sp.uv0, sp.uv1, lod).x;
     }
     if (m.clearcoat_roughness_texture != NO_TEXTURE) {
         o.clearcoat_roughness *= sample_texture_ref(m.clearcoat_roughness_texture, sp.uv0, sp.uv1, lod).y;

@@ -67,6 +67,31 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
 ];
 
+/// Extensions wavetrace refuses on purpose, with the reason its messages give.
+const REFUSED_EXTENSIONS: &[(&str, &str)] = &[
+    (
+        "KHR_materials_pbrSpecularGlossiness",
+        "archived by Khronos; re-export the materials as metallic-roughness with \
+         KHR_materials_specular and KHR_materials_ior",
+    ),
+    (
+        "KHR_draco_mesh_compression",
+        "compressed geometry is not decoded; re-export without Draco",
+    ),
+    (
+        "EXT_meshopt_compression",
+        "compressed buffers are not decoded; re-export without meshopt",
+    ),
+];
+
+/// An unsupported extension's name, with the reason where wavetrace refuses it on purpose.
+fn unsupported_extension(ext: &str) -> String {
+    match REFUSED_EXTENSIONS.iter().find(|(name, _)| *name == ext) {
+        Some((_, why)) => format!("{ext} ({why})"),
+        None => ext.to_owned(),
+    }
+}
+
 /// Memory a parsed JSON value may take per structural character (`,` `:` `[` `{`) of its text:
 /// a `serde_json::Value` is 32 bytes, a map entry about twice that, and the `gltf` crate's
 /// typed model is built from it while it lives.
@@ -154,8 +179,9 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
     for ext in &root.extensions_required {
         if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
             bail!(
-                "extensionsRequired: the file requires the glTF extension {ext:?}, which wavetrace \
+                "extensionsRequired: the file requires the glTF extension {}, which wavetrace \
                  does not support (supported: {})",
+                unsupported_extension(ext),
                 SUPPORTED_EXTENSIONS.join(", ")
             );
         }
@@ -277,9 +303,10 @@ fn validated_document(root: gltf::json::Root) -> Result<Document> {
 fn notes(document: &Document, builder: &Builder) -> Vec<String> {
     let mut notes = Vec::new();
     notes.extend(builder.repairs.notes());
-    let ignored: Vec<&str> = document
+    let ignored: Vec<String> = document
         .extensions_used()
         .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .map(unsupported_extension)
         .collect();
     if !ignored.is_empty() {
         notes.push(format!("ignored glTF extensions: {}", ignored.join(", ")));

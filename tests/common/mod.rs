@@ -263,6 +263,35 @@ pub fn assert_bitwise_equal(a: &Path, b: &Path) {
 const TILE: u32 = 8;
 pub const BATCHES: u32 = 12;
 
+/// Welch tests of two [`batch_tiles`] results, tile by tile and channel by channel, at per-test
+/// level `per_test`: each failure as a line naming `name`, the tile, the channel and both
+/// means (`ours` first, then `reference`, called `what`) is pushed onto `failures`; returns the
+/// smallest p.
+pub fn compare_batch_tiles(
+    name: &str,
+    ours: &[[(f64, f64); 3]],
+    reference: &[[(f64, f64); 3]],
+    what: &str,
+    per_test: f64,
+    failures: &mut Vec<String>,
+) -> f64 {
+    let df = (BATCHES - 1) as f64;
+    let mut min_p = 1.0f64;
+    for (t, (a, b)) in ours.iter().zip(reference).enumerate() {
+        for c in 0..3 {
+            let (_, _, p) = wavetrace::stats::welch_t_test(a[c].0, a[c].1, df, b[c].0, b[c].1, df);
+            min_p = min_p.min(p);
+            if p < per_test {
+                failures.push(format!(
+                    "{name}: tile {t} channel {c}: {:.5} vs {what} {:.5} (p = {p:.2e})",
+                    a[c].0, b[c].0
+                ));
+            }
+        }
+    }
+    min_p
+}
+
 /// Per 8 × 8 tile and channel: the mean over `BATCHES` independent renders (seeds of their own)
 /// and the variance of that mean from the spread of the batch means — light tracing and BDPT
 /// splat into many pixels, so a per-pixel variance would understate a tile's (as
