@@ -232,6 +232,106 @@ fn albedo(m: &GpuMaterial, wo: Vec3, n: u32) -> (f64, f64) {
     )
 }
 
+/// Directions in and above the surface, for the reciprocity checks.
+const RECIPROCITY_DIRECTIONS: [(f32, f32); 3] = [(0.9, 0.1), (0.4, 2.0), (0.15, 4.0)];
+
+/// What every lobe's sampling must satisfy on each case (rough lobes: `sample` has a density):
+/// χ² of `bsdf_sample`'s directions against `bsdf_pdf` at α = 0.01 Šidák-corrected over the
+/// cases, and, in both transport modes, each of 5000 samples' pdf equal to `bsdf_pdf` and its
+/// weight to f·|cos|/pdf within 10⁻³. A sample from a delta lobe fails the test, unless
+/// `skip_delta` (cases with smooth layers), which leaves it out. Prints the smallest p.
+fn assert_sampling_matches_pdf_and_eval(
+    cases: &[(GpuMaterial, Vec3, String)],
+    what: &str,
+    skip_delta: bool,
+) {
+    let alpha = sidak(0.01, cases.len());
+    let mut smallest: f64 = 1.0;
+    for (m, wo, name) in cases {
+        let p = chi_square_p(
+            &|u| {
+                bsdf_sample(m, NG, *wo, u, TransportMode::Radiance)
+                    .filter(|s| !(skip_delta && s.delta))
+                    .map(|s| s.wi)
+            },
+            &|wi| bsdf_pdf(m, NG, *wo, wi),
+            1_000_000,
+        );
+        smallest = smallest.min(p);
+        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            for i in 0..5000 {
+                let Some(s) = bsdf_sample(m, NG, *wo, u3(2, i), mode) else {
+                    continue;
+                };
+                if skip_delta && s.delta {
+                    continue;
+                }
+                assert!(!s.delta, "{name}");
+                let pdf = bsdf_pdf(m, NG, *wo, s.wi);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                    "{name}: {} vs {pdf}",
+                    s.pdf
+                );
+                let expected = bsdf_eval(m, NG, *wo, s.wi, mode) * s.wi.z.abs() / pdf;
+                assert!(
+                    (s.weight - expected).abs().max_element()
+                        <= 1e-3 * expected.max_element().max(1e-3),
+                    "{name}: {} vs {expected}",
+                    s.weight
+                );
+            }
+        }
+    }
+    println!(
+        "{what} χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
+        cases.len()
+    );
+}
+
+/// Each case's BSDF is reciprocal in reflection, f(a, b) = f(b, a), and its importance
+/// transmission is the radiance one transposed.
+fn assert_reciprocal_and_transposed(cases: &[(GpuMaterial, Vec3, String)]) {
+    let dirs = RECIPROCITY_DIRECTIONS.map(|(cos, phi)| direction(cos, phi));
+    for (m, _, name) in cases {
+        for a in dirs {
+            for b in dirs {
+                let fab = bsdf_eval(m, NG, a, b, TransportMode::Radiance);
+                let fba = bsdf_eval(m, NG, b, a, TransportMode::Radiance);
+                assert!(
+                    (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
+                    "{name}: {fab} vs {fba}"
+                );
+                let below = b * Vec3::new(1.0, 1.0, -1.0);
+                let out_in = bsdf_eval(m, NG, a, below, TransportMode::Radiance);
+                let adjoint = bsdf_eval(m, NG, below, a, TransportMode::Importance);
+                assert!(
+                    (adjoint - out_in).abs().max_element() <= 1e-3 * out_in.max_element().max(1e-3),
+                    "{name}: {adjoint} vs {out_in}"
+                );
+            }
+        }
+    }
+}
+
+/// Each (material, wo) reflects at most what it receives: its Monte Carlo albedo (10⁵ samples)
+/// at most 1 + z·se + 10⁻⁴, z the normal quantile of α = 0.01 Šidák-corrected over the checks.
+/// Returns the largest albedo.
+fn assert_albedo_at_most_one(checks: &[(GpuMaterial, Vec3)]) -> f64 {
+    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
+    let mut largest: f64 = 0.0;
+    for (m, wo) in checks {
+        let (a, se) = albedo(m, *wo, 100_000);
+        largest = largest.max(a);
+        assert!(
+            a <= 1.0 + z * se + 1e-4,
+            "{m:?} from {wo}: albedo {a} ± {se}"
+        );
+    }
+    largest
+}
+
 #[test]
 fn no_parameter_set_creates_energy() {
     // Metals and dielectrics without the diffuse lobe (pure GGX reflection and transmission)
@@ -248,14 +348,7 @@ fn no_parameter_set_creates_energy() {
             }
         }
     }
-    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
-    for (m, wo) in checks {
-        let (a, se) = albedo(&m, wo, 100_000);
-        assert!(
-            a <= 1.0 + z * se + 1e-4,
-            "{m:?} from {wo}: albedo {a} ± {se}"
-        );
-    }
+    assert_albedo_at_most_one(&checks);
 }
 
 #[test]
@@ -550,14 +643,7 @@ fn specular_color_is_reciprocal_and_conserves_energy_without_the_diffuse() {
             }
         }
     }
-    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
-    for (m, wo) in checks {
-        let (a, se) = albedo(&m, wo, 100_000);
-        assert!(
-            a <= 1.0 + z * se + 1e-4,
-            "{m:?} from {wo}: albedo {a} ± {se}"
-        );
-    }
+    assert_albedo_at_most_one(&checks);
 }
 
 #[test]
@@ -659,39 +745,7 @@ fn coated_cases() -> Vec<(GpuMaterial, Vec3, String)> {
 
 #[test]
 fn clearcoat_sampling_matches_its_pdf_and_eval() {
-    let cases = coated_cases();
-    let alpha = sidak(0.01, cases.len());
-    for (m, wo, name) in cases {
-        let p = chi_square_p(
-            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
-            &|wi| bsdf_pdf(&m, NG, wo, wi),
-            1_000_000,
-        );
-        println!("{name}: χ² p = {p:.3}");
-        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
-        for mode in [TransportMode::Radiance, TransportMode::Importance] {
-            for i in 0..5000 {
-                let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), mode) else {
-                    continue;
-                };
-                assert!(!s.delta, "{name}");
-                let pdf = bsdf_pdf(&m, NG, wo, s.wi);
-                assert!(
-                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
-                    "{name}: {} vs {pdf}",
-                    s.pdf
-                );
-                let frame = BsdfFrame::new(&m, NG, wo).unwrap();
-                let expected = frame.eval(s.wi, mode) * frame.cos_theta(s.wi) / pdf;
-                assert!(
-                    (s.weight - expected).abs().max_element()
-                        <= 1e-3 * expected.max_element().max(1e-3),
-                    "{name}: {} vs {expected}",
-                    s.weight
-                );
-            }
-        }
-    }
+    assert_sampling_matches_pdf_and_eval(&coated_cases(), "clearcoat", false);
 }
 
 #[test]
@@ -744,16 +798,7 @@ fn clearcoat_conserves_energy_over_conserving_bases() {
             }
         }
     }
-    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
-    let mut worst: f64 = 0.0;
-    for (m, wo) in checks {
-        let (a, se) = albedo(&m, wo, 100_000);
-        worst = worst.max(a);
-        assert!(
-            a <= 1.0 + z * se + 1e-4,
-            "{m:?} from {wo}: albedo {a} ± {se}"
-        );
-    }
+    let worst = assert_albedo_at_most_one(&checks);
     println!("highest coated albedo: {worst:.4}");
     // White furnace: a smooth coat over a smooth white mirror reflects everything, exactly.
     let mirror = GpuMaterial {
@@ -850,40 +895,7 @@ fn sheen_cases() -> Vec<(GpuMaterial, Vec3, String)> {
 
 #[test]
 fn sheen_sampling_matches_its_pdf_and_eval() {
-    let cases = sheen_cases();
-    let alpha = sidak(0.01, cases.len());
-    let mut smallest: f64 = 1.0;
-    for (m, wo, name) in cases {
-        let p = chi_square_p(
-            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
-            &|wi| bsdf_pdf(&m, NG, wo, wi),
-            1_000_000,
-        );
-        smallest = smallest.min(p);
-        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
-        for mode in [TransportMode::Radiance, TransportMode::Importance] {
-            for i in 0..5000 {
-                let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), mode) else {
-                    continue;
-                };
-                let pdf = bsdf_pdf(&m, NG, wo, s.wi);
-                assert!(
-                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
-                    "{name}: {} vs {pdf}",
-                    s.pdf
-                );
-                let f = bsdf_eval(&m, NG, wo, s.wi, mode);
-                let expected = f * s.wi.z.abs() / pdf;
-                assert!(
-                    (s.weight - expected).abs().max_element()
-                        <= 1e-3 * expected.max_element().max(1e-3),
-                    "{name}: {} vs {expected}",
-                    s.weight
-                );
-            }
-        }
-    }
-    println!("sheen χ²: smallest p {smallest:.3} (α per test {alpha:.2e})");
+    assert_sampling_matches_pdf_and_eval(&sheen_cases(), "sheen", false);
 }
 
 #[test]
@@ -1044,77 +1056,15 @@ fn anisotropic_cases() -> Vec<(GpuMaterial, Vec3, String)> {
 
 #[test]
 fn anisotropic_sampling_matches_its_pdf_and_eval() {
-    let cases = anisotropic_cases();
-    let alpha = sidak(0.01, cases.len());
-    let mut smallest: f64 = 1.0;
-    for (m, wo, name) in cases {
-        let p = chi_square_p(
-            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
-            &|wi| bsdf_pdf(&m, NG, wo, wi),
-            1_000_000,
-        );
-        smallest = smallest.min(p);
-        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
-        for mode in [TransportMode::Radiance, TransportMode::Importance] {
-            for i in 0..5000 {
-                let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), mode) else {
-                    continue;
-                };
-                assert!(!s.delta, "{name}");
-                let pdf = bsdf_pdf(&m, NG, wo, s.wi);
-                assert!(
-                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
-                    "{name}: {} vs {pdf}",
-                    s.pdf
-                );
-                let f = bsdf_eval(&m, NG, wo, s.wi, mode);
-                let expected = f * s.wi.z.abs() / pdf;
-                assert!(
-                    (s.weight - expected).abs().max_element()
-                        <= 1e-3 * expected.max_element().max(1e-3),
-                    "{name}: {} vs {expected}",
-                    s.weight
-                );
-            }
-        }
-    }
-    println!(
-        "anisotropy χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
-        anisotropic_cases().len()
-    );
+    assert_sampling_matches_pdf_and_eval(&anisotropic_cases(), "anisotropy", false);
 }
 
 #[test]
 fn anisotropy_is_reciprocal_and_conserves_energy() {
-    let dirs = [
-        direction(0.9, 0.1),
-        direction(0.4, 2.0),
-        direction(0.15, 4.0),
-    ];
-    for (m, _, name) in anisotropic_cases() {
-        for a in dirs {
-            for b in dirs {
-                let fab = bsdf_eval(&m, NG, a, b, TransportMode::Radiance);
-                let fba = bsdf_eval(&m, NG, b, a, TransportMode::Radiance);
-                assert!(
-                    (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
-                    "{name}: {fab} vs {fba}"
-                );
-                // Transmission: the importance BSDF is the radiance one transposed.
-                let below = b * Vec3::new(1.0, 1.0, -1.0);
-                let out_in = bsdf_eval(&m, NG, a, below, TransportMode::Radiance);
-                let adjoint = bsdf_eval(&m, NG, below, a, TransportMode::Importance);
-                assert!(
-                    (adjoint - out_in).abs().max_element() <= 1e-3 * out_in.max_element().max(1e-3),
-                    "{name}: {adjoint} vs {out_in}"
-                );
-            }
-        }
-    }
+    assert_reciprocal_and_transposed(&anisotropic_cases());
     // A white anisotropic metal and a clear anisotropic dielectric (seen from outside, where
     // 1/η² keeps transmission below 1) reflect at most what they receive.
     let mut checks = Vec::new();
-    let mut largest: f64 = 0.0;
     for (roughness, strength) in [(0.0, 1.0), (0.1, 0.5), (0.3, 1.0), (0.7, 0.6), (1.0, 1.0)] {
         for cos in [1.0, 0.5, 0.1] {
             for phi in [0.4, 1.97] {
@@ -1128,15 +1078,7 @@ fn anisotropy_is_reciprocal_and_conserves_energy() {
             }
         }
     }
-    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
-    for (m, wo) in checks {
-        let (a, se) = albedo(&m, wo, 100_000);
-        largest = largest.max(a);
-        assert!(
-            a <= 1.0 + z * se + 1e-4,
-            "{m:?} from {wo}: albedo {a} ± {se}"
-        );
-    }
+    let largest = assert_albedo_at_most_one(&checks);
     println!("anisotropic albedo: largest {largest:.4}");
 }
 
@@ -1274,70 +1216,12 @@ fn iridescent_cases() -> Vec<(GpuMaterial, Vec3, String)> {
 
 #[test]
 fn iridescent_sampling_matches_its_pdf_and_eval() {
-    let cases = iridescent_cases();
-    let alpha = sidak(0.01, cases.len());
-    let mut smallest: f64 = 1.0;
-    for (m, wo, name) in &cases {
-        let p = chi_square_p(
-            &|u| bsdf_sample(m, NG, *wo, u, TransportMode::Radiance).map(|s| s.wi),
-            &|wi| bsdf_pdf(m, NG, *wo, wi),
-            1_000_000,
-        );
-        smallest = smallest.min(p);
-        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
-        for mode in [TransportMode::Radiance, TransportMode::Importance] {
-            for i in 0..5000 {
-                let Some(s) = bsdf_sample(m, NG, *wo, u3(2, i), mode) else {
-                    continue;
-                };
-                let pdf = bsdf_pdf(m, NG, *wo, s.wi);
-                assert!(
-                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
-                    "{name}: {} vs {pdf}",
-                    s.pdf
-                );
-                let expected = bsdf_eval(m, NG, *wo, s.wi, mode) * s.wi.z.abs() / pdf;
-                assert!(
-                    (s.weight - expected).abs().max_element()
-                        <= 1e-3 * expected.max_element().max(1e-3),
-                    "{name}: {} vs {expected}",
-                    s.weight
-                );
-            }
-        }
-    }
-    println!(
-        "iridescence χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
-        cases.len()
-    );
+    assert_sampling_matches_pdf_and_eval(&iridescent_cases(), "iridescence", false);
 }
 
 #[test]
 fn iridescence_is_reciprocal_and_conserves_energy() {
-    let dirs = [
-        direction(0.9, 0.1),
-        direction(0.4, 2.0),
-        direction(0.15, 4.0),
-    ];
-    for (m, _, name) in iridescent_cases() {
-        for a in dirs {
-            for b in dirs {
-                let fab = bsdf_eval(&m, NG, a, b, TransportMode::Radiance);
-                let fba = bsdf_eval(&m, NG, b, a, TransportMode::Radiance);
-                assert!(
-                    (fab - fba).abs().max_element() <= 1e-4 * fab.max_element().max(1e-3),
-                    "{name}: {fab} vs {fba}"
-                );
-                let below = b * Vec3::new(1.0, 1.0, -1.0);
-                let out_in = bsdf_eval(&m, NG, a, below, TransportMode::Radiance);
-                let adjoint = bsdf_eval(&m, NG, below, a, TransportMode::Importance);
-                assert!(
-                    (adjoint - out_in).abs().max_element() <= 1e-3 * out_in.max_element().max(1e-3),
-                    "{name}: {adjoint} vs {out_in}"
-                );
-            }
-        }
-    }
+    assert_reciprocal_and_transposed(&iridescent_cases());
     // Filmed white metal and clear glass (from outside) reflect at most what they receive,
     // smooth (delta lobes: F + (1 − F) per channel) and rough.
     let mut checks = Vec::new();
@@ -1354,16 +1238,7 @@ fn iridescence_is_reciprocal_and_conserves_energy() {
             }
         }
     }
-    let z = crate::stats::normal_quantile_upper(sidak(0.01, checks.len()));
-    let mut largest: f64 = 0.0;
-    for (m, wo) in checks {
-        let (a, se) = albedo(&m, wo, 100_000);
-        largest = largest.max(a);
-        assert!(
-            a <= 1.0 + z * se + 1e-4,
-            "{m:?} from {wo}: albedo {a} ± {se}"
-        );
-    }
+    let largest = assert_albedo_at_most_one(&checks);
     println!("iridescent albedo: largest {largest:.4}");
 }
 
@@ -1428,58 +1303,12 @@ fn translucent_cases() -> Vec<(GpuMaterial, Vec3, String)> {
 
 #[test]
 fn diffuse_transmission_sampling_matches_its_pdf_and_eval() {
-    let cases = translucent_cases();
-    let alpha = sidak(0.01, cases.len());
-    let mut smallest: f64 = 1.0;
-    for (m, wo, name) in &cases {
-        let p = chi_square_p(
-            &|u| {
-                bsdf_sample(m, NG, *wo, u, TransportMode::Radiance)
-                    .filter(|s| !s.delta)
-                    .map(|s| s.wi)
-            },
-            &|wi| bsdf_pdf(m, NG, *wo, wi),
-            1_000_000,
-        );
-        smallest = smallest.min(p);
-        assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
-        for mode in [TransportMode::Radiance, TransportMode::Importance] {
-            for i in 0..5000 {
-                let Some(s) = bsdf_sample(m, NG, *wo, u3(2, i), mode) else {
-                    continue;
-                };
-                if s.delta {
-                    continue;
-                }
-                let pdf = bsdf_pdf(m, NG, *wo, s.wi);
-                assert!(
-                    (s.pdf - pdf).abs() <= 1e-3 * pdf,
-                    "{name}: {} vs {pdf}",
-                    s.pdf
-                );
-                let expected = bsdf_eval(m, NG, *wo, s.wi, mode) * s.wi.z.abs() / pdf;
-                assert!(
-                    (s.weight - expected).abs().max_element()
-                        <= 1e-3 * expected.max_element().max(1e-3),
-                    "{name}: {} vs {expected}",
-                    s.weight
-                );
-            }
-        }
-    }
-    println!(
-        "diffuse transmission χ²: smallest p {smallest:.3} over {} cases (α per test {alpha:.2e})",
-        cases.len()
-    );
+    assert_sampling_matches_pdf_and_eval(&translucent_cases(), "diffuse transmission", true);
 }
 
 #[test]
 fn diffuse_transmission_is_reciprocal_and_a_white_leaf_keeps_all_the_light() {
-    let dirs = [
-        direction(0.9, 0.1),
-        direction(0.4, 2.0),
-        direction(0.15, 4.0),
-    ];
+    let dirs = RECIPROCITY_DIRECTIONS.map(|(cos, phi)| direction(cos, phi));
     for (m, _, name) in translucent_cases() {
         for a in dirs {
             for b in dirs {
