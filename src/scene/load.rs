@@ -424,6 +424,24 @@ fn untyped_transform(
 
 /// A number of a material extension's raw JSON object `ext` (`what` is the object's JSON path
 /// and owner): `default` when absent, an error unless it is a number in [0, 1].
+/// A material extension's raw JSON object (the `gltf` crate types only the extensions it knows)
+/// and its JSON path, `path` giving the material's; None where the material does not use it.
+fn raw_extension<'a>(
+    material: &'a gltf::Material,
+    name: &str,
+    path: &dyn Fn(&str) -> String,
+    owner: &str,
+) -> Result<Option<(&'a serde_json::Value, String)>> {
+    let Some(ext) = material.extension_value(name) else {
+        return Ok(None);
+    };
+    let what = path(&format!("extensions.{name}"));
+    if !ext.is_object() {
+        bail!("{what}{owner}: expected an object");
+    }
+    Ok(Some((ext, what)))
+}
+
 fn raw_unit_factor(
     ext: &serde_json::Value,
     key: &str,
@@ -437,6 +455,30 @@ fn raw_unit_factor(
     match v.as_f64() {
         Some(x) if (0.0..=1.0 + 1e-4).contains(&x) => Ok((x as f32).min(1.0)),
         _ => bail!("{what}.{key}{owner}: {v} must be a number in [0, 1]"),
+    }
+}
+
+/// A colour factor (three numbers in [0, 1], rounding just above 1 forgiven) of a material
+/// extension's raw JSON, or `default` where absent.
+fn raw_unit_color(
+    ext: &serde_json::Value,
+    key: &str,
+    default: Vec3,
+    what: &str,
+    owner: &str,
+) -> Result<Vec3> {
+    let Some(v) = ext.get(key) else {
+        return Ok(default);
+    };
+    let c: Option<Vec<f64>> = v
+        .as_array()
+        .filter(|a| a.len() == 3)
+        .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+    match c {
+        Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
+            Ok(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE))
+        }
+        _ => bail!("{what}.{key}{owner}: {v} must be three numbers in [0, 1]"),
     }
 }
 
@@ -662,78 +704,70 @@ fn convert_material(
     } else {
         emission
     };
+    // A material extension's textures (key, slot, sRGB) from its raw JSON: each one present
+    // becomes a reference; returns each one's `scale` (a normalTextureInfo's; 1 otherwise).
+    let mut raw_textures = |ext: &serde_json::Value,
+                            name: &str,
+                            slots: &mut [(&str, &mut Option<u32>, bool)]|
+     -> Result<Vec<f32>> {
+        let mut scales = Vec::with_capacity(slots.len());
+        for (key, slot, srgb) in slots.iter_mut() {
+            let mut scale = 1.0;
+            if let Some(value) = ext.get(*key) {
+                let property = format!("extensions.{name}.{key}");
+                let (info, s) = raw_texture_info(document, value, &path(&property), &owner)?;
+                **slot = Some(reference(&property, info, *srgb)?);
+                scale = s;
+            }
+            scales.push(scale);
+        }
+        Ok(scales)
+    };
     // KHR_materials_clearcoat, read from the raw JSON.
     let (mut clearcoat, mut clearcoat_roughness, mut clearcoat_normal_scale) = (0.0, 0.0, 1.0);
-    if let Some(ext) = material.extension_value("KHR_materials_clearcoat") {
-        let what = path("extensions.KHR_materials_clearcoat");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
+    if let Some((ext, what)) = raw_extension(&material, "KHR_materials_clearcoat", &path, &owner)? {
         clearcoat = raw_unit_factor(ext, "clearcoatFactor", 0.0, &what, &owner)?;
         clearcoat_roughness = raw_unit_factor(ext, "clearcoatRoughnessFactor", 0.0, &what, &owner)?;
-        for (key, slot) in [
-            ("clearcoatTexture", &mut textures.clearcoat),
-            (
-                "clearcoatRoughnessTexture",
-                &mut textures.clearcoat_roughness,
-            ),
-            ("clearcoatNormalTexture", &mut textures.clearcoat_normal),
-        ] {
-            let Some(value) = ext.get(key) else {
-                continue;
-            };
-            let property = format!("extensions.KHR_materials_clearcoat.{key}");
-            let (info, scale) = raw_texture_info(document, value, &path(&property), &owner)?;
-            let r = reference(&property, info, false)?;
-            *slot = Some(r);
-            if key == "clearcoatNormalTexture" {
-                clearcoat_normal_scale = scale;
-            }
-        }
+        clearcoat_normal_scale = raw_textures(
+            ext,
+            "KHR_materials_clearcoat",
+            &mut [
+                ("clearcoatTexture", &mut textures.clearcoat, false),
+                (
+                    "clearcoatRoughnessTexture",
+                    &mut textures.clearcoat_roughness,
+                    false,
+                ),
+                (
+                    "clearcoatNormalTexture",
+                    &mut textures.clearcoat_normal,
+                    false,
+                ),
+            ],
+        )?[2];
     }
     // KHR_materials_sheen, read from the raw JSON.
     let (mut sheen_color, mut sheen_roughness) = (Vec3::ZERO, 0.0);
-    if let Some(ext) = material.extension_value("KHR_materials_sheen") {
-        let what = path("extensions.KHR_materials_sheen");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
-        if let Some(v) = ext.get("sheenColorFactor") {
-            let c: Option<Vec<f64>> = v
-                .as_array()
-                .filter(|a| a.len() == 3)
-                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
-            match c {
-                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
-                    sheen_color = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
-                }
-                _ => bail!("{what}.sheenColorFactor{owner}: {v} must be three numbers in [0, 1]"),
-            }
-        }
+    if let Some((ext, what)) = raw_extension(&material, "KHR_materials_sheen", &path, &owner)? {
+        sheen_color = raw_unit_color(ext, "sheenColorFactor", Vec3::ZERO, &what, &owner)?;
         sheen_roughness = raw_unit_factor(ext, "sheenRoughnessFactor", 0.0, &what, &owner)?;
-        for (key, slot, srgb) in [
-            ("sheenColorTexture", &mut textures.sheen_color, true),
-            (
-                "sheenRoughnessTexture",
-                &mut textures.sheen_roughness,
-                false,
-            ),
-        ] {
-            let Some(value) = ext.get(key) else {
-                continue;
-            };
-            let property = format!("extensions.KHR_materials_sheen.{key}");
-            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
-            *slot = Some(reference(&property, info, srgb)?);
-        }
+        raw_textures(
+            ext,
+            "KHR_materials_sheen",
+            &mut [
+                ("sheenColorTexture", &mut textures.sheen_color, true),
+                (
+                    "sheenRoughnessTexture",
+                    &mut textures.sheen_roughness,
+                    false,
+                ),
+            ],
+        )?;
     }
     // KHR_materials_anisotropy, read from the raw JSON.
     let (mut anisotropy, mut anisotropy_rotation) = (0.0, 0.0);
-    if let Some(ext) = material.extension_value("KHR_materials_anisotropy") {
-        let what = path("extensions.KHR_materials_anisotropy");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
+    if let Some((ext, what)) = raw_extension(&material, "KHR_materials_anisotropy", &path, &owner)?
+    {
         anisotropy = raw_unit_factor(ext, "anisotropyStrength", 0.0, &what, &owner)?;
         if let Some(v) = ext.get("anisotropyRotation") {
             match v.as_f64() {
@@ -741,20 +775,17 @@ fn convert_material(
                 _ => bail!("{what}.anisotropyRotation{owner}: {v} must be a finite number"),
             }
         }
-        if let Some(value) = ext.get("anisotropyTexture") {
-            let property = "extensions.KHR_materials_anisotropy.anisotropyTexture";
-            let (info, _) = raw_texture_info(document, value, &path(property), &owner)?;
-            textures.anisotropy = Some(reference(property, info, false)?);
-        }
+        raw_textures(
+            ext,
+            "KHR_materials_anisotropy",
+            &mut [("anisotropyTexture", &mut textures.anisotropy, false)],
+        )?;
     }
     // KHR_materials_iridescence, read from the raw JSON.
     let (mut iridescence, mut iridescence_ior) = (0.0, 1.3);
     let (mut thickness_min, mut thickness_max) = (100.0, 400.0);
-    if let Some(ext) = material.extension_value("KHR_materials_iridescence") {
-        let what = path("extensions.KHR_materials_iridescence");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
+    if let Some((ext, what)) = raw_extension(&material, "KHR_materials_iridescence", &path, &owner)?
+    {
         iridescence = raw_unit_factor(ext, "iridescenceFactor", 0.0, &what, &owner)?;
         for (key, slot, least) in [
             ("iridescenceIor", &mut iridescence_ior, 1.0),
@@ -770,30 +801,24 @@ fn convert_material(
                 }
             }
         }
-        for (key, slot) in [
-            ("iridescenceTexture", &mut textures.iridescence),
-            (
-                "iridescenceThicknessTexture",
-                &mut textures.iridescence_thickness,
-            ),
-        ] {
-            let Some(value) = ext.get(key) else {
-                continue;
-            };
-            let property = format!("extensions.KHR_materials_iridescence.{key}");
-            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
-            *slot = Some(reference(&property, info, false)?);
-        }
+        raw_textures(
+            ext,
+            "KHR_materials_iridescence",
+            &mut [
+                ("iridescenceTexture", &mut textures.iridescence, false),
+                (
+                    "iridescenceThicknessTexture",
+                    &mut textures.iridescence_thickness,
+                    false,
+                ),
+            ],
+        )?;
     }
     // KHR_materials_volume, read from the raw JSON (thicknessTexture is a rasteriser's estimate
     // of the distance a path tracer measures: not read).
     let (mut thickness, mut attenuation_color, mut attenuation_distance) =
         (0.0, Vec3::ONE, f32::INFINITY);
-    if let Some(ext) = material.extension_value("KHR_materials_volume") {
-        let what = path("extensions.KHR_materials_volume");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
+    if let Some((ext, what)) = raw_extension(&material, "KHR_materials_volume", &path, &owner)? {
         if let Some(v) = ext.get("thicknessFactor") {
             match v.as_f64() {
                 Some(x) if x.is_finite() && x >= 0.0 => thickness = x as f32,
@@ -806,72 +831,47 @@ fn convert_material(
                 _ => bail!("{what}.attenuationDistance{owner}: {v} must be a positive number"),
             }
         }
-        if let Some(v) = ext.get("attenuationColor") {
-            let c: Option<Vec<f64>> = v
-                .as_array()
-                .filter(|a| a.len() == 3)
-                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
-            match c {
-                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
-                    attenuation_color =
-                        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
-                }
-                _ => bail!("{what}.attenuationColor{owner}: {v} must be three numbers in [0, 1]"),
-            }
-        }
+        attenuation_color = raw_unit_color(ext, "attenuationColor", Vec3::ONE, &what, &owner)?;
     }
     // KHR_materials_diffuse_transmission, read from the raw JSON.
     let (mut diffuse_transmission, mut diffuse_transmission_color) = (0.0, Vec3::ONE);
-    if let Some(ext) = material.extension_value("KHR_materials_diffuse_transmission") {
-        let what = path("extensions.KHR_materials_diffuse_transmission");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
+    if let Some((ext, what)) = raw_extension(
+        &material,
+        "KHR_materials_diffuse_transmission",
+        &path,
+        &owner,
+    )? {
         diffuse_transmission =
             raw_unit_factor(ext, "diffuseTransmissionFactor", 0.0, &what, &owner)?;
-        if let Some(v) = ext.get("diffuseTransmissionColorFactor") {
-            let c: Option<Vec<f64>> = v
-                .as_array()
-                .filter(|a| a.len() == 3)
-                .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
-            match c {
-                Some(c) if c.iter().all(|x| (0.0..=1.0 + 1e-4).contains(x)) => {
-                    diffuse_transmission_color =
-                        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).min(Vec3::ONE)
-                }
-                _ => bail!(
-                    "{what}.diffuseTransmissionColorFactor{owner}: {v} must be three numbers in [0, 1]"
+        diffuse_transmission_color = raw_unit_color(
+            ext,
+            "diffuseTransmissionColorFactor",
+            Vec3::ONE,
+            &what,
+            &owner,
+        )?;
+        raw_textures(
+            ext,
+            "KHR_materials_diffuse_transmission",
+            &mut [
+                (
+                    "diffuseTransmissionTexture",
+                    &mut textures.diffuse_transmission,
+                    false,
                 ),
-            }
-        }
-        for (key, slot, srgb) in [
-            (
-                "diffuseTransmissionTexture",
-                &mut textures.diffuse_transmission,
-                false,
-            ),
-            (
-                "diffuseTransmissionColorTexture",
-                &mut textures.diffuse_transmission_color,
-                true,
-            ),
-        ] {
-            let Some(value) = ext.get(key) else {
-                continue;
-            };
-            let property = format!("extensions.KHR_materials_diffuse_transmission.{key}");
-            let (info, _) = raw_texture_info(document, value, &path(&property), &owner)?;
-            *slot = Some(reference(&property, info, srgb)?);
-        }
+                (
+                    "diffuseTransmissionColorTexture",
+                    &mut textures.diffuse_transmission_color,
+                    true,
+                ),
+            ],
+        )?;
     }
     // KHR_materials_dispersion, read from the raw JSON: 20 / Abbe number, any non-negative
     // value (the extension calls [0, 1] realistic and allows more for effect).
     let mut dispersion = 0.0;
-    if let Some(ext) = material.extension_value("KHR_materials_dispersion") {
-        let what = path("extensions.KHR_materials_dispersion");
-        if !ext.is_object() {
-            bail!("{what}{owner}: expected an object");
-        }
+    if let Some((ext, what)) = raw_extension(&material, "KHR_materials_dispersion", &path, &owner)?
+    {
         if let Some(v) = ext.get("dispersion") {
             match v.as_f64() {
                 Some(x) if x.is_finite() && (0.0..=1e6).contains(&x) => dispersion = x as f32,
