@@ -455,6 +455,7 @@ impl<'a> Bidir<'a> {
         let f = self.frame;
         let beta_ref = beta.max_element();
         let camera = mode == TransportMode::Radiance;
+        let lambda = self.wavelength(pixel, sample);
         while path.len() < max_vertices {
             let i = path.len() as u32;
             let bounce = i - 1;
@@ -474,8 +475,7 @@ impl<'a> Bidir<'a> {
                 // The range window of a punctual light, now that the distance is known.
                 beta *= punctual_window(&self.scene.punctual[prev.index as usize], hit.t);
             }
-            let mut v =
-                self.surface_vertex(hit, instance, &ray, beta, self.wavelength(pixel, sample));
+            let mut v = self.surface_vertex(hit, instance, &ray, beta, lambda);
             // KHR_materials_volume: the segment's attenuation, its medium read from either end.
             beta *= transmittance(
                 vertex_sigma(&prev, ray.dir).max(vertex_sigma(&v, -ray.dir)),
