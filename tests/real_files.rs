@@ -242,9 +242,10 @@ fn three_hundred_textures_render_exactly_on_gpu_and_cpu() {
 }
 
 /// A textured, normal-mapped model whose BVH nodes, triangles, vertex indices, vertices and
-/// texels are each spread over three or four bindings (as a scene larger than the device's
-/// storage range is) renders the same bits as with one binding each: the split changes where
-/// the kernels read, never what.
+/// texels are read from storage buffers, each spread over three or four bindings (as a scene
+/// larger than the device's storage range is), renders the same bits as the default, which
+/// reads them (and the materials and light BVH nodes) from images: neither the split nor the
+/// images change what the kernels read, only where.
 #[test]
 fn a_scene_split_across_bindings_renders_the_same_bits() {
     use wavetrace::gpu::pipelines::SPLIT_BINDINGS;
@@ -275,10 +276,14 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
         (per_binding * sizes[k]) as u64
     });
     let mut gpu = common::gpu().unwrap();
+    assert!(gpu.scene_split(&scene).unwrap().images);
     gpu.set_binding_limits(Some(limits));
+    gpu.set_scene_images(false);
     let split = gpu.scene_split(&scene).unwrap();
     let out = gpu.render(&scene, &settings, None);
     gpu.set_binding_limits(None);
+    gpu.set_scene_images(true);
+    assert!(!split.images);
     drop(gpu);
     for k in 0..5 {
         let per_binding = split.per_binding(k).expect("every array is split") as usize;
@@ -296,5 +301,9 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
     assert!(memory.buffers >= 40, "{memory}");
     assert!(memory.blocks * 4 <= memory.buffers, "{memory}");
     assert_eq!(whole.stats.extension_rays, split_out.stats.extension_rays);
-    common::assert_same_bits(&whole.film, &split_out.film, "split across bindings");
+    common::assert_same_bits(
+        &whole.film,
+        &split_out.film,
+        "buffers split across bindings vs images",
+    );
 }

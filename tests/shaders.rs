@@ -3,7 +3,8 @@
 //! a kernel declares has the kind the host's descriptor set layout gives it (DESIGN.md,
 //! Verification 5).
 
-use naga::{AddressSpace, Module, TypeInner};
+use ash::vk;
+use naga::{AddressSpace, ImageClass, ImageDimension, Module, ScalarKind, TypeInner};
 use std::collections::BTreeSet;
 use wavetrace::gpu::pipelines::{kernel_spirv, Binding};
 use wavetrace::kernels::{KERNELS, TEST_KERNELS};
@@ -96,23 +97,33 @@ fn descriptor_bindings_match_the_host_layout() {
                 .unwrap_or_else(|| {
                     panic!("{name}: binding {} is not in the host's layout", rb.binding)
                 });
-            let expected_uniform = *binding == Binding::Frame;
-            match var.space {
-                AddressSpace::Uniform => assert!(
-                    expected_uniform,
-                    "{name}: binding {} is a uniform buffer, host says {binding:?}",
-                    rb.binding
-                ),
-                AddressSpace::Storage { .. } => assert!(
-                    !expected_uniform,
-                    "{name}: binding {} is a storage buffer, host says {binding:?}",
-                    rb.binding
-                ),
+            let expected = binding.descriptor_type();
+            let found = match var.space {
+                AddressSpace::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+                AddressSpace::Storage { .. } => vk::DescriptorType::STORAGE_BUFFER,
+                // The scene images: unsigned-integer 2-D textures read by texelFetch.
+                AddressSpace::Handle => match module.types[var.ty].inner {
+                    TypeInner::Image {
+                        dim: ImageDimension::D2,
+                        arrayed: false,
+                        class:
+                            ImageClass::Sampled {
+                                kind: ScalarKind::Uint,
+                                multi: false,
+                            },
+                    } => vk::DescriptorType::SAMPLED_IMAGE,
+                    ref other => panic!("{name}: binding {} is a {other:?}", rb.binding),
+                },
                 other => panic!(
                     "{name}: binding {} has unexpected address space {other:?}",
                     rb.binding
                 ),
-            }
+            };
+            assert_eq!(
+                found, expected,
+                "{name}: binding {} is a {found:?}, host says {binding:?} ({expected:?})",
+                rb.binding
+            );
             used.insert(rb.binding);
         }
     }

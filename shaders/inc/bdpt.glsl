@@ -63,11 +63,11 @@ BdptVertex bdpt_camera(uint path, uint k) {
 GpuMaterial bdpt_material(BdptVertex v, float lambda) {
     GpuTriangle tri = triangle_at(v.index);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(v.index), v.bary.x, v.bary.y);
-    GpuMaterial raw = materials[triangle_material(tri)];
+    GpuMaterial raw = material_at(triangle_material(tri));
     if (bdpt_kind(v) == BDPT_VERTEX_AREA_LIGHT) {
         return surface_emitter(raw, sp, LOD_MAGNIFY);
     }
-    surface_to_world(sp, tri, instances[v.instance]);
+    surface_to_world(sp, tri, instance_at(v.instance));
     GpuMaterial m = surface_material(raw, sp, LOD_MAGNIFY);
     material_at_wavelength(m, lambda);
     return m;
@@ -80,7 +80,7 @@ GpuMaterial bdpt_material(BdptVertex v, float lambda) {
 bool bdpt_sample_light_vertex(uint pixel, uint sample_index, float u, vec2 u_point, out BdptVertex v) {
     v = bdpt_camera_vertex();
     if (frame.light_count == 0u) return false;
-    LightEntry entry = lights[sample_light(min(u, ONE_MINUS_EPSILON))];
+    LightEntry entry = light_at(sample_light(min(u, ONE_MINUS_EPSILON)));
     float pmf = entry.pmf * (1.0 - frame.env_pmf);
     if (!(pmf > 0.0)) return false;
     if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {

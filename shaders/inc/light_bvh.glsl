@@ -41,6 +41,10 @@ struct GpuLightNode {
 
 #if !defined(LIGHT_BVH_GLSL) && !defined(LIGHT_BVH_NODE_ONLY)
 #define LIGHT_BVH_GLSL
+// Kernels that read the nodes from an image define light_node_at (scene_arrays.glsl).
+#ifndef light_node_at
+#define light_node_at(i) light_nodes[i]
+#endif
 
 bool light_node_is_leaf(GpuLightNode node) { return (node.flags & LIGHT_NODE_LEAF) != 0u; }
 bool light_node_two_sided(GpuLightNode node) { return (node.flags & LIGHT_NODE_TWO_SIDED) != 0u; }
@@ -102,7 +106,7 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
     uint index = 0u;
     float prob = 1.0;
     for (uint depth = 0u; depth <= MAX_LIGHT_BVH_DEPTH; depth++) {
-        GpuLightNode node = light_nodes[index];
+        GpuLightNode node = light_node_at(index);
         if (light_node_is_leaf(node)) {
             if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return false;
             light = node.child_or_light;
@@ -110,8 +114,8 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
             return true;
         }
         uint second = node.child_or_light;
-        float c0 = light_bounds_importance(light_nodes[index + 1u], p, n);
-        float c1 = light_bounds_importance(light_nodes[second], p, n);
+        float c0 = light_bounds_importance(light_node_at(index + 1u), p, n);
+        float c1 = light_bounds_importance(light_node_at(second), p, n);
         float sum = c0 + c1;
         if (!(sum > 0.0)) return false;
         float p0 = c0 / sum;

@@ -81,7 +81,7 @@ uint sample_light(float u) {
     uint hi = frame.light_count - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
-        if (lights[mid].cdf > u) hi = mid; else lo = mid + 1u;
+        if (light_at(mid).cdf > u) hi = mid; else lo = mid + 1u;
     }
     return lo;
 }

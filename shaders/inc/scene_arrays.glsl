@@ -13,6 +13,177 @@ layout(constant_id = 1) const uint TRIANGLE_SHIFT = 32u;
 layout(constant_id = 2) const uint TRIANGLE_VERTICES_SHIFT = 32u;
 layout(constant_id = 3) const uint VERTEX_SHIFT = 32u;
 layout(constant_id = 4) const uint TEXEL_SHIFT = 32u;
+// 1: BVH nodes, triangles, their vertex indices, vertices, materials and light BVH nodes are read
+// from images (bindings.glsl; src/gpu/pipelines.rs, SceneImage and SceneSplit::images). On
+// llvmpipe a texel fetch loads each lane's 16 bytes at once, where a storage-buffer read is a
+// conditional load per lane and word (README, "Performance").
+layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
+// Texels per image row: 1 << SCENE_IMAGE_SHIFT (memory.rs, SCENE_IMAGE_WIDTH).
+#define SCENE_IMAGE_SHIFT 12u
+#define SCENE_TEXEL(image, a) \
+    texelFetch(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT), 0)
+
+BvhNode bvh_node_image_at(uint i) {
+    uvec4 a = SCENE_TEXEL(bvh_node_image, 2u * i);
+    uvec4 b = SCENE_TEXEL(bvh_node_image, 2u * i + 1u);
+    BvhNode node;
+    node.bounds_min = uintBitsToFloat(a.xyz);
+    node.offset = a.w;
+    node.bounds_max = uintBitsToFloat(b.xyz);
+    node.count = b.w;
+    return node;
+}
+
+GpuVertex vertex_image_at(uint i) {
+    GpuVertex v;
+    v.tangent = uintBitsToFloat(SCENE_TEXEL(vertex_image, 4u * i));
+    uvec4 n = SCENE_TEXEL(vertex_image, 4u * i + 1u);
+    v.normal = uintBitsToFloat(n.xyz);
+    v.pad = n.w;
+    v.uv = uintBitsToFloat(SCENE_TEXEL(vertex_image, 4u * i + 2u));
+    v.color = uintBitsToFloat(SCENE_TEXEL(vertex_image, 4u * i + 3u));
+    return v;
+}
+
+GpuLightNode light_node_image_at(uint i) {
+    uvec4 a = SCENE_TEXEL(light_node_image, 4u * i);
+    uvec4 b = SCENE_TEXEL(light_node_image, 4u * i + 1u);
+    uvec4 c = SCENE_TEXEL(light_node_image, 4u * i + 2u);
+    uvec4 d = SCENE_TEXEL(light_node_image, 4u * i + 3u);
+    GpuLightNode node;
+    node.bounds_min = uintBitsToFloat(a.xyz);
+    node.phi = uintBitsToFloat(a.w);
+    node.bounds_max = uintBitsToFloat(b.xyz);
+    node.cos_theta_o = uintBitsToFloat(b.w);
+    node.w = uintBitsToFloat(c.xyz);
+    node.cos_theta_e = uintBitsToFloat(c.w);
+    node.child_or_light = d.x;
+    node.flags = d.y;
+    node.pad0 = d.z;
+    node.pad1 = d.w;
+    return node;
+}
+
+GpuInstance instance_image_at(uint i) {
+    GpuInstance inst;
+    for (uint r = 0u; r < 3u; ++r) {
+        inst.object_to_world[r] = uintBitsToFloat(SCENE_TEXEL(instance_image, 7u * i + r));
+        inst.world_to_object[r] = uintBitsToFloat(SCENE_TEXEL(instance_image, 7u * i + 3u + r));
+    }
+    uvec4 t = SCENE_TEXEL(instance_image, 7u * i + 6u);
+    inst.blas_root = t.x;
+    inst.flags = t.y;
+    inst.pad0 = t.z;
+    inst.pad1 = t.w;
+    return inst;
+}
+
+GpuTexture texture_image_at(uint i) {
+    uvec4 a = SCENE_TEXEL(texture_image, 2u * i);
+    uvec4 b = SCENE_TEXEL(texture_image, 2u * i + 1u);
+    return GpuTexture(a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w);
+}
+
+GpuTextureRef texture_ref_image_at(uint i) {
+    GpuTextureRef r;
+    r.transform = uintBitsToFloat(SCENE_TEXEL(texture_ref_image, 2u * i));
+    uvec4 t = SCENE_TEXEL(texture_ref_image, 2u * i + 1u);
+    r.offset = uintBitsToFloat(t.xy);
+    r.texture = t.z;
+    r.texcoord = t.w;
+    return r;
+}
+
+LightEntry light_image_at(uint i) {
+    uvec4 t = SCENE_TEXEL(light_image, i);
+    return LightEntry(uintBitsToFloat(t.x), t.y, uintBitsToFloat(t.z), t.w);
+}
+
+// The 16 texels of a GpuMaterial, member by member at its std430 offsets (layout.glsl).
+GpuMaterial material_image_at(uint i) {
+    uint a = 16u * i;
+    uvec4 t;
+    GpuMaterial m;
+    t = SCENE_TEXEL(material_image, a);
+    m.base_color = uintBitsToFloat(t.xyz);
+    m.flags = t.w;
+    t = SCENE_TEXEL(material_image, a + 1u);
+    m.emission = uintBitsToFloat(t.xyz);
+    m.metallic = uintBitsToFloat(t.w);
+    vec4 f = uintBitsToFloat(SCENE_TEXEL(material_image, a + 2u));
+    m.roughness = f.x;
+    m.ior = f.y;
+    m.transmission = f.z;
+    m.specular = f.w;
+    t = SCENE_TEXEL(material_image, a + 3u);
+    m.alpha = uintBitsToFloat(t.x);
+    m.alpha_cutoff = uintBitsToFloat(t.y);
+    m.normal_scale = uintBitsToFloat(t.z);
+    m.base_color_texture = t.w;
+    t = SCENE_TEXEL(material_image, a + 4u);
+    m.metallic_roughness_texture = t.x;
+    m.emissive_texture = t.y;
+    m.normal_texture = t.z;
+    m.transmission_texture = t.w;
+    t = SCENE_TEXEL(material_image, a + 5u);
+    m.specular_color = uintBitsToFloat(t.xyz);
+    m.specular_texture = t.w;
+    t = SCENE_TEXEL(material_image, a + 6u);
+    m.specular_color_texture = t.x;
+    m.clearcoat = uintBitsToFloat(t.y);
+    m.clearcoat_roughness = uintBitsToFloat(t.z);
+    m.clearcoat_texture = t.w;
+    t = SCENE_TEXEL(material_image, a + 7u);
+    m.clearcoat_roughness_texture = t.x;
+    m.clearcoat_normal_texture = t.y;
+    m.clearcoat_normal_scale = uintBitsToFloat(t.z);
+    m.sheen_roughness = uintBitsToFloat(t.w);
+    t = SCENE_TEXEL(material_image, a + 8u);
+    m.clearcoat_normal = uintBitsToFloat(t.xyz);
+    m.sheen_color_texture = t.w;
+    t = SCENE_TEXEL(material_image, a + 9u);
+    m.sheen_color = uintBitsToFloat(t.xyz);
+    m.sheen_roughness_texture = t.w;
+    f = uintBitsToFloat(SCENE_TEXEL(material_image, a + 10u));
+    m.anisotropy_direction = f.xyz;
+    m.anisotropy = f.w;
+    t = SCENE_TEXEL(material_image, a + 11u);
+    m.anisotropy_rotation = uintBitsToFloat(t.x);
+    m.anisotropy_texture = t.y;
+    m.iridescence = uintBitsToFloat(t.z);
+    m.iridescence_ior = uintBitsToFloat(t.w);
+    t = SCENE_TEXEL(material_image, a + 12u);
+    m.iridescence_thickness_min = uintBitsToFloat(t.x);
+    m.iridescence_thickness = uintBitsToFloat(t.y);
+    m.iridescence_texture = t.z;
+    m.iridescence_thickness_texture = t.w;
+    f = uintBitsToFloat(SCENE_TEXEL(material_image, a + 13u));
+    m.attenuation = f.xyz;
+    m.thickness = f.w;
+    f = uintBitsToFloat(SCENE_TEXEL(material_image, a + 14u));
+    m.diffuse_transmission_color = f.xyz;
+    m.diffuse_transmission = f.w;
+    t = SCENE_TEXEL(material_image, a + 15u);
+    m.diffuse_transmission_texture = t.x;
+    m.diffuse_transmission_color_texture = t.y;
+    m.dispersion = uintBitsToFloat(t.z);
+    m.pad1 = t.w;
+    return m;
+}
+
+GpuTriangle triangle_image_at(uint i) {
+    uvec4 a = SCENE_TEXEL(triangle_image, 3u * i);
+    uvec4 b = SCENE_TEXEL(triangle_image, 3u * i + 1u);
+    uvec4 c = SCENE_TEXEL(triangle_image, 3u * i + 2u);
+    GpuTriangle tri;
+    tri.p0 = uintBitsToFloat(a.xyz);
+    tri.material = a.w;
+    tri.e1 = uintBitsToFloat(b.xyz);
+    tri.light_pmf = uintBitsToFloat(b.w);
+    tri.e2 = uintBitsToFloat(c.xyz);
+    tri.area = uintBitsToFloat(c.w);
+    return tri;
+}
 
 // Element i of an array split into bindings a0..a3 of 2^shift elements. (The shift is passed in
 // rather than named: an expression of specialization constants alone would compile to
@@ -30,21 +201,71 @@ layout(constant_id = 4) const uint TEXEL_SHIFT = 32u;
         }                                                  \
     }                                                      \
     T name(uint i) { return split_name(i, SHIFT); }
-SPLIT_READ(BvhNode, bvh_node_at, bvh_node_split, BVH_NODE_SHIFT, bvh_nodes, bvh_nodes1,
+SPLIT_READ(BvhNode, bvh_node_buffer_at, bvh_node_split, BVH_NODE_SHIFT, bvh_nodes, bvh_nodes1,
            bvh_nodes2, bvh_nodes3)
-SPLIT_READ(GpuTriangle, triangle_at, triangle_split, TRIANGLE_SHIFT, triangles, triangles1,
+SPLIT_READ(GpuTriangle, triangle_buffer_at, triangle_split, TRIANGLE_SHIFT, triangles, triangles1,
            triangles2, triangles3)
-SPLIT_READ(uvec4, triangle_vertices_at, triangle_vertices_split, TRIANGLE_VERTICES_SHIFT,
+SPLIT_READ(uvec4, triangle_vertices_buffer_at, triangle_vertices_split, TRIANGLE_VERTICES_SHIFT,
            triangle_vertices, triangle_vertices1, triangle_vertices2, triangle_vertices3)
-SPLIT_READ(GpuVertex, vertex_at, vertex_split, VERTEX_SHIFT, vertices, vertices1, vertices2,
+SPLIT_READ(GpuVertex, vertex_buffer_at, vertex_split, VERTEX_SHIFT, vertices, vertices1, vertices2,
            vertices3)
-SPLIT_READ(uint, texel_at, texel_split, TEXEL_SHIFT, texels, texels1, texels2, texels3)
+SPLIT_READ(uint, texel_buffer_at, texel_split, TEXEL_SHIFT, texels, texels1, texels2, texels3)
 #undef SPLIT_READ
+// (The constant is passed in for the reason SPLIT_READ gives.)
+BvhNode bvh_node_read(uint i, uint images) {
+    return images != 0u ? bvh_node_image_at(i) : bvh_node_buffer_at(i);
+}
+GpuTriangle triangle_read(uint i, uint images) {
+    return images != 0u ? triangle_image_at(i) : triangle_buffer_at(i);
+}
+uvec4 triangle_vertices_read(uint i, uint images) {
+    return images != 0u ? SCENE_TEXEL(triangle_vertex_image, i) : triangle_vertices_buffer_at(i);
+}
+GpuVertex vertex_read(uint i, uint images) {
+    return images != 0u ? vertex_image_at(i) : vertex_buffer_at(i);
+}
+GpuMaterial material_read(uint i, uint images) {
+    return images != 0u ? material_image_at(i) : materials[i];
+}
+GpuLightNode light_node_read(uint i, uint images) {
+    return images != 0u ? light_node_image_at(i) : light_nodes[i];
+}
+BvhNode bvh_node_at(uint i) { return bvh_node_read(i, SCENE_IMAGES); }
+GpuTriangle triangle_at(uint i) { return triangle_read(i, SCENE_IMAGES); }
+uvec4 triangle_vertices_at(uint i) { return triangle_vertices_read(i, SCENE_IMAGES); }
+GpuVertex vertex_at(uint i) { return vertex_read(i, SCENE_IMAGES); }
+GpuMaterial material_at(uint i) { return material_read(i, SCENE_IMAGES); }
+uint texel_read(uint i, uint images) {
+    return images != 0u ? SCENE_TEXEL(texel_image, i).x : texel_buffer_at(i);
+}
+uint texel_at(uint i) { return texel_read(i, SCENE_IMAGES); }
+GpuInstance instance_read(uint i, uint images) {
+    return images != 0u ? instance_image_at(i) : instances[i];
+}
+GpuTexture texture_read(uint i, uint images) {
+    return images != 0u ? texture_image_at(i) : textures[i];
+}
+GpuTextureRef texture_ref_read(uint i, uint images) {
+    return images != 0u ? texture_ref_image_at(i) : texture_refs[i];
+}
+LightEntry light_read(uint i, uint images) {
+    return images != 0u ? light_image_at(i) : lights[i];
+}
+GpuInstance instance_at(uint i) { return instance_read(i, SCENE_IMAGES); }
+GpuTexture texture_at(uint i) { return texture_read(i, SCENE_IMAGES); }
+GpuTextureRef texture_ref_at(uint i) { return texture_ref_read(i, SCENE_IMAGES); }
+LightEntry light_at(uint i) { return light_read(i, SCENE_IMAGES); }
+#define light_node_at(i) light_node_read(i, SCENE_IMAGES)
 #else
 #define bvh_node_at(i) bvh_nodes[i]
 #define triangle_at(i) triangles[i]
 #define triangle_vertices_at(i) triangle_vertices[i]
 #define vertex_at(i) vertices[i]
+#define material_at(i) materials[i]
+#define instance_at(i) instances[i]
+#define texture_at(i) textures[i]
+#define texture_ref_at(i) texture_refs[i]
+#define light_at(i) lights[i]
 #define texel_at(i) texels[i]
 #endif
 

@@ -251,7 +251,7 @@ bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
     if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, cross(tri.e1, tri.e2))) return false;
     if ((tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
     uvec4 tv = triangle_vertices_at(index);
-    GpuMaterial m = materials[triangle_material(tri)];
+    GpuMaterial m = material_at(triangle_material(tri));
     SurfacePoint sp = surface_point(tri, tv, u, v);
     float alpha = m.alpha * sp.color.w;
     if (m.base_color_texture != NO_TEXTURE) alpha *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, LOD_MAGNIFY).w;

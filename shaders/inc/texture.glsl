@@ -148,8 +148,8 @@ vec2 texture_ref_uv(GpuTextureRef r, vec2 uv0, vec2 uv1) {
 
 // A material's texture reference `index` at the coordinates of both sets.
 vec4 sample_texture_ref(uint index, vec2 uv0, vec2 uv1, vec2 lod_base) {
-    GpuTextureRef r = texture_refs[index];
-    GpuTexture t = textures[r.texture];
+    GpuTextureRef r = texture_ref_at(index);
+    GpuTexture t = texture_at(r.texture);
     float base = r.texcoord == 1u ? lod_base.y : lod_base.x;
     return texture_sample_lod(t, texture_ref_uv(r, uv0, uv1), texture_lod(t, r, base));
 }

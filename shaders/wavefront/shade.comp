@@ -1,6 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_samplerless_texture_functions : require
 // Stage 3: at each hit add MIS-weighted emission, queue one shadow ray (next event estimation),
 // sample the BSDF for the continuation ray and apply Russian roulette. Twin of src/cpu/path.rs.
 #include "layout.glsl"
@@ -76,10 +77,10 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
         float u_bvh = min(u_table / frame.light_bounded_cdf, ONE_MINUS_EPSILON);
         uint k;
         if (!light_bvh_sample(p, ng, u_bvh, k, pmf)) return false;
-        entry = lights[k];
+        entry = light_at(k);
         pmf *= frame.light_bounded_cdf;
     } else {
-        entry = lights[sample_light(u_table)];
+        entry = light_at(sample_light(u_table));
         pmf = entry.pmf;
     }
     pmf *= keep;
@@ -103,7 +104,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     float cos_light = dot(light_n, -ls.wi);
     // The light point's emission (its textures at level 0) where its surface exists.
     SurfacePoint light_sp = surface_point(light, triangle_vertices_at(entry.triangle), b.x, b.y);
-    GpuMaterial light_mat = surface_emitter(materials[triangle_material(light)], light_sp, LOD_MAGNIFY);
+    GpuMaterial light_mat = surface_emitter(material_at(triangle_material(light)), light_sp, LOD_MAGNIFY);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
     ls.radiance = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
         ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
@@ -148,14 +149,14 @@ void main() {
     }
     GpuTriangle tri = triangle_at(hit.triangle);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    surface_to_world(sp, tri, instances[hit.instance]);
+    surface_to_world(sp, tri, instance_at(hit.instance));
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     float cos_out = dot(ng, wo);
     // The ray cone's width at the hit sets the textures' level of detail.
     float cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
-    GpuMaterial raw = materials[triangle_material(tri)];
+    GpuMaterial raw = material_at(triangle_material(tri));
     // KHR_materials_volume: the segment's attenuation, its medium read from either end.
     state.throughput *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
     vec2 lod = (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);

@@ -1,6 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_samplerless_texture_functions : require
 // BDPT, the camera subpath: at each hit store the vertex (its forward density from the ray's
 // pdf, the previous vertex's reverse density once this one's next direction is sampled), then
 // sample the BSDF with the path tracer's random numbers and apply its Russian roulette
@@ -39,11 +40,11 @@ void main() {
 
     GpuTriangle tri = triangle_at(hit.triangle);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    surface_to_world(sp, tri, instances[hit.instance]);
+    surface_to_world(sp, tri, instance_at(hit.instance));
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     vec3 wo = -ray.dir;
-    GpuMaterial raw = materials[triangle_material(tri)];
+    GpuMaterial raw = material_at(triangle_material(tri));
     GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
     // KHR_materials_dispersion: n(λ) of the sample's wavelength (src/spectrum.rs).
     if (frame.spectral != 0u) material_at_wavelength(mat, sample_wavelength_of(frame.seed, pixel, sample_index));

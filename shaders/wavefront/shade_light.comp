@@ -1,6 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_samplerless_texture_functions : require
 // Light tracing, stage 3: at each hit of a light subpath, queue the vertex's join to the camera
 // (a shadow ray that splats if unoccluded), then sample the adjoint BSDF for the next ray and
 // apply Russian roulette (src/cpu/bidir.rs, walk in importance mode). params.depth = d: the
@@ -39,11 +40,11 @@ void main() {
     }
     GpuTriangle tri = triangle_at(hit.triangle);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    surface_to_world(sp, tri, instances[hit.instance]);
+    surface_to_world(sp, tri, instance_at(hit.instance));
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     vec3 wo = -ray.dir;
-    GpuMaterial raw = materials[triangle_material(tri)];
+    GpuMaterial raw = material_at(triangle_material(tri));
     GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
     // KHR_materials_dispersion: n(λ) of the sample's wavelength (src/spectrum.rs).
     if (frame.spectral != 0u) material_at_wavelength(mat, sample_wavelength_of(frame.seed, pixel, sample_index));

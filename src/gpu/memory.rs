@@ -147,6 +147,126 @@ impl Drop for Buffer {
     }
 }
 
+/// Texels per row of a scene image (`scene_arrays.glsl`, `SCENE_IMAGE_SHIFT`).
+pub const SCENE_IMAGE_WIDTH: u32 = 1 << 12;
+
+/// A read-only 2-D image of RGBA32UI (or R32UI) texels that the kernels read with `texelFetch`:
+/// an array of records laid row after row, `SCENE_IMAGE_WIDTH` texels a row. On llvmpipe a texel
+/// fetch gathers the lanes' 16 bytes with one unconditional load each, where a storage-buffer
+/// read becomes a conditional load per lane and word (README, "Performance").
+pub struct Image {
+    device: ash::Device,
+    allocator: Arc<Mutex<Allocator>>,
+    pub image: vk::Image,
+    pub view: vk::ImageView,
+    allocation: Option<Allocation>,
+    pub rows: u32,
+    /// Bytes of one row.
+    pub row_bytes: u64,
+}
+
+impl Image {
+    /// An image of `rows` rows (at least one) of RGBA32UI or R32UI texels, in device memory,
+    /// undefined until uploaded.
+    pub fn new(ctx: &Context, name: &str, format: vk::Format, rows: u32) -> Result<Image> {
+        let device = &ctx.device;
+        let rows = rows.max(1);
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width: SCENE_IMAGE_WIDTH,
+                height: rows,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let image = unsafe { device.create_image(&info, None) }.with_context(|| {
+            format!("creating image '{name}' ({SCENE_IMAGE_WIDTH}×{rows} texels)")
+        })?;
+        let requirements = unsafe { device.get_image_memory_requirements(image) };
+        let desc = AllocationCreateDesc {
+            name,
+            requirements,
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        };
+        let allocated = super::fault::before_allocation(name)
+            .map_err(|e| anyhow!("{e}"))
+            .and_then(|()| {
+                let mut allocator = ctx
+                    .allocator
+                    .lock()
+                    .map_err(|_| anyhow!("allocator poisoned"))?;
+                allocator.allocate(&desc).map_err(|e| anyhow!("{e}"))
+            });
+        let allocation = match allocated {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.destroy_image(image, None) };
+                return Err(anyhow!(
+                    "out of GPU memory allocating image '{name}' ({:.1} MiB): {e}",
+                    requirements.size as f64 / (1u64 << 20) as f64
+                ));
+            }
+        };
+        let mut result = Image {
+            device: device.clone(),
+            allocator: Arc::clone(&ctx.allocator),
+            image,
+            view: vk::ImageView::null(),
+            allocation: None,
+            rows,
+            row_bytes: SCENE_IMAGE_WIDTH as u64
+                * if format == vk::Format::R32_UINT {
+                    4
+                } else {
+                    16
+                },
+        };
+        let bound =
+            unsafe { device.bind_image_memory(image, allocation.memory(), allocation.offset()) };
+        result.allocation = Some(allocation);
+        bound.context("binding image memory")?;
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(COLOR_RANGE);
+        result.view = unsafe { device.create_image_view(&view_info, None) }
+            .with_context(|| format!("creating the view of image '{name}'"))?;
+        Ok(result)
+    }
+}
+
+const COLOR_RANGE: vk::ImageSubresourceRange = vk::ImageSubresourceRange {
+    aspect_mask: vk::ImageAspectFlags::COLOR,
+    base_mip_level: 0,
+    level_count: 1,
+    base_array_layer: 0,
+    layer_count: 1,
+};
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        unsafe {
+            self.device.destroy_image_view(self.view, None);
+            self.device.destroy_image(self.image, None);
+        }
+        if let (Some(allocation), Ok(mut allocator)) =
+            (self.allocation.take(), self.allocator.lock())
+        {
+            let _ = allocator.free(allocation);
+        }
+    }
+}
+
 /// A command pool with one reusable primary command buffer and a fence.
 pub struct Commands {
     device: ash::Device,
@@ -267,6 +387,92 @@ impl Commands {
         unsafe {
             self.device
                 .cmd_copy_buffer(self.cmd, src.buffer, dst.buffer, &region)
+        };
+    }
+}
+
+impl Commands {
+    /// Moves `image` from layout `old` to `new`, after transfers (or nothing) and before
+    /// transfers or kernel reads.
+    pub fn image_layout(&self, image: &Image, old: vk::ImageLayout, new: vk::ImageLayout) {
+        let (src_stage, src_access) = match old {
+            vk::ImageLayout::UNDEFINED => (
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::AccessFlags::empty(),
+            ),
+            _ => (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+        };
+        let (dst_stage, dst_access) = match new {
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL => (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+            _ => (
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::AccessFlags::SHADER_READ,
+            ),
+        };
+        let barrier = [vk::ImageMemoryBarrier::default()
+            .src_access_mask(src_access)
+            .dst_access_mask(dst_access)
+            .old_layout(old)
+            .new_layout(new)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image.image)
+            .subresource_range(COLOR_RANGE)];
+        unsafe {
+            self.device.cmd_pipeline_barrier(
+                self.cmd,
+                src_stage,
+                dst_stage,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &barrier,
+            )
+        };
+    }
+
+    /// Copies `rows` whole rows from `src_offset` in `src` to rows `first_row..` of `dst`
+    /// (in layout TRANSFER_DST_OPTIMAL).
+    pub fn copy_rows_to_image(
+        &self,
+        src: &Buffer,
+        src_offset: u64,
+        dst: &Image,
+        first_row: u32,
+        rows: u32,
+    ) {
+        let region = [vk::BufferImageCopy::default()
+            .buffer_offset(src_offset)
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_offset(vk::Offset3D {
+                x: 0,
+                y: first_row as i32,
+                z: 0,
+            })
+            .image_extent(vk::Extent3D {
+                width: SCENE_IMAGE_WIDTH,
+                height: rows,
+                depth: 1,
+            })];
+        unsafe {
+            self.device.cmd_copy_buffer_to_image(
+                self.cmd,
+                src.buffer,
+                dst.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &region,
+            )
         };
     }
 }

@@ -48,6 +48,8 @@ pub struct GpuRenderer {
     /// Per `SplitArray`, at most this many bytes in one of its bindings (besides the device's
     /// range).
     binding_limits: Option<[u64; 5]>,
+    /// Whether BVH nodes and triangles are read from images where they fit (`SceneSplit::images`).
+    scene_images: bool,
 }
 
 impl GpuRenderer {
@@ -61,6 +63,8 @@ impl GpuRenderer {
         Ok(GpuRenderer {
             band_pixel_limit: None,
             binding_limits: None,
+            // WAVETRACE_SCENE_IMAGES=0 reads them from storage buffers, to measure the two.
+            scene_images: std::env::var("WAVETRACE_SCENE_IMAGES").map_or(true, |v| v != "0"),
             commands,
             pipelines,
             ctx,
@@ -81,17 +85,30 @@ impl GpuRenderer {
         self.binding_limits = bytes;
     }
 
+    /// Reads BVH nodes and triangles from images where they fit (the default), or from storage
+    /// buffers. Results do not depend on it.
+    pub fn set_scene_images(&mut self, images: bool) {
+        self.scene_images = images;
+    }
+
     /// How `scene`'s large arrays are laid over this device's bindings.
     pub fn scene_split(&self, scene: &PreparedScene) -> Result<SceneSplit> {
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
         let len = |n: usize| n as u64;
-        SceneSplit::plan(
+        // Arrays read from images need no buffer.
+        let max_rows = self.ctx.properties.limits.max_image_dimension2_d as u64;
+        let images = self.scene_images
+            && pipelines::SceneImage::ALL
+                .iter()
+                .all(|i| i.rows(scene) <= max_rows);
+        let in_buffers = |n: usize| if images { 0 } else { len(n) };
+        let mut split = SceneSplit::plan(
             [
-                len(scene.bvh.nodes.len()),
-                len(scene.triangles.len()),
-                len(scene.triangle_vertices.len()),
-                len(scene.vertices.len()),
-                len(scene.texels.len()),
+                in_buffers(scene.bvh.nodes.len()),
+                in_buffers(scene.triangles.len()),
+                in_buffers(scene.triangle_vertices.len()),
+                in_buffers(scene.vertices.len()),
+                in_buffers(scene.texels.len()),
             ],
             [
                 size_of::<crate::layout::BvhNode>() as u64,
@@ -103,7 +120,9 @@ impl GpuRenderer {
             self.binding_limits
                 .unwrap_or([u64::MAX; 5])
                 .map(|b| b.min(range)),
-        )
+        )?;
+        split.images = images;
+        Ok(split)
     }
 
     pub fn device(&self) -> &DeviceInfo {

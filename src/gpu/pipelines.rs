@@ -63,10 +63,23 @@ pub enum Binding {
     Texels1 = 40,
     Texels2 = 41,
     Texels3 = 42,
+    /// The `SceneImage` arrays as RGBA32UI images, which the kernels read instead of their
+    /// storage buffers where `SceneSplit::images` says so.
+    BvhNodeImage = 43,
+    TriangleImage = 44,
+    TriangleVertexImage = 45,
+    VertexImage = 46,
+    MaterialImage = 47,
+    LightNodeImage = 48,
+    TexelImage = 49,
+    InstanceImage = 50,
+    TextureImage = 51,
+    TextureRefImage = 52,
+    LightImage = 53,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 43] = [
+    pub const ALL: [Binding; 54] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -110,13 +123,132 @@ impl Binding {
         Binding::Texels1,
         Binding::Texels2,
         Binding::Texels3,
+        Binding::BvhNodeImage,
+        Binding::TriangleImage,
+        Binding::TriangleVertexImage,
+        Binding::VertexImage,
+        Binding::MaterialImage,
+        Binding::LightNodeImage,
+        Binding::TexelImage,
+        Binding::InstanceImage,
+        Binding::TextureImage,
+        Binding::TextureRefImage,
+        Binding::LightImage,
     ];
     pub fn descriptor_type(self) -> vk::DescriptorType {
-        if self == Binding::Frame {
-            vk::DescriptorType::UNIFORM_BUFFER
-        } else {
-            vk::DescriptorType::STORAGE_BUFFER
+        match self {
+            Binding::Frame => vk::DescriptorType::UNIFORM_BUFFER,
+            b if b as u32 >= Binding::BvhNodeImage as u32 => vk::DescriptorType::SAMPLED_IMAGE,
+            _ => vk::DescriptorType::STORAGE_BUFFER,
         }
+    }
+}
+
+/// The read-only scene arrays that the kernels read from images (`scene_arrays.glsl`), laid row
+/// after row: records of a whole number of RGBA32UI texels, or the textures' RGBA8 texels one
+/// R32UI texel each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneImage {
+    BvhNodes,
+    Triangles,
+    TriangleVertices,
+    Vertices,
+    Materials,
+    LightNodes,
+    Texels,
+    Instances,
+    Textures,
+    TextureRefs,
+    Lights,
+}
+
+impl SceneImage {
+    pub const ALL: [SceneImage; 11] = [
+        SceneImage::BvhNodes,
+        SceneImage::Triangles,
+        SceneImage::TriangleVertices,
+        SceneImage::Vertices,
+        SceneImage::Materials,
+        SceneImage::LightNodes,
+        SceneImage::Texels,
+        SceneImage::Instances,
+        SceneImage::Textures,
+        SceneImage::TextureRefs,
+        SceneImage::Lights,
+    ];
+
+    pub fn binding(self) -> Binding {
+        match self {
+            SceneImage::BvhNodes => Binding::BvhNodeImage,
+            SceneImage::Triangles => Binding::TriangleImage,
+            SceneImage::TriangleVertices => Binding::TriangleVertexImage,
+            SceneImage::Vertices => Binding::VertexImage,
+            SceneImage::Materials => Binding::MaterialImage,
+            SceneImage::LightNodes => Binding::LightNodeImage,
+            SceneImage::Texels => Binding::TexelImage,
+            SceneImage::Instances => Binding::InstanceImage,
+            SceneImage::Textures => Binding::TextureImage,
+            SceneImage::TextureRefs => Binding::TextureRefImage,
+            SceneImage::Lights => Binding::LightImage,
+        }
+    }
+
+    /// Its image's name, as `WAVETRACE_FAULT=oom@NAME` names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneImage::BvhNodes => "bvh_node_image",
+            SceneImage::Triangles => "triangle_image",
+            SceneImage::TriangleVertices => "triangle_vertex_image",
+            SceneImage::Vertices => "vertex_image",
+            SceneImage::Materials => "material_image",
+            SceneImage::LightNodes => "light_node_image",
+            SceneImage::Texels => "texel_image",
+            SceneImage::Instances => "instance_image",
+            SceneImage::Textures => "texture_image",
+            SceneImage::TextureRefs => "texture_ref_image",
+            SceneImage::Lights => "light_image",
+        }
+    }
+
+    /// Its texels' format.
+    pub fn format(self) -> vk::Format {
+        match self {
+            SceneImage::Texels => vk::Format::R32_UINT,
+            _ => vk::Format::R32G32B32A32_UINT,
+        }
+    }
+
+    /// Bytes of one texel.
+    pub fn texel_bytes(self) -> u64 {
+        match self {
+            SceneImage::Texels => 4,
+            _ => 16,
+        }
+    }
+
+    /// The scene's records of this array, as bytes.
+    pub fn data(self, scene: &crate::render::PreparedScene) -> &[u8] {
+        match self {
+            SceneImage::BvhNodes => bytemuck::cast_slice(&scene.bvh.nodes),
+            SceneImage::Triangles => bytemuck::cast_slice(&scene.triangles),
+            SceneImage::TriangleVertices => bytemuck::cast_slice(&scene.triangle_vertices),
+            SceneImage::Vertices => bytemuck::cast_slice(&scene.vertices),
+            SceneImage::Materials => bytemuck::cast_slice(&scene.materials),
+            SceneImage::LightNodes => bytemuck::cast_slice(&scene.light_nodes),
+            SceneImage::Texels => bytemuck::cast_slice(scene.texels.as_slice()),
+            SceneImage::Instances => bytemuck::cast_slice(&scene.instances),
+            SceneImage::Textures => bytemuck::cast_slice(&scene.textures),
+            SceneImage::TextureRefs => bytemuck::cast_slice(&scene.texture_refs),
+            SceneImage::Lights => bytemuck::cast_slice(&scene.lights),
+        }
+    }
+
+    /// Rows of its image for `scene`.
+    pub fn rows(self, scene: &crate::render::PreparedScene) -> u64 {
+        let texels = self.data(scene).len() as u64 / self.texel_bytes();
+        texels
+            .div_ceil(super::memory::SCENE_IMAGE_WIDTH as u64)
+            .max(1)
     }
 }
 
@@ -184,16 +316,21 @@ impl SplitArray {
 }
 
 /// How a scene's large arrays are laid over their bindings: per `SplitArray`, log2 of the
-/// elements one binding holds, or 32 where the first binding holds the whole array. The shifts
-/// are the kernels' specialization constants 0 to 4 (`scene_arrays.glsl`).
+/// elements one binding holds, or 32 where the first binding holds the whole array, and whether
+/// the BVH nodes and triangles are read from images (`Binding::BvhNodeImage`). The shifts are
+/// the kernels' specialization constants 0 to 4, `images` constant 5 (`scene_arrays.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneSplit {
     pub shifts: [u32; 5],
+    pub images: bool,
 }
 
 impl SceneSplit {
-    /// Every array in one binding.
-    pub const NONE: SceneSplit = SceneSplit { shifts: [32; 5] };
+    /// Every array in one binding, nodes and triangles read from images.
+    pub const NONE: SceneSplit = SceneSplit {
+        shifts: [32; 5],
+        images: true,
+    };
 
     /// The split of arrays of `lengths` elements of `sizes` bytes into bindings of at most
     /// `binding_bytes` each: one binding where it holds the array, else the largest power of two
@@ -226,7 +363,10 @@ impl SceneSplit {
             }
             shifts[k] = shift;
         }
-        Ok(SceneSplit { shifts })
+        Ok(SceneSplit {
+            shifts,
+            images: true,
+        })
     }
 
     /// Elements of array `k` in one binding (all of them where it is not split).
@@ -259,7 +399,7 @@ impl Pipelines {
     /// bindings as `split` says.
     pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
         let device = &ctx.device;
-        let storage = Binding::ALL.len() as u32 - 1;
+        let storage = (Binding::ALL.len() - 1 - SceneImage::ALL.len()) as u32;
         let limit = ctx
             .properties
             .limits
@@ -307,6 +447,9 @@ impl Pipelines {
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
                 .descriptor_count(storage),
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::SAMPLED_IMAGE)
+                .descriptor_count(SceneImage::ALL.len() as u32),
         ];
         let pool = unsafe {
             device.create_descriptor_pool(
@@ -334,7 +477,13 @@ impl Pipelines {
             set,
             pipelines: HashMap::new(),
         };
-        let entries: Vec<vk::SpecializationMapEntry> = (0..split.shifts.len() as u32)
+        let constants: Vec<u32> = split
+            .shifts
+            .iter()
+            .copied()
+            .chain([split.images as u32])
+            .collect();
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
             .map(|k| {
                 vk::SpecializationMapEntry::default()
                     .constant_id(k)
@@ -344,7 +493,7 @@ impl Pipelines {
             .collect();
         let specialization = vk::SpecializationInfo::default()
             .map_entries(&entries)
-            .data(bytemuck::cast_slice(&split.shifts));
+            .data(bytemuck::cast_slice(&constants));
         for (name, _) in KERNELS {
             let words = kernel_spirv(name)?;
             let module = unsafe {
@@ -393,6 +542,32 @@ impl Pipelines {
                     .dst_binding(*binding as u32)
                     .descriptor_type(binding.descriptor_type())
                     .buffer_info(info)
+            })
+            .collect();
+        unsafe { self.device.update_descriptor_sets(&writes, &[]) };
+    }
+}
+
+impl Pipelines {
+    /// Points each image binding at its image's view.
+    pub fn bind_images(&self, images: &[(Binding, vk::ImageView)]) {
+        let infos: Vec<[vk::DescriptorImageInfo; 1]> = images
+            .iter()
+            .map(|(_, view)| {
+                [vk::DescriptorImageInfo::default()
+                    .image_view(*view)
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)]
+            })
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = images
+            .iter()
+            .zip(&infos)
+            .map(|((binding, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(*binding as u32)
+                    .descriptor_type(binding.descriptor_type())
+                    .image_info(info)
             })
             .collect();
         unsafe { self.device.update_descriptor_sets(&writes, &[]) };

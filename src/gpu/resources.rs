@@ -3,8 +3,8 @@
 //! descriptor set.
 
 use super::context::Context;
-use super::memory::{Buffer, Commands, Location};
-use super::pipelines::{Binding, Pipelines, SceneSplit, SplitArray};
+use super::memory::{Buffer, Commands, Image, Location};
+use super::pipelines::{Binding, Pipelines, SceneImage, SceneSplit, SplitArray};
 use crate::environment::EnvironmentMap;
 use crate::layout::{
     args, counter, BdptVertex, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
@@ -37,6 +37,49 @@ pub struct RenderBuffers {
     pub split_bindings: [u32; 5],
     /// Scene and queue buffers: only the descriptor set refers to them.
     _bound: Vec<Buffer>,
+    /// BVH nodes and triangles as images (`Binding::BvhNodeImage`).
+    _images: Vec<Image>,
+}
+
+/// Fills `image` with `data` (zeros after its end) through staging buffers of whole rows.
+fn upload_rows(ctx: &Context, commands: &Commands, image: &Image, data: &[u8]) -> Result<()> {
+    use vk::BufferUsageFlags as U;
+    let row_bytes = image.row_bytes as usize;
+    let rows_per_copy = (STAGING_BYTES / row_bytes).min(image.rows as usize);
+    let staging = Buffer::new(
+        ctx,
+        "image_staging",
+        (rows_per_copy * row_bytes) as u64,
+        U::TRANSFER_SRC,
+        Location::Host,
+    )?;
+    commands.begin()?;
+    commands.image_layout(
+        image,
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+    );
+    let mut row = 0;
+    while row < image.rows as usize {
+        let rows = rows_per_copy.min(image.rows as usize - row);
+        let mut piece = vec![0u8; rows * row_bytes];
+        let from = (row * row_bytes).min(data.len());
+        let to = ((row + rows) * row_bytes).min(data.len());
+        piece[..to - from].copy_from_slice(&data[from..to]);
+        staging.write(&piece);
+        commands.copy_rows_to_image(&staging, 0, image, row as u32, rows as u32);
+        row += rows;
+        if row < image.rows as usize {
+            commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)?;
+            commands.begin()?;
+        }
+    }
+    commands.image_layout(
+        image,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    );
+    commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)
 }
 
 impl RenderBuffers {
@@ -103,12 +146,21 @@ impl RenderBuffers {
             Location::Host,
         )?;
         // The large arrays, each in up to SPLIT_BINDINGS chunks of `split`'s size.
+        // (The arrays read from images have no buffer.)
+        fn in_buffer(images: bool, data: &[u8]) -> &[u8] {
+            if images {
+                &[]
+            } else {
+                data
+            }
+        }
+        let in_buffer = |data| in_buffer(split.images, data);
         let split_data: [&[u8]; 5] = [
-            bytemuck::cast_slice(&scene.bvh.nodes),
-            bytemuck::cast_slice(&scene.triangles),
-            bytemuck::cast_slice(&scene.triangle_vertices),
-            bytemuck::cast_slice(&scene.vertices),
-            bytemuck::cast_slice(scene.texels.as_slice()),
+            in_buffer(bytemuck::cast_slice(&scene.bvh.nodes)),
+            in_buffer(bytemuck::cast_slice(&scene.triangles)),
+            in_buffer(bytemuck::cast_slice(&scene.triangle_vertices)),
+            in_buffer(bytemuck::cast_slice(&scene.vertices)),
+            in_buffer(bytemuck::cast_slice(scene.texels.as_slice())),
         ];
         let element_bytes = [
             size_of::<crate::layout::BvhNode>(),
@@ -269,6 +321,24 @@ impl RenderBuffers {
         commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)?;
         drop(staging);
 
+        // The images (one row where the kernels read buffers instead).
+        let mut images = Vec::new();
+        for array in SceneImage::ALL {
+            let (rows, data) = match split.images {
+                true => (array.rows(scene), array.data(scene)),
+                false => (1, &[][..]),
+            };
+            let image = Image::new(ctx, array.name(), array.format(), rows as u32)?;
+            upload_rows(ctx, commands, &image, data)?;
+            images.push((array.binding(), image));
+        }
+        pipelines.bind_images(
+            &images
+                .iter()
+                .map(|(binding, image)| (*binding, image.view))
+                .collect::<Vec<_>>(),
+        );
+
         Ok(RenderBuffers {
             frame,
             film,
@@ -303,6 +373,7 @@ impl RenderBuffers {
             .into_iter()
             .chain(chunks.into_iter().map(|(_, _, buffer, _)| buffer))
             .collect(),
+            _images: images.into_iter().map(|(_, image)| image).collect(),
         })
     }
 }
