@@ -31,8 +31,19 @@ impl IncludeHandler for IncludeDir {
     }
 }
 
-fn compile(compiler: &Compiler, path: &Path, include_dir: &Path) -> Result<Vec<u32>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+/// Compiles one kernel; `kernel_index` (a wavefront kernel's place in `KERNELS`) is defined as
+/// `KERNEL_INDEX` after the `#version` line, `#line 2` keeping the file's line numbers.
+fn compile(
+    compiler: &Compiler,
+    path: &Path,
+    include_dir: &Path,
+    kernel_index: Option<usize>,
+) -> Result<Vec<u32>, String> {
+    let mut text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if let Some(k) = kernel_index {
+        let end = text.find('\n').map_or(text.len(), |i| i + 1);
+        text.insert_str(end, &format!("#define KERNEL_INDEX {k}u\n#line 2\n"));
+    }
     let source = ShaderSource::from(text);
     let options = CompilerOptions {
         source_language: SourceLanguage::GLSL,
@@ -90,9 +101,10 @@ fn main() {
     ] {
         writeln!(table, "/// {doc}: (name, SPIR-V bytes).").unwrap();
         writeln!(table, "pub const {constant}: &[(&str, &[u8])] = &[").unwrap();
-        for path in comp_files(dir) {
+        for (k, path) in comp_files(dir).into_iter().enumerate() {
             let name = path.file_stem().unwrap().to_str().unwrap().to_owned();
-            match compile(compiler, &path, &include_dir) {
+            let index = (constant == "KERNELS").then_some(k);
+            match compile(compiler, &path, &include_dir, index) {
                 Ok(words) => {
                     let spv = out.join(format!("{name}.spv"));
                     std::fs::write(&spv, words_to_bytes(&words)).unwrap();

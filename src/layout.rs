@@ -423,7 +423,9 @@ pub struct FrameParams {
     /// 1 when the scene has a dispersive material (`spectrum::is_dispersive`): light tracing
     /// and BDPT then carry one wavelength per sample (`spectrum`'s module docs).
     pub spectral: u32, // 4 bytes
-    pub pad1: u32,              // 4 bytes
+    /// 1: every kernel adds the scene-image texels it fetched to `counter::FETCHES`
+    /// (`GpuOptions::count_fetches`, `render --stats`).
+    pub count_fetches: u32, // 4 bytes
     pub pad2: u32,              // 4 bytes
     /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
     /// four entries per vec4): a uniform the shaders index, where a constant array of that size
@@ -647,7 +649,11 @@ pub mod counter {
     pub const TOTAL_EXTENSION_RAYS: u32 = 3;
     pub const TOTAL_SHADOW_RAYS: u32 = 4;
     pub const DROPPED_SAMPLES: u32 = 5;
-    pub const COUNT: u32 = 8;
+    /// With `GpuOptions::count_fetches`: per kernel (its place in `KERNELS`), the scene-image
+    /// texels its invocations fetched, a 64-bit count as two words, low then high
+    /// (`scene_arrays.glsl`, `count_scene_fetches`).
+    pub const FETCHES: u32 = 8;
+    pub const COUNT: u32 = FETCHES + 2 * crate::kernels::KERNELS.len() as u32;
 }
 
 /// Indirect-dispatch argument slots (`uvec3 args[]`, padded to 16 bytes each).
@@ -821,7 +827,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         active_pixel_count,
         integrator,
         spectral,
-        pad1,
+        count_fetches,
         pad2,
         sheen_albedo
     }),

@@ -125,6 +125,17 @@ fn reserve_render_memory(
     Ok(())
 }
 
+/// A kernel's scene-image fetches per ray it handles: shadow rays for the connect kernels,
+/// extension rays for the others (`RenderStats::kernel_fetches`).
+fn fetches_per_ray(stats: &RenderStats, kernel: &str) -> Option<(f64, &'static str)> {
+    let (_, n) = stats.kernel_fetches.iter().find(|(k, _)| k == kernel)?;
+    let (rays, what) = match kernel.starts_with("connect") {
+        true => (stats.shadow_rays, "shadow"),
+        false => (stats.extension_rays, "extension"),
+    };
+    Some((*n as f64 / rays.max(1) as f64, what))
+}
+
 fn print_stats(stats: &RenderStats, per_kernel: bool) {
     println!(
         "done in {:.3} s: {:.3} M samples/s, {:.3} M rays/s ({} extension + {} shadow rays); {} NaN/Inf samples dropped",
@@ -142,9 +153,12 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
         let total: f64 = stats.kernel_seconds.iter().map(|(_, s)| s).sum();
         for (name, s) in &stats.kernel_seconds {
             println!(
-                "  {name:<14} {:>10.3} ms  {:>5.1} %",
+                "  {name:<17} {:>10.3} ms  {:>5.1} %{}",
                 s * 1e3,
-                100.0 * s / total.max(1e-12)
+                100.0 * s / total.max(1e-12),
+                fetches_per_ray(stats, name).map_or(String::new(), |(f, rays)| format!(
+                    "  {f:>6.1} scene fetches per {rays} ray"
+                ))
             );
         }
     }
@@ -440,6 +454,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 },
                 validation: args.opts.validate,
                 timing: true,
+                count_fetches: args.stats,
             })?;
             gpu.set_band_pixel_limit(args.band_pixels);
             println!(
@@ -608,6 +623,7 @@ fn render_path_layers(
             device_index: args.opts.gpu_index.as_ref().and_then(|g| g.one()),
             validation: args.opts.validate,
             timing: false,
+            count_fetches: false,
         })?),
         _ => None,
     };
@@ -705,6 +721,7 @@ fn render_on_devices(
                             device_index: Some(device),
                             validation: args.opts.validate,
                             timing: false,
+                            count_fetches: false,
                         })?;
                         let name = format!("{device}: {}", gpu.device().name);
                         let (out, _) = gpu.render_range_with_progress(
@@ -837,6 +854,8 @@ fn bench(args: &BenchArgs) -> Result<()> {
         device_index: args.gpu_index,
         validation: false,
         timing: true,
+        // One atomic addition per invocation and kernel: within the run-to-run spread.
+        count_fetches: true,
     });
     // Warm-up: the first dispatches of a pipeline include the driver's lazy work.
     if let (Ok(g), Some(first)) = (&gpu, scenes.first()) {
@@ -954,6 +973,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "shadow_rays": s.shadow_rays,
                 "dropped": s.dropped,
                 "kernel_ms": s.kernel_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
+                "kernel_fetches_per_ray": s.kernel_seconds.iter().filter_map(|(k, _)| Some((k.clone(), serde_json::json!(fetches_per_ray(&s, k)?.0)))).collect::<serde_json::Map<_, _>>(),
                 "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
                 "triangles": prepared.triangles.len(),
             }));
@@ -961,7 +981,10 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 let kernels: Vec<String> = s
                     .kernel_seconds
                     .iter()
-                    .map(|(k, t)| format!("{k} {:.1} ms", t * 1e3))
+                    .map(|(k, t)| match fetches_per_ray(&s, k) {
+                        Some((f, _)) => format!("{k} {:.1} ms ({f:.1} fetches/ray)", t * 1e3),
+                        None => format!("{k} {:.1} ms", t * 1e3),
+                    })
                     .collect();
                 println!("{:<20} {:<6} per kernel: {}", "", "", kernels.join(", "));
             }

@@ -704,6 +704,8 @@ pub struct RenderStats {
     pub dropped: u64,
     /// GPU only: (kernel, seconds) summed over all its dispatches, where timestamps exist.
     pub kernel_seconds: Vec<(String, f64)>,
+    /// GPU only, with `GpuOptions::count_fetches`: (kernel, scene-image texels it fetched).
+    pub kernel_fetches: Vec<(String, u64)>,
     /// GPU only: the error that ended the render early (a lost device, exhausted memory); the
     /// film holds the samples finished before it.
     pub fault: Option<String>,

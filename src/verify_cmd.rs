@@ -50,6 +50,7 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             },
             validation: args.opts.validate,
             timing: false,
+            count_fetches: false,
         })?)
     } else {
         None

@@ -329,3 +329,40 @@ fn thin_lens_agrees() {
         "the thin lens renders what a pinhole does"
     );
 }
+
+/// `render --stats`'s cost model: counting each kernel's scene-image fetches changes no bit of
+/// the image, the counts are the same on every run, the kernels that read no scene data count
+/// none, and every extension ray fetches at least the BVH root (two texels), every shadow ray
+/// too (the Cornell box is not one instance, so the root is read per ray).
+#[test]
+fn fetch_counts_are_deterministic_and_change_nothing() {
+    let scene = prepared("cornell-box.gltf");
+    let settings = small(11);
+    let Some(mut gpu) = common::gpu() else { return };
+    let plain = gpu.render(&scene, &settings, None).unwrap();
+    gpu.set_count_fetches(true);
+    let counted = gpu.render(&scene, &settings, None);
+    let again = gpu.render(&scene, &settings, None);
+    gpu.set_count_fetches(false);
+    drop(gpu);
+    let (counted, again) = (counted.unwrap(), again.unwrap());
+    common::assert_same_bits(&plain.film, &counted.film, "with fetch counts");
+    assert!(plain.stats.kernel_fetches.is_empty());
+    assert_eq!(counted.stats.kernel_fetches, again.stats.kernel_fetches);
+    let fetches = |k: &str| {
+        counted
+            .stats
+            .kernel_fetches
+            .iter()
+            .find(|(name, _)| name == k)
+            .map_or(0, |(_, n)| *n)
+    };
+    println!("{:?}", counted.stats.kernel_fetches);
+    for quiet in ["accumulate", "dispatch_args"] {
+        assert_eq!(fetches(quiet), 0, "{quiet} reads no scene data");
+    }
+    assert!(fetches("extend") >= 2 * counted.stats.extension_rays);
+    assert!(fetches("connect") >= 2 * counted.stats.shadow_rays);
+    // shade reads a triangle, its vertices and its material per hit.
+    assert!(fetches("shade") >= counted.stats.extension_rays);
+}

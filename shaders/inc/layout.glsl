@@ -211,7 +211,7 @@ struct FrameParams {
                               //   entries of active_pixels (bindings.glsl, scene.glsl)
     uint integrator;        // 4 bytes: INTEGRATOR_*
     uint spectral;          // 4 bytes: 1 = the scene has a dispersive material (spectrum.glsl)
-    uint pad1;              // 4 bytes
+    uint count_fetches;     // 4 bytes: 1 = count scene-image fetches (scene_arrays.glsl)
     uint pad2;              // 4 bytes
     vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
 };
@@ -341,6 +341,7 @@ struct FilmPixel {
 #define COUNTER_TOTAL_EXTENSION_RAYS 3u
 #define COUNTER_TOTAL_SHADOW_RAYS 4u
 #define COUNTER_DROPPED_SAMPLES 5u
+#define COUNTER_FETCHES 8u
 // Indirect-argument slots (src/layout.rs, mod args).
 #define ARGS_RAYS 0u
 #define ARGS_SHADOW 1u

@@ -20,8 +20,23 @@ layout(constant_id = 4) const uint TEXEL_SHIFT = 32u;
 layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
 // Texels per image row: 1 << SCENE_IMAGE_SHIFT (memory.rs, SCENE_IMAGE_WIDTH).
 #define SCENE_IMAGE_SHIFT 12u
-#define SCENE_TEXEL(image, a) \
-    texelFetch(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT), 0)
+// Texels this invocation fetched from the scene images (count_scene_fetches).
+uint scene_fetches = 0u;
+#define SCENE_TEXEL(image, a)                                                                   \
+    (scene_fetches += 1u,                                                                       \
+     texelFetch(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT), 0))
+
+// With frame.count_fetches (render --stats): adds this invocation's fetches to its kernel's
+// 64-bit count, counters[COUNTER_FETCHES + 2 KERNEL_INDEX] (low word) and the next (high word;
+// src/layout.rs, counter::FETCHES). Every kernel's main ends with it.
+void count_scene_fetches() {
+#ifdef KERNEL_INDEX
+    if (frame.count_fetches == 0u || scene_fetches == 0u) return;
+    uint slot = COUNTER_FETCHES + 2u * KERNEL_INDEX;
+    uint before = atomicAdd(counters[slot], scene_fetches);
+    if (before + scene_fetches < before) atomicAdd(counters[slot + 1u], 1u);
+#endif
+}
 
 BvhNode bvh_node_image_at(uint i) {
     uvec4 a = SCENE_TEXEL(bvh_node_image, 2u * i);

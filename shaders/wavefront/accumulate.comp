@@ -10,7 +10,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint t = gl_GlobalInvocationID.x;
     // The batch goes round pixel_count pixels: the band's, or the active list's (scene.glsl,
     // path_pixel_sample).
@@ -33,4 +33,9 @@ void main() {
     }
     film[pixel] = acc;
     if (dropped > 0u) atomicAdd(counters[COUNTER_DROPPED_SAMPLES], dropped);
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

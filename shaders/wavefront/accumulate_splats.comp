@@ -11,7 +11,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint t = gl_GlobalInvocationID.x;
     uint pixels = frame.band_pixel_count;
     if (t >= pixels) return;
@@ -35,4 +35,9 @@ void main() {
         acc.count += 1u;
     }
     film[t] = acc;
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

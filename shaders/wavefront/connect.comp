@@ -17,7 +17,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_SHADOW]) return;
     ShadowRay shadow = shadow_rays[i];
@@ -27,4 +27,9 @@ void main() {
     if (!scene_intersect_any(shadow.origin, shadow.dir, 0.0, shadow.t_max, key)) {
         paths[shadow.path].radiance += shadow.contribution;
     }
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

@@ -27,7 +27,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint path = gl_GlobalInvocationID.x;
     if (path >= params.batch_size) return;
     uint s, t;
@@ -134,4 +134,9 @@ void main() {
     shadow.contribution = c * weight;
     shadow.pad = target;
     shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

@@ -22,7 +22,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_SHADOW]) return;
     ShadowRay shadow = shadow_rays[i];
@@ -37,4 +37,9 @@ void main() {
         if (frame.spectral != 0u) c *= wavelength_weight(sample_wavelength_of(frame.seed, pixel, sample_index));
         splat_add(sample_index - params.first_sample, shadow.pad, c);
     }
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

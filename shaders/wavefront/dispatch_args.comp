@@ -9,11 +9,16 @@
 
 layout(local_size_x = 1) in;
 
-void main() {
+void kernel_main() {
     uint count = counters[params.counter];
     dispatch_args[params.args_slot] = uvec4((count + WORKGROUP_SIZE - 1u) / WORKGROUP_SIZE, 1u, 1u, 0u);
     if (params.total_counter != 0xffffffffu) counters[params.total_counter] += count;
     for (uint k = 0u; k < 32u; ++k) {
         if ((params.clear_mask & (1u << k)) != 0u) counters[k] = 0u;
     }
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

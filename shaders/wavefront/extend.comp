@@ -16,7 +16,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     uint queue = params.depth & 1u;
     if (i >= counters[queue]) return;
@@ -27,4 +27,9 @@ void main() {
     HitRecord hit;
     scene_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, key, hit);
     hits[i] = hit;
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

@@ -13,7 +13,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= params.batch_size) return;
     uint pixel, sample_index;
@@ -41,4 +41,9 @@ void main() {
     ray.path = i;
     ray.pad = 0u;
     rays[i] = ray;  // queue 0; its counter is set to batch_size by the host
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

@@ -23,7 +23,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= params.batch_size) return;
     uint pixel, sample_index;
@@ -118,4 +118,9 @@ void main() {
     ray.dir = dir;
     ray.pad = 0u;
     rays[atomicAdd(counters[COUNTER_RAYS_0], 1u)] = ray;
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

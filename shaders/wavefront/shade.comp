@@ -119,7 +119,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     uint depth = params.depth;
     uint queue = depth & 1u;
@@ -285,4 +285,9 @@ void main() {
     next.pad = 0u;
     uint next_queue = queue ^ 1u;
     rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

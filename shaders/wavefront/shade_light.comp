@@ -22,7 +22,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-void main() {
+void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     uint depth = params.depth;
     uint queue = depth & 1u;
@@ -130,4 +130,9 @@ void main() {
     next.pad = 0u;
     uint next_queue = queue ^ 1u;
     rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+}
+
+void main() {
+    kernel_main();
+    count_scene_fetches();
 }

@@ -35,6 +35,9 @@ pub struct GpuOptions {
     pub validation: bool,
     /// Timestamp every dispatch for per-kernel times.
     pub timing: bool,
+    /// Count each kernel's scene-image fetches (`RenderStats::kernel_fetches`): one atomic
+    /// addition per invocation and kernel.
+    pub count_fetches: bool,
 }
 
 /// A device with its pipelines built, ready to render any number of scenes.
@@ -43,6 +46,7 @@ pub struct GpuRenderer {
     pipelines: Pipelines,
     ctx: Context,
     timing: bool,
+    count_fetches: bool,
     /// At most this many pixels in the GPU film at once (besides the device's storage range).
     band_pixel_limit: Option<u64>,
     /// Per `SplitArray`, at most this many bytes in one of its bindings (besides the device's
@@ -69,6 +73,7 @@ impl GpuRenderer {
             pipelines,
             ctx,
             timing,
+            count_fetches: options.count_fetches,
         })
     }
 
@@ -83,6 +88,11 @@ impl GpuRenderer {
     /// the default. Results do not depend on it.
     pub fn set_binding_limits(&mut self, bytes: Option<[u64; 5]>) {
         self.binding_limits = bytes;
+    }
+
+    /// Counts each kernel's scene-image fetches (`GpuOptions::count_fetches`) or not.
+    pub fn set_count_fetches(&mut self, count: bool) {
+        self.count_fetches = count;
     }
 
     /// Reads BVH nodes and triangles from images where they fit (the default), or from storage
@@ -344,7 +354,10 @@ impl GpuRenderer {
         Ok(Setup {
             capacity,
             band_rows,
-            frame: scene.frame_params(settings),
+            frame: FrameParams {
+                count_fetches: self.count_fetches as u32,
+                ..scene.frame_params(settings)
+            },
             split_bindings: buffers.split_bindings,
             buffers,
             pipelines,
@@ -716,6 +729,17 @@ impl GpuRenderer {
             stats.extension_rays += c[counter::TOTAL_EXTENSION_RAYS as usize] as u64;
             stats.shadow_rays += c[counter::TOTAL_SHADOW_RAYS as usize] as u64;
             stats.dropped += c[counter::DROPPED_SAMPLES as usize] as u64;
+            if self.count_fetches {
+                for (k, (name, _)) in crate::kernels::KERNELS.iter().enumerate() {
+                    let at = (counter::FETCHES + 2 * k as u32) as usize;
+                    let n = c[at] as u64 | (c[at + 1] as u64) << 32;
+                    match stats.kernel_fetches.iter_mut().find(|(m, _)| m == name) {
+                        Some((_, total)) => *total += n,
+                        None if n > 0 => stats.kernel_fetches.push((name.to_string(), n)),
+                        None => {}
+                    }
+                }
+            }
             progress.inc(batch.size as u64);
             if let Some(c) = checkpoint.as_deref_mut() {
                 let passes_done = batch.first_pixel + batch.size >= pixel_count;

@@ -35,6 +35,7 @@ pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
             device_index: None,
             validation: true,
             timing: false,
+            count_fetches: false,
         })
         .unwrap_or_else(|e| panic!("no GPU renderer: {e:#}"));
         eprintln!(
