@@ -89,6 +89,27 @@ pub const MATERIAL_TEXTURED: u32 = 8;
 /// KHR_materials_unlit: the surface emits its base colour (`surface::surface_emission`) and
 /// scatters nothing (`bsdf`).
 pub const MATERIAL_UNLIT: u32 = 16;
+/// Set only in the GPU's material image (`gpu::pipelines::SceneImage::Materials`): the material
+/// differs from `GpuMaterial::default()` past its first five texels (the extensions' parameters,
+/// bytes 80 to 256). Other materials are read as five texels, the rest being the defaults
+/// (`scene_arrays.glsl`, `material_image_at`).
+pub const MATERIAL_EXTENDED: u32 = 32;
+/// Bytes of a `GpuMaterial` every read of the material image fetches.
+pub const MATERIAL_CORE_BYTES: usize = 80;
+
+impl GpuMaterial {
+    /// The record of the GPU's material image: `self` with `MATERIAL_EXTENDED` set where its
+    /// extension parameters are not the defaults.
+    pub fn image_record(&self) -> GpuMaterial {
+        let plain = GpuMaterial::default();
+        let tail = |m: &GpuMaterial| bytemuck::bytes_of(m)[MATERIAL_CORE_BYTES..].to_vec();
+        let mut record = *self;
+        if tail(self) != tail(&plain) {
+            record.flags |= MATERIAL_EXTENDED;
+        }
+        record
+    }
+}
 
 /// No texture in a `GpuMaterial::*_texture` slot.
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -907,3 +928,53 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         pad
     }),
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The material image marks exactly the materials whose extension parameters (past the
+    /// first five texels) are not the defaults the kernels substitute.
+    #[test]
+    fn only_materials_with_extension_parameters_are_marked_extended() {
+        let plain = GpuMaterial {
+            base_color: [0.2, 0.3, 0.4],
+            emission: [5.0; 3],
+            roughness: 0.1,
+            transmission: 1.0,
+            normal_texture: 3,
+            ..GpuMaterial::default()
+        };
+        assert_eq!(plain.image_record(), plain);
+        assert_eq!(GpuMaterial::default().image_record().flags, 0);
+        for extended in [
+            GpuMaterial {
+                clearcoat: 0.5,
+                ..plain
+            },
+            GpuMaterial {
+                specular_color: [1.0, 0.9, 1.0],
+                ..plain
+            },
+            GpuMaterial {
+                dispersion: 0.1,
+                ..plain
+            },
+        ] {
+            let record = extended.image_record();
+            assert_eq!(record.flags, extended.flags | MATERIAL_EXTENDED);
+            assert_eq!(
+                GpuMaterial {
+                    flags: extended.flags,
+                    ..record
+                },
+                extended
+            );
+        }
+        // The core ends where the first extension parameter begins.
+        assert_eq!(
+            std::mem::offset_of!(GpuMaterial, specular_color),
+            MATERIAL_CORE_BYTES
+        );
+    }
+}

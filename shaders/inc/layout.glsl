@@ -40,6 +40,7 @@ struct GpuTriangle {
 #define MATERIAL_ALPHA_BLEND 4u
 #define MATERIAL_TEXTURED 8u
 #define MATERIAL_UNLIT 16u
+#define MATERIAL_EXTENDED 32u  // material image only (src/layout.rs)
 #define NO_TEXTURE 0xffffffffu
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the

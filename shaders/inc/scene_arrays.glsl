@@ -114,7 +114,9 @@ LightEntry light_image_at(uint i) {
     return LightEntry(uintBitsToFloat(t.x), t.y, uintBitsToFloat(t.z), t.w);
 }
 
-// The 16 texels of a GpuMaterial, member by member at its std430 offsets (layout.glsl).
+// The 16 texels of a GpuMaterial, member by member at its std430 offsets (layout.glsl); a
+// material without MATERIAL_EXTENDED is read as its first five texels and the rest are
+// GpuMaterial::default()'s (src/layout.rs, GpuMaterial::image_record).
 GpuMaterial material_image_at(uint i) {
     uint a = 16u * i;
     uvec4 t;
@@ -140,6 +142,41 @@ GpuMaterial material_image_at(uint i) {
     m.emissive_texture = t.y;
     m.normal_texture = t.z;
     m.transmission_texture = t.w;
+    if ((m.flags & MATERIAL_EXTENDED) == 0u) {
+        m.specular_color = vec3(1.0);
+        m.specular_texture = NO_TEXTURE;
+        m.specular_color_texture = NO_TEXTURE;
+        m.clearcoat = 0.0;
+        m.clearcoat_roughness = 0.0;
+        m.clearcoat_texture = NO_TEXTURE;
+        m.clearcoat_roughness_texture = NO_TEXTURE;
+        m.clearcoat_normal_texture = NO_TEXTURE;
+        m.clearcoat_normal_scale = 1.0;
+        m.sheen_roughness = 0.0;
+        m.clearcoat_normal = vec3(0.0);
+        m.sheen_color_texture = NO_TEXTURE;
+        m.sheen_color = vec3(0.0);
+        m.sheen_roughness_texture = NO_TEXTURE;
+        m.anisotropy_direction = vec3(0.0);
+        m.anisotropy = 0.0;
+        m.anisotropy_rotation = 0.0;
+        m.anisotropy_texture = NO_TEXTURE;
+        m.iridescence = 0.0;
+        m.iridescence_ior = 1.3;
+        m.iridescence_thickness_min = 100.0;
+        m.iridescence_thickness = 400.0;
+        m.iridescence_texture = NO_TEXTURE;
+        m.iridescence_thickness_texture = NO_TEXTURE;
+        m.attenuation = vec3(0.0);
+        m.thickness = 0.0;
+        m.diffuse_transmission_color = vec3(1.0);
+        m.diffuse_transmission = 0.0;
+        m.diffuse_transmission_texture = NO_TEXTURE;
+        m.diffuse_transmission_color_texture = NO_TEXTURE;
+        m.dispersion = 0.0;
+        m.pad1 = 0u;
+        return m;
+    }
     t = SCENE_TEXEL(material_image, a + 5u);
     m.specular_color = uintBitsToFloat(t.xyz);
     m.specular_texture = t.w;

@@ -324,9 +324,14 @@ impl RenderBuffers {
         // The images (one row where the kernels read buffers instead).
         let mut images = Vec::new();
         for array in SceneImage::ALL {
-            let (rows, data) = match split.images {
-                true => (array.rows(scene), array.data(scene)),
-                false => (1, &[][..]),
+            let records: Vec<crate::layout::GpuMaterial>;
+            let (rows, data) = match (split.images, array) {
+                (true, SceneImage::Materials) => {
+                    records = scene.materials.iter().map(|m| m.image_record()).collect();
+                    (array.rows(scene), bytemuck::cast_slice(&records))
+                }
+                (true, _) => (array.rows(scene), array.data(scene)),
+                (false, _) => (1, &[][..]),
             };
             let image = Image::new(ctx, array.name(), array.format(), rows as u32)?;
             upload_rows(ctx, commands, &image, data)?;
