@@ -79,19 +79,30 @@ GpuLightNode light_node_image_at(uint i) {
     return node;
 }
 
-GpuInstance instance_image_at(uint i) {
+// An instance's texels: the last (root and flags) first; an identity placement's transforms
+// are not read (every use tests INSTANCE_IDENTITY first; they are set to the identity), and
+// with `forward` false neither is object_to_world (traversal needs only the inverse).
+GpuInstance instance_image_read(uint i, bool forward) {
     GpuInstance inst;
-    for (uint r = 0u; r < 3u; ++r) {
-        inst.object_to_world[r] = uintBitsToFloat(SCENE_TEXEL(instance_image, 7u * i + r));
-        inst.world_to_object[r] = uintBitsToFloat(SCENE_TEXEL(instance_image, 7u * i + 3u + r));
-    }
     uvec4 t = SCENE_TEXEL(instance_image, 7u * i + 6u);
     inst.blas_root = t.x;
     inst.flags = t.y;
     inst.pad0 = t.z;
     inst.pad1 = t.w;
+    for (uint r = 0u; r < 3u; ++r) {
+        vec4 row = vec4(0.0);
+        row[r] = 1.0;
+        inst.object_to_world[r] = row;
+        inst.world_to_object[r] = row;
+    }
+    if ((inst.flags & INSTANCE_IDENTITY) != 0u) return inst;
+    for (uint r = 0u; r < 3u; ++r) {
+        if (forward) inst.object_to_world[r] = uintBitsToFloat(SCENE_TEXEL(instance_image, 7u * i + r));
+        inst.world_to_object[r] = uintBitsToFloat(SCENE_TEXEL(instance_image, 7u * i + 3u + r));
+    }
     return inst;
 }
+GpuInstance instance_image_at(uint i) { return instance_image_read(i, true); }
 
 GpuTexture texture_image_at(uint i) {
     uvec4 a = SCENE_TEXEL(texture_image, 2u * i);
@@ -304,6 +315,11 @@ LightEntry light_read(uint i, uint images) {
     return images != 0u ? light_image_at(i) : lights[i];
 }
 GpuInstance instance_at(uint i) { return instance_read(i, SCENE_IMAGES); }
+// For instance_ray (tlas.glsl): object_to_world may be left unread.
+GpuInstance instance_inverse_read(uint i, uint images) {
+    return images != 0u ? instance_image_read(i, false) : instances[i];
+}
+GpuInstance instance_inverse_at(uint i) { return instance_inverse_read(i, SCENE_IMAGES); }
 GpuTexture texture_at(uint i) { return texture_read(i, SCENE_IMAGES); }
 GpuTextureRef texture_ref_at(uint i) { return texture_ref_read(i, SCENE_IMAGES); }
 LightEntry light_at(uint i) { return light_read(i, SCENE_IMAGES); }
@@ -315,6 +331,7 @@ LightEntry light_at(uint i) { return light_read(i, SCENE_IMAGES); }
 #define vertex_at(i) vertices[i]
 #define material_at(i) materials[i]
 #define instance_at(i) instances[i]
+#define instance_inverse_at(i) instances[i]
 #define texture_at(i) textures[i]
 #define texture_ref_at(i) texture_refs[i]
 #define light_at(i) lights[i]

@@ -43,7 +43,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         if (bvh_node_is_leaf(node)) {
             uint first = bvh_node_first_triangle(node);
             for (uint k = first; k < first + node.count; ++k) {
-                GpuInstance inst = instance_at(k);
+                GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
                 if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
@@ -103,7 +103,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         if (bvh_node_is_leaf(node)) {
             uint first = bvh_node_first_triangle(node);
             for (uint k = first; k < first + node.count; ++k) {
-                GpuInstance inst = instance_at(k);
+                GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
                 if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
