@@ -17,6 +17,30 @@ pub enum Location {
     Host,
 }
 
+/// Memory for a buffer or image from the allocator, where an injected fault (`fault.rs`) does
+/// not refuse it first.
+fn allocate(
+    ctx: &Context,
+    name: &str,
+    requirements: vk::MemoryRequirements,
+    location: MemoryLocation,
+    linear: bool,
+) -> Result<Allocation> {
+    super::fault::before_allocation(name).map_err(|e| anyhow!("{e}"))?;
+    let desc = AllocationCreateDesc {
+        name,
+        requirements,
+        location,
+        linear,
+        allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+    };
+    let mut allocator = ctx
+        .allocator
+        .lock()
+        .map_err(|_| anyhow!("allocator poisoned"))?;
+    allocator.allocate(&desc).map_err(|e| anyhow!("{e}"))
+}
+
 /// A buffer and its memory, a range of a block that `gpu-allocator` sub-allocates (so that a
 /// render holds a few device allocations however many buffers it has), freed on drop.
 pub struct Buffer {
@@ -45,28 +69,13 @@ impl Buffer {
         let buffer = unsafe { device.create_buffer(&info, None) }
             .with_context(|| format!("creating buffer '{name}' ({} MiB)", size >> 20))?;
         let requirements = unsafe { device.get_buffer_memory_requirements(buffer) };
-        let desc = AllocationCreateDesc {
-            name,
-            requirements,
-            location: match location {
-                Location::Device => MemoryLocation::GpuOnly,
-                // Staging, read-back and the frame constants: host-visible, coherent and, where
-                // the device has such memory, cached for the host's reads.
-                Location::Host => MemoryLocation::GpuToCpu,
-            },
-            linear: true,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        let memory = match location {
+            Location::Device => MemoryLocation::GpuOnly,
+            // Staging, read-back and the frame constants: host-visible, coherent and, where
+            // the device has such memory, cached for the host's reads.
+            Location::Host => MemoryLocation::GpuToCpu,
         };
-        let allocated = super::fault::before_allocation(name)
-            .map_err(|e| anyhow!("{e}"))
-            .and_then(|()| {
-                let mut allocator = ctx
-                    .allocator
-                    .lock()
-                    .map_err(|_| anyhow!("allocator poisoned"))?;
-                allocator.allocate(&desc).map_err(|e| anyhow!("{e}"))
-            });
-        let allocation = match allocated {
+        let allocation = match allocate(ctx, name, requirements, memory, true) {
             Ok(a) => a,
             Err(e) => {
                 unsafe { device.destroy_buffer(buffer, None) };
@@ -190,23 +199,7 @@ impl Image {
             format!("creating image '{name}' ({SCENE_IMAGE_WIDTH}×{rows} texels)")
         })?;
         let requirements = unsafe { device.get_image_memory_requirements(image) };
-        let desc = AllocationCreateDesc {
-            name,
-            requirements,
-            location: MemoryLocation::GpuOnly,
-            linear: false,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        };
-        let allocated = super::fault::before_allocation(name)
-            .map_err(|e| anyhow!("{e}"))
-            .and_then(|()| {
-                let mut allocator = ctx
-                    .allocator
-                    .lock()
-                    .map_err(|_| anyhow!("allocator poisoned"))?;
-                allocator.allocate(&desc).map_err(|e| anyhow!("{e}"))
-            });
-        let allocation = match allocated {
+        let allocation = match allocate(ctx, name, requirements, MemoryLocation::GpuOnly, false) {
             Ok(a) => a,
             Err(e) => {
                 unsafe { device.destroy_image(image, None) };
