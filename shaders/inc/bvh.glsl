@@ -87,10 +87,13 @@ bool bvh_is_empty() {
 // alpha key (surface.glsl, alpha_key).
 bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    // Deferred nodes with the distance at which the ray enters them.
+    // Deferred nodes with the distance at which the ray enters them: the top two in registers
+    // (top, below), the rest in stack[0 .. sp - 2), which a CPU Vulkan device keeps in memory.
     uint stack[BVH_STACK_SIZE];
     float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
+    uint top = 0u, below = 0u;
+    float top_enter = 0.0, below_enter = 0.0;
     uint index = root;
     BvhNode node = bvh_node_at(root);
     float t_far = hit.t;
@@ -125,8 +128,14 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
             if (hit_left && hit_right) {
                 bool left_first = dl <= dr;
-                stack[sp] = left_first ? ri : li;
-                stack_enter[sp] = left_first ? dr : dl;
+                if (sp >= 2u) {
+                    stack[sp - 2u] = below;
+                    stack_enter[sp - 2u] = below_enter;
+                }
+                below = top;
+                below_enter = top_enter;
+                top = left_first ? ri : li;
+                top_enter = left_first ? dr : dl;
                 ++sp;
                 index = left_first ? li : ri;
                 node = left_first ? left : right;
@@ -141,9 +150,17 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
         // Pop the next node the ray enters before the closest hit so far.
         bool popped = false;
         while (sp > 0u) {
+            uint next = top;
+            float next_enter = top_enter;
+            top = below;
+            top_enter = below_enter;
+            if (sp >= 3u) {
+                below = stack[sp - 3u];
+                below_enter = stack_enter[sp - 3u];
+            }
             --sp;
-            if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= t_far) {
-                index = stack[sp];
+            if (next_enter - abs(next_enter) * BVH_SLAB_SLACK <= t_far) {
+                index = next;
                 node = bvh_node_at(index);
                 popped = true;
                 break;
@@ -166,8 +183,10 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec
 // exits at the first hit).
 bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    // As in bvh_closest_from: the top two deferred nodes in registers.
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
+    uint top = 0u, below = 0u;
     uint index = root;
     BvhNode node = bvh_node_at(root);
     float t_enter;
@@ -189,7 +208,12 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
-            if (hit_left && hit_right) stack[sp++] = ri;
+            if (hit_left && hit_right) {
+                if (sp >= 2u) stack[sp - 2u] = below;
+                below = top;
+                top = ri;
+                ++sp;
+            }
             if (hit_left || hit_right) {
                 index = hit_left ? li : ri;
                 node = hit_left ? left : right;
@@ -197,7 +221,10 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
             }
         }
         if (sp == 0u) return false;
-        index = stack[--sp];
+        index = top;
+        top = below;
+        if (sp >= 3u) below = stack[sp - 3u];
+        --sp;
         node = bvh_node_at(index);
     }
     return false;
