@@ -274,56 +274,31 @@ SPLIT_READ(GpuVertex, vertex_buffer_at, vertex_split, VERTEX_SHIFT, vertices, ve
            vertices3)
 SPLIT_READ(uint, texel_buffer_at, texel_split, TEXEL_SHIFT, texels, texels1, texels2, texels3)
 #undef SPLIT_READ
-// (The constant is passed in for the reason SPLIT_READ gives.)
-BvhNode bvh_node_read(uint i, uint images) {
-    return images != 0u ? bvh_node_image_at(i) : bvh_node_buffer_at(i);
-}
-GpuTriangle triangle_read(uint i, uint images) {
-    return images != 0u ? triangle_image_at(i) : triangle_buffer_at(i);
-}
-uvec4 triangle_vertices_read(uint i, uint images) {
-    return images != 0u ? SCENE_TEXEL(triangle_vertex_image, i) : triangle_vertices_buffer_at(i);
-}
-GpuVertex vertex_read(uint i, uint images) {
-    return images != 0u ? vertex_image_at(i) : vertex_buffer_at(i);
-}
-GpuMaterial material_read(uint i, uint images) {
-    return images != 0u ? material_image_at(i) : materials[i];
-}
-GpuLightNode light_node_read(uint i, uint images) {
-    return images != 0u ? light_node_image_at(i) : light_nodes[i];
-}
-BvhNode bvh_node_at(uint i) { return bvh_node_read(i, SCENE_IMAGES); }
-GpuTriangle triangle_at(uint i) { return triangle_read(i, SCENE_IMAGES); }
-uvec4 triangle_vertices_at(uint i) { return triangle_vertices_read(i, SCENE_IMAGES); }
-GpuVertex vertex_at(uint i) { return vertex_read(i, SCENE_IMAGES); }
-GpuMaterial material_at(uint i) { return material_read(i, SCENE_IMAGES); }
-uint texel_read(uint i, uint images) {
-    return images != 0u ? SCENE_TEXEL(texel_image, i).x : texel_buffer_at(i);
-}
-uint texel_at(uint i) { return texel_read(i, SCENE_IMAGES); }
-GpuInstance instance_read(uint i, uint images) {
-    return images != 0u ? instance_image_at(i) : instances[i];
-}
-GpuTexture texture_read(uint i, uint images) {
-    return images != 0u ? texture_image_at(i) : textures[i];
-}
-GpuTextureRef texture_ref_read(uint i, uint images) {
-    return images != 0u ? texture_ref_image_at(i) : texture_refs[i];
-}
-LightEntry light_read(uint i, uint images) {
-    return images != 0u ? light_image_at(i) : lights[i];
-}
-GpuInstance instance_at(uint i) { return instance_read(i, SCENE_IMAGES); }
+// Element i from its image where SCENE_IMAGES is 1, else from its buffer: name_read(i, images)
+// (the constant passed in for the reason SPLIT_READ gives) and name(i).
+#define IMAGE_OR_BUFFER(T, name, name_read, IMAGE_READ, BUFFER_READ)                  \
+    T name_read(uint i, uint images) { return images != 0u ? IMAGE_READ : BUFFER_READ; } \
+    T name(uint i) { return name_read(i, SCENE_IMAGES); }
+IMAGE_OR_BUFFER(BvhNode, bvh_node_at, bvh_node_read, bvh_node_image_at(i), bvh_node_buffer_at(i))
+IMAGE_OR_BUFFER(GpuTriangle, triangle_at, triangle_read, triangle_image_at(i), triangle_buffer_at(i))
+IMAGE_OR_BUFFER(uvec4, triangle_vertices_at, triangle_vertices_read,
+                SCENE_TEXEL(triangle_vertex_image, i), triangle_vertices_buffer_at(i))
+IMAGE_OR_BUFFER(GpuVertex, vertex_at, vertex_read, vertex_image_at(i), vertex_buffer_at(i))
+IMAGE_OR_BUFFER(GpuMaterial, material_at, material_read, material_image_at(i), materials[i])
+IMAGE_OR_BUFFER(uint, texel_at, texel_read, SCENE_TEXEL(texel_image, i).x, texel_buffer_at(i))
+IMAGE_OR_BUFFER(GpuInstance, instance_at, instance_read, instance_image_at(i), instances[i])
 // For instance_ray (tlas.glsl): object_to_world may be left unread.
-GpuInstance instance_inverse_read(uint i, uint images) {
-    return images != 0u ? instance_image_read(i, false) : instances[i];
-}
-GpuInstance instance_inverse_at(uint i) { return instance_inverse_read(i, SCENE_IMAGES); }
-GpuTexture texture_at(uint i) { return texture_read(i, SCENE_IMAGES); }
-GpuTextureRef texture_ref_at(uint i) { return texture_ref_read(i, SCENE_IMAGES); }
-LightEntry light_at(uint i) { return light_read(i, SCENE_IMAGES); }
-#define light_node_at(i) light_node_read(i, SCENE_IMAGES)
+IMAGE_OR_BUFFER(GpuInstance, instance_inverse_at, instance_inverse_read,
+                instance_image_read(i, false), instances[i])
+IMAGE_OR_BUFFER(GpuTexture, texture_at, texture_read, texture_image_at(i), textures[i])
+IMAGE_OR_BUFFER(GpuTextureRef, texture_ref_at, texture_ref_read, texture_ref_image_at(i),
+                texture_refs[i])
+IMAGE_OR_BUFFER(LightEntry, light_at, light_read, light_image_at(i), lights[i])
+// (A macro: light_bvh.glsl reads light_nodes[] where it is not defined.)
+IMAGE_OR_BUFFER(GpuLightNode, light_node_image_or_buffer_at, light_node_read,
+                light_node_image_at(i), light_nodes[i])
+#define light_node_at(i) light_node_image_or_buffer_at(i)
+#undef IMAGE_OR_BUFFER
 #else
 #define bvh_node_at(i) bvh_nodes[i]
 #define triangle_at(i) triangles[i]

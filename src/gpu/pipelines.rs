@@ -536,19 +536,11 @@ impl Pipelines {
         let writes: Vec<vk::WriteDescriptorSet> = buffers
             .iter()
             .zip(&infos)
-            .map(|((binding, _), info)| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
-                    .dst_binding(*binding as u32)
-                    .descriptor_type(binding.descriptor_type())
-                    .buffer_info(info)
-            })
+            .map(|((binding, _), info)| self.write(*binding).buffer_info(info))
             .collect();
         unsafe { self.device.update_descriptor_sets(&writes, &[]) };
     }
-}
 
-impl Pipelines {
     /// Points each image binding at its image's view.
     pub fn bind_images(&self, images: &[(Binding, vk::ImageView)]) {
         let infos: Vec<[vk::DescriptorImageInfo; 1]> = images
@@ -562,15 +554,17 @@ impl Pipelines {
         let writes: Vec<vk::WriteDescriptorSet> = images
             .iter()
             .zip(&infos)
-            .map(|((binding, _), info)| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
-                    .dst_binding(*binding as u32)
-                    .descriptor_type(binding.descriptor_type())
-                    .image_info(info)
-            })
+            .map(|((binding, _), info)| self.write(*binding).image_info(info))
             .collect();
         unsafe { self.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// A descriptor write to `binding` of the set, its resource still to be given.
+    fn write(&self, binding: Binding) -> vk::WriteDescriptorSet<'static> {
+        vk::WriteDescriptorSet::default()
+            .dst_set(self.set)
+            .dst_binding(binding as u32)
+            .descriptor_type(binding.descriptor_type())
     }
 }
 

@@ -62,11 +62,13 @@ fn upload_rows(ctx: &Context, commands: &Commands, image: &Image, data: &[u8]) -
     let mut row = 0;
     while row < image.rows as usize {
         let rows = rows_per_copy.min(image.rows as usize - row);
-        let mut piece = vec![0u8; rows * row_bytes];
         let from = (row * row_bytes).min(data.len());
         let to = ((row + rows) * row_bytes).min(data.len());
-        piece[..to - from].copy_from_slice(&data[from..to]);
-        staging.write(&piece);
+        staging.write(&data[from..to]);
+        // Zeros after the data's end (the last row's rest, or a whole blank image).
+        if to - from < rows * row_bytes {
+            staging.write_at(to - from, &vec![0u8; rows * row_bytes - (to - from)]);
+        }
         commands.copy_rows_to_image(&staging, 0, image, row as u32, rows as u32);
         row += rows;
         if row < image.rows as usize {
