@@ -116,14 +116,47 @@ impl Bvh {
         t_max: f32,
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
+        self.closest_counted(root, triangles, ray, t_min, t_max, accept)
+            .0
+    }
+
+    /// What a closest-hit query from the root costs: (boxes slab-tested, triangles
+    /// intersected), the traversal cost per ray that `wavetrace bench --bvh` reports.
+    pub fn closest_hit_cost(
+        &self,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> (u32, u32) {
+        if self.is_empty() {
+            return (0, 0);
+        }
+        let (_, boxes, tested) =
+            self.closest_counted(0, triangles, ray, t_min, t_max, |_, _, _| true);
+        (boxes, tested)
+    }
+
+    /// The closest hit, with the boxes and triangles its traversal tested.
+    fn closest_counted(
+        &self,
+        root: u32,
+        triangles: &[GpuTriangle],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: impl Fn(u32, f32, f32) -> bool,
+    ) -> (Option<Hit>, u32, u32) {
         let mut closest: Option<Hit> = None;
-        traverse_closest(
+        let mut tested = 0;
+        let boxes = traverse_closest(
             &self.nodes,
             root,
             &SlabRay::new(ray),
             t_min,
             t_max,
             |first, count, t_far| {
+                tested += count;
                 let mut found = None;
                 for i in first..first + count {
                     if let Some((t, u, v)) = intersect_triangle(
@@ -146,7 +179,7 @@ impl Bvh {
                 found
             },
         );
-        closest
+        (closest, boxes, tested)
     }
 
     /// True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
@@ -205,7 +238,7 @@ impl Bvh {
 /// levels (`tlas.rs`): `leaf(first, count, t_far)` tests a leaf's primitives against hits closer
 /// than `t_far` and returns the closest it found; subtrees the ray enters beyond the closest hit
 /// so far are skipped. An interior node's nearer child is visited first, the farther deferred
-/// with its entry distance.
+/// with its entry distance. Returns how many boxes it tested (the cost `bench --bvh` reports).
 pub(crate) fn traverse_closest(
     nodes: &[BvhNode],
     root: u32,
@@ -213,13 +246,14 @@ pub(crate) fn traverse_closest(
     t_min: f32,
     t_max: f32,
     mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
-) {
+) -> u32 {
     let mut t_far = t_max;
     let mut stack = [(0u32, 0f32); MAX_DEPTH];
     let mut sp = 0;
     let (mut index, mut node) = (root, nodes[root as usize]);
+    let mut boxes = 1;
     if bvh_slab(&node, ray, t_min, t_far).is_none() {
-        return;
+        return boxes;
     }
     loop {
         if node.is_leaf() {
@@ -232,6 +266,7 @@ pub(crate) fn traverse_closest(
             let (left, right) = (nodes[li as usize], nodes[ri as usize]);
             let dl = bvh_slab(&left, ray, t_min, t_far);
             let dr = bvh_slab(&right, ray, t_min, t_far);
+            boxes += 2;
             match (dl, dr) {
                 (Some(a), Some(b)) => {
                     let (near, far) = if a <= b {
@@ -259,7 +294,7 @@ pub(crate) fn traverse_closest(
         // was found when it was pushed; t_far can only have shrunk since).
         loop {
             if sp == 0 {
-                return;
+                return boxes;
             }
             sp -= 1;
             let (deferred, t_enter) = stack[sp];

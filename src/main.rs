@@ -9,7 +9,9 @@ use clap::Parser;
 use cli::{
     BenchArgs, Cli, Command, CompareArgs, DeviceKind, EstimatorsArgs, RenderArgs, RenderOptions,
 };
+use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
 use std::mem::size_of;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -834,6 +836,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
     } else {
         args.scenes.clone()
     };
+    if args.bvh {
+        return bench_bvh(&scenes, args.json.as_deref());
+    }
     let settings = RenderSettings {
         width: args.width,
         height: args.height,
@@ -999,6 +1004,111 @@ fn bench(args: &BenchArgs) -> Result<()> {
             "gpu": gpu_name,
             "cpu_threads": rayon::current_num_threads(),
             "rows": json_rows,
+        });
+        std::fs::write(file, serde_json::to_string_pretty(&doc)?)
+            .with_context(|| format!("writing {}", file.display()))?;
+        println!("wrote {}", file.display());
+    }
+    Ok(())
+}
+
+/// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
+fn bench_bvh(scenes: &[PathBuf], json: Option<&Path>) -> Result<()> {
+    use wavetrace::bvh::{gpu_triangles, Bvh, Ray};
+    const BUILDS: usize = 7;
+    const RAYS: u32 = 1 << 18;
+    println!(
+        "wavetrace bench --bvh: {BUILDS} builds (median and best), {RAYS} random closest-hit rays; cpu = {} threads",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<32} {:>10} {:>9} {:>8} {:>10} {:>9} {:>6} {:>9} {:>10} {:>10} {:>10}",
+        "scene",
+        "triangles",
+        "build ms",
+        "best ms",
+        "ms per M",
+        "nodes",
+        "depth",
+        "SAH cost",
+        "boxes/ray",
+        "tris/ray",
+        "M rays/s"
+    );
+    let mut rows = Vec::new();
+    for path in scenes {
+        let scene = Scene::load_with(path, &LoadOptions::default())?;
+        let positions: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
+        let mut times = Vec::new();
+        let mut bvh = Bvh::build(&positions);
+        for _ in 0..BUILDS {
+            bvh = Bvh::build(&positions);
+            times.push(bvh.stats.build_time.as_secs_f64() * 1e3);
+        }
+        times.sort_by(f64::total_cmp);
+        let build_ms = times[BUILDS / 2];
+        let triangles = gpu_triangles(&positions, &[], &bvh.order);
+        // Rays from uniform points of the root's box in uniform directions (seeded, so every
+        // build of the same tree is measured on the same rays).
+        let root = bvh.nodes[0];
+        let (lo, hi) = (Vec3::from(root.bounds_min), Vec3::from(root.bounds_max));
+        let ray = |i: u32| {
+            let u = wavetrace::sampling::rng_uniform4(11, i, 0, 0);
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * u.y;
+            let o = wavetrace::sampling::rng_uniform4(11, i, 0, 1);
+            Ray {
+                origin: lo + (hi - lo) * o.truncate(),
+                dir: Vec3::new(r * phi.cos(), r * phi.sin(), z),
+            }
+        };
+        let started = std::time::Instant::now();
+        let (boxes, tested) = (0..RAYS)
+            .into_par_iter()
+            .map(|i| {
+                let (b, t) = bvh.closest_hit_cost(&triangles, &ray(i), 0.0, f32::INFINITY);
+                (b as u64, t as u64)
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
+        let name = path
+            .file_name()
+            .and_then(|s| s.to_str())
+            .unwrap_or("?")
+            .to_owned();
+        let s = &bvh.stats;
+        let (boxes, tested) = (boxes as f64 / RAYS as f64, tested as f64 / RAYS as f64);
+        let per_million = build_ms * 1e6 / positions.len().max(1) as f64;
+        println!(
+            "{name:<32} {:>10} {build_ms:>9.1} {:>8.1} {per_million:>10.1} {:>9} {:>6} {:>9.2} {boxes:>10.1} {tested:>10.1} {:>10.2}",
+            positions.len(),
+            times[0],
+            s.nodes,
+            s.max_depth,
+            s.sah_cost,
+            rays_per_second * 1e-6
+        );
+        rows.push(serde_json::json!({
+            "scene": name,
+            "triangles": positions.len(),
+            "build_ms": build_ms,
+            "build_ms_all": times,
+            "build_ms_per_million": per_million,
+            "nodes": s.nodes,
+            "leaves": s.leaves,
+            "max_depth": s.max_depth,
+            "sah_cost": s.sah_cost,
+            "boxes_per_ray": boxes,
+            "triangles_per_ray": tested,
+            "rays_per_second": rays_per_second,
+        }));
+    }
+    if let Some(file) = json {
+        let doc = serde_json::json!({
+            "cpu_threads": rayon::current_num_threads(),
+            "rays": RAYS,
+            "rows": rows,
         });
         std::fs::write(file, serde_json::to_string_pretty(&doc)?)
             .with_context(|| format!("writing {}", file.display()))?;

@@ -1,56 +1,93 @@
 //! The binned SAH build (Wald 2007, "On fast Construction of SAH-based Bounding Volume
 //! Hierarchies") and its depth-first flattening; see the parent module's docs.
+//!
+//! Boxes and primitive references are four-wide (`Vec4`, one SSE register each: growing a box
+//! is one `min` and one `max`), and centroids are kept doubled (`lower + upper`, no `× 0.5`):
+//! binning on doubled centroids with a halved scale puts every primitive in the same bin as
+//! binning on centroids, since scaling by two is exact in floating point.
 
 use super::{Bvh, BvhStats, INTERSECTION_COST, MAX_DEPTH, MAX_LEAF_SIZE, SAH_BINS, TRAVERSAL_COST};
 use crate::layout::BvhNode;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
+use rayon::prelude::*;
 use std::time::Instant;
 
-/// An axis-aligned box; empty when min > max.
-#[derive(Clone, Copy, Debug)]
+/// An axis-aligned box in x, y, z (w is not read); empty when min > max.
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Aabb {
-    min: Vec3,
-    max: Vec3,
+    min: Vec4,
+    max: Vec4,
 }
 
 impl Aabb {
     const EMPTY: Aabb = Aabb {
-        min: Vec3::INFINITY,
-        max: Vec3::NEG_INFINITY,
+        min: Vec4::INFINITY,
+        max: Vec4::NEG_INFINITY,
     };
 
-    fn grow(&mut self, min: Vec3, max: Vec3) {
+    #[inline(always)]
+    fn grow(&mut self, min: Vec4, max: Vec4) {
         self.min = self.min.min(min);
         self.max = self.max.max(max);
     }
 
+    #[inline(always)]
+    fn grow_point(&mut self, p: Vec4) {
+        self.grow(p, p);
+    }
+
     /// Half the surface area (0 for an empty box): the SAH only uses ratios.
     fn half_area(&self) -> f32 {
-        let d = self.max - self.min;
+        let d = (self.max - self.min).truncate();
         if d.x < 0.0 || d.y < 0.0 || d.z < 0.0 {
             return 0.0;
         }
         d.x * d.y + d.y * d.z + d.z * d.x
     }
+
+    fn lower(&self) -> [f32; 3] {
+        self.min.truncate().into()
+    }
+
+    fn upper(&self) -> [f32; 3] {
+        self.max.truncate().into()
+    }
 }
 
-/// A triangle during the build: its bounds and input index.
+/// A primitive during the build: its bounds, with its input index in `lower.w`.
 #[derive(Clone, Copy, Debug)]
 struct PrimRef {
-    min: Vec3,
-    max: Vec3,
-    id: u32,
+    lower: Vec4,
+    upper: Vec4,
 }
 
+/// The index is stored as the bits of `lower.w` XOR this, so that every index below 2^30 is a
+/// normal float (≥ 2): the doubled centroid adds the w lanes, and a denormal operand can cost a
+/// microcode assist. The bits come back unchanged whatever they are (nothing writes `lower.w`).
+const ID_BITS: u32 = 0x4000_0000;
+
 impl PrimRef {
-    fn centroid(&self) -> Vec3 {
-        (self.min + self.max) * 0.5
+    fn new(min: Vec3, max: Vec3, id: u32) -> PrimRef {
+        PrimRef {
+            lower: min.extend(f32::from_bits(id ^ ID_BITS)),
+            upper: max.extend(2.0),
+        }
+    }
+
+    fn id(&self) -> u32 {
+        self.lower.w.to_bits() ^ ID_BITS
+    }
+
+    /// Twice the centroid (x, y, z; w is not read).
+    #[inline(always)]
+    fn centroid2(&self) -> Vec4 {
+        self.lower + self.upper
     }
 }
 
 /// A range of `refs` still to become a subtree, with the bounds of its primitives and of their
-/// centroids; `patch` is the node whose `offset` must point to it (it is a right child), or
-/// `u32::MAX`.
+/// doubled centroids; `patch` is the node whose `offset` must point to it (it is a right
+/// child), or `u32::MAX`.
 struct Task {
     start: usize,
     end: usize,
@@ -58,68 +95,90 @@ struct Task {
     patch: u32,
     bounds: Aabb,
     centroids: Aabb,
+    bins: Option<Box<Bins>>,
 }
 
 /// Where a range splits: the first `mid` primitives (after reordering) go left; the bounds of
-/// each side's primitives and centroids, as (left, right).
+/// each side's primitives and doubled centroids, and each side's bins where the partition
+/// binned them, as (left, right).
 struct Split {
     mid: usize,
     bounds: (Aabb, Aabb),
     centroids: (Aabb, Aabb),
+    bins: (Option<Box<Bins>>, Option<Box<Bins>>),
 }
 
 fn ceil_log2(n: usize) -> usize {
     (usize::BITS - n.saturating_sub(1).leading_zeros()) as usize
 }
 
-/// Bin of a centroid coordinate; the same float expression when binning and partitioning.
-fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
-    (((c - lo) * scale) as usize).min(SAH_BINS - 1)
+/// How a range's primitives fall into the SAH bins: by doubled centroid on `axis`, bin k
+/// covering [lo + k/scale, lo + (k+1)/scale).
+#[derive(Clone, Copy, Debug)]
+struct Binning {
+    axis: usize,
+    lo: f32,
+    scale: f32,
 }
 
-/// Reorders `refs` so that those with `pred` come first; returns how many there are. Hoare's
-/// scheme from both ends: each misplaced pair costs one swap, so about half the swaps of a
-/// single forward scan.
-fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
-    let (mut i, mut j) = (0, refs.len());
-    loop {
-        while i < j && pred(&refs[i]) {
-            i += 1;
-        }
-        while i < j && !pred(&refs[j - 1]) {
-            j -= 1;
-        }
-        if i >= j {
-            return i;
-        }
-        refs.swap(i, j - 1);
-        i += 1;
-        j -= 1;
+impl Binning {
+    /// Bin of a doubled centroid's coordinate on the axis; the same float expression when
+    /// binning and partitioning. `max` then `min` also send NaN to bin 0, as `as usize` would.
+    #[inline(always)]
+    fn bin_of(&self, c: f32) -> usize {
+        let x = ((c - self.lo) * self.scale)
+            .max(0.0)
+            .min((SAH_BINS - 1) as f32);
+        // SAFETY: x is in [0, SAH_BINS - 1], so it truncates to a u32 (one instruction instead
+        // of `as`'s saturating conversion, measured in the partition loop).
+        (unsafe { x.to_int_unchecked::<u32>() }) as usize
     }
 }
 
-/// Where to split `refs` (0 < mid < len, after reordering them), or `None` for a leaf. An SAH
-/// split takes both sides' bounds from its bins (the same unions of the same boxes, so the same
-/// bounds as a pass over each side, without the pass); a median split passes over them.
-fn choose_split(
-    refs: &mut [PrimRef],
-    bounds: &Aabb,
-    centroids: &Aabb,
-    depth: usize,
-) -> Option<Split> {
-    let measured = |refs: &[PrimRef], mid: usize| {
-        let (lb, lc) = range_bounds(&refs[..mid]);
-        let (rb, rc) = range_bounds(&refs[mid..]);
-        Split {
-            mid,
-            bounds: (lb, rb),
-            centroids: (lc, rc),
-        }
+/// Per bin: the bounds of its primitives and of their doubled centroids, and their count.
+#[derive(Clone, Debug, PartialEq)]
+struct Bins {
+    bounds: [Aabb; SAH_BINS],
+    centroids: [Aabb; SAH_BINS],
+    counts: [u32; SAH_BINS],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        bounds: [Aabb::EMPTY; SAH_BINS],
+        centroids: [Aabb::EMPTY; SAH_BINS],
+        counts: [0; SAH_BINS],
     };
-    let n = refs.len();
-    if n <= 1 {
-        return None;
+
+    #[inline(always)]
+    fn add(&mut self, k: usize, r: &PrimRef, c: Vec4) {
+        self.bounds[k].grow(r.lower, r.upper);
+        self.centroids[k].grow_point(c);
+        self.counts[k] += 1;
     }
+
+    fn of(refs: &[PrimRef], binning: &Binning) -> Bins {
+        let mut bins = Bins::EMPTY;
+        for r in refs {
+            let c = r.centroid2();
+            bins.add(binning.bin_of(c[binning.axis]), r, c);
+        }
+        bins
+    }
+
+    /// Bounds of the primitives and of the centroids in bins `range`.
+    fn union(&self, range: std::ops::Range<usize>) -> (Aabb, Aabb) {
+        let (mut b, mut c) = (Aabb::EMPTY, Aabb::EMPTY);
+        for k in range {
+            b.grow(self.bounds[k].min, self.bounds[k].max);
+            c.grow(self.centroids[k].min, self.centroids[k].max);
+        }
+        (b, c)
+    }
+}
+
+/// The longest axis of `centroids`' box and its extent.
+fn longest_axis(centroids: &Aabb) -> (usize, f32) {
     let extent = centroids.max - centroids.min;
     let axis = if extent.x >= extent.y && extent.x >= extent.z {
         0
@@ -128,9 +187,94 @@ fn choose_split(
     } else {
         2
     };
+    (axis, extent[axis])
+}
+
+/// The binning of a range of `n` primitives at `depth` whose doubled centroids span
+/// `centroids`, if [`choose_split`] takes the binned SAH path for it: the complement of its
+/// earlier cases, so that a parent can bin its children's primitives while partitioning.
+fn binned_path(n: usize, depth: usize, centroids: &Aabb) -> Option<Binning> {
+    let (axis, extent) = longest_axis(centroids);
+    let usable = n > SWEEP_MAX && extent > 0.0 && depth + ceil_log2(n) < MAX_DEPTH;
+    usable.then(|| Binning {
+        axis,
+        lo: centroids.min[axis],
+        scale: SAH_BINS as f32 / extent,
+    })
+}
+
+/// Reorders `refs` so that those whose bin under `split` is below `plane` come first; returns
+/// how many there are, and each side's primitives binned by its own `Binning` (where given).
+/// Hoare's scheme from both ends: each misplaced pair costs one swap, so about half the swaps
+/// of a single forward scan, and each primitive is looked at once, when its side is known.
+fn partition_binned(
+    refs: &mut [PrimRef],
+    split: &Binning,
+    plane: usize,
+    left: Option<Binning>,
+    right: Option<Binning>,
+) -> (usize, Option<Box<Bins>>, Option<Box<Bins>>) {
+    let (mut lbins, mut rbins) = (
+        left.map(|_| Box::new(Bins::EMPTY)),
+        right.map(|_| Box::new(Bins::EMPTY)),
+    );
+    let add = |bins: &mut Option<Box<Bins>>, binning: &Option<Binning>, r: &PrimRef, c: Vec4| {
+        if let (Some(bins), Some(binning)) = (bins, binning) {
+            bins.add(binning.bin_of(c[binning.axis]), r, c);
+        }
+    };
+    let (mut i, mut j) = (0, refs.len());
+    loop {
+        let mut ci = Vec4::ZERO;
+        while i < j {
+            ci = refs[i].centroid2();
+            if split.bin_of(ci[split.axis]) >= plane {
+                break;
+            }
+            add(&mut lbins, &left, &refs[i], ci);
+            i += 1;
+        }
+        let mut cj = Vec4::ZERO;
+        while i < j {
+            cj = refs[j - 1].centroid2();
+            if split.bin_of(cj[split.axis]) < plane {
+                break;
+            }
+            add(&mut rbins, &right, &refs[j - 1], cj);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, lbins, rbins);
+        }
+        // refs[i] belongs right, refs[j - 1] left.
+        refs.swap(i, j - 1);
+        add(&mut lbins, &left, &refs[i], cj);
+        add(&mut rbins, &right, &refs[j - 1], ci);
+        i += 1;
+        j -= 1;
+    }
+}
+
+/// Where to split `refs` (0 < mid < len, after reordering them), or `None` for a leaf. `bins`
+/// are the primitives binned by [`binned_path`], where the parent's partition binned them. An
+/// SAH split takes both sides' bounds from its bins (the same unions of the same boxes, so the
+/// same bounds as a pass over each side, without the pass) and bins each side's primitives
+/// for its own split as it partitions; a median or sweep split passes over them.
+fn choose_split(
+    refs: &mut [PrimRef],
+    bounds: &Aabb,
+    centroids: &Aabb,
+    depth: usize,
+    bins: Option<Box<Bins>>,
+) -> Option<Split> {
+    let n = refs.len();
+    if n <= 1 {
+        return None;
+    }
+    let (axis, extent) = longest_axis(centroids);
     // Identical centroids: the SAH cannot separate them; halve large sets in any order.
-    if extent[axis].is_nan() || extent[axis] <= 0.0 {
-        return (n > MAX_LEAF_SIZE).then(|| measured(refs, n / 2));
+    if extent.is_nan() || extent <= 0.0 {
+        return (n > MAX_LEAF_SIZE).then(|| measured_split(refs, n / 2));
     }
     // Near the depth limit: object median, which halves the set and so bounds the depth.
     if depth + ceil_log2(n) >= MAX_DEPTH {
@@ -138,45 +282,38 @@ fn choose_split(
             return None;
         }
         refs.select_nth_unstable_by(n / 2, |a, b| {
-            a.centroid()[axis].total_cmp(&b.centroid()[axis])
+            a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
         });
-        return Some(measured(refs, n / 2));
+        return Some(measured_split(refs, n / 2));
+    }
+    if n <= SWEEP_MAX {
+        return sweep_split(refs, bounds, axis);
     }
 
     // Binned SAH: bounds and counts per bin, then sweep the 15 planes between bins.
-    let lo = centroids.min[axis];
-    let scale = SAH_BINS as f32 / extent[axis];
-    // Per bin: primitive bounds, count and centroid bounds.
-    let mut bins = [(Aabb::EMPTY, 0usize); SAH_BINS];
-    let mut bin_centroids = [Aabb::EMPTY; SAH_BINS];
-    for r in refs.iter() {
-        let c = r.centroid();
-        let k = bin_of(c[axis], lo, scale);
-        bins[k].0.grow(r.min, r.max);
-        bins[k].1 += 1;
-        bin_centroids[k].grow(c, c);
-    }
+    let binning = binned_path(n, depth, centroids).expect("the binned path's conditions");
+    let bins = bins.unwrap_or_else(|| Box::new(Bins::of(refs, &binning)));
     let mut right_cost = [0.0f32; SAH_BINS];
     let (mut acc, mut count) = (Aabb::EMPTY, 0);
     for plane in (1..SAH_BINS).rev() {
-        acc.grow(bins[plane].0.min, bins[plane].0.max);
-        count += bins[plane].1;
+        acc.grow(bins.bounds[plane].min, bins.bounds[plane].max);
+        count += bins.counts[plane] as usize;
         right_cost[plane] = acc.half_area() * count as f32;
     }
     let (mut acc, mut count) = (Aabb::EMPTY, 0);
-    let mut best: Option<(usize, f32)> = None;
+    let mut best: Option<(usize, f32, usize)> = None;
     for plane in 1..SAH_BINS {
-        acc.grow(bins[plane - 1].0.min, bins[plane - 1].0.max);
-        count += bins[plane - 1].1;
+        acc.grow(bins.bounds[plane - 1].min, bins.bounds[plane - 1].max);
+        count += bins.counts[plane - 1] as usize;
         if count == 0 || count == n {
             continue;
         }
         let cost = acc.half_area() * count as f32 + right_cost[plane];
-        if best.is_none_or(|(_, c)| cost < c) {
-            best = Some((plane, cost));
+        if best.is_none_or(|(_, c, _)| cost < c) {
+            best = Some((plane, cost, count));
         }
     }
-    let (plane, cost) = best?;
+    let (plane, cost, left_count) = best?;
     // Split when C_T·A + C_I·(A_L·N_L + A_R·N_R) < C_I·N·A (areas unnormalised).
     let area = bounds.half_area();
     let pays =
@@ -184,22 +321,84 @@ fn choose_split(
     if !pays && n <= MAX_LEAF_SIZE {
         return None;
     }
-    let mid = partition(refs, |r| bin_of(r.centroid()[axis], lo, scale) < plane);
-    debug_assert!(mid > 0 && mid < n);
-    let union = |range: std::ops::Range<usize>| {
-        let (mut b, mut c) = (Aabb::EMPTY, Aabb::EMPTY);
-        for k in range {
-            b.grow(bins[k].0.min, bins[k].0.max);
-            c.grow(bin_centroids[k].min, bin_centroids[k].max);
-        }
-        (b, c)
-    };
-    let ((lb, lc), (rb, rc)) = (union(0..plane), union(plane..SAH_BINS));
+    let ((lb, lc), (rb, rc)) = (bins.union(0..plane), bins.union(plane..SAH_BINS));
+    let (mid, lbins, rbins) = partition_binned(
+        refs,
+        &binning,
+        plane,
+        binned_path(left_count, depth + 1, &lc),
+        binned_path(n - left_count, depth + 1, &rc),
+    );
+    debug_assert_eq!(mid, left_count);
     Some(Split {
         mid,
         bounds: (lb, rb),
         centroids: (lc, rc),
+        bins: (lbins, rbins),
     })
+}
+
+/// The split at `mid` of `refs` as they are ordered, with both sides' bounds measured.
+fn measured_split(refs: &[PrimRef], mid: usize) -> Split {
+    let (lb, lc) = range_bounds(&refs[..mid]);
+    let (rb, rc) = range_bounds(&refs[mid..]);
+    Split {
+        mid,
+        bounds: (lb, rb),
+        centroids: (lc, rc),
+        bins: (None, None),
+    }
+}
+
+/// Ranges this small are split by a full SAH sweep instead of binning: setting up and sweeping
+/// the bins costs more than sorting a few primitives, and the sweep tries every split between
+/// neighbours along the axis, a superset of the planes the bins offer.
+const SWEEP_MAX: usize = 32;
+
+/// Full sweep (MacDonald & Booth 1990) over `refs` sorted by centroid on `axis`: the split
+/// between neighbours of least SAH cost, or `None` for a leaf by the same rule as the bins.
+fn sweep_split(refs: &mut [PrimRef], bounds: &Aabb, axis: usize) -> Option<Split> {
+    let n = refs.len();
+    debug_assert!((2..=SWEEP_MAX).contains(&n));
+    // Sort 8-byte keys (the coordinate's bits in total order, then the position, so equal
+    // coordinates keep their order) rather than the 32-byte references, then gather.
+    let mut keys = [0u64; SWEEP_MAX];
+    for (key, (i, r)) in keys.iter_mut().zip(refs.iter().enumerate()) {
+        let bits = r.centroid2()[axis].to_bits();
+        let ordered = bits ^ if bits >> 31 == 1 { u32::MAX } else { 1 << 31 };
+        *key = (ordered as u64) << 32 | i as u64;
+    }
+    let keys = &mut keys[..n];
+    keys.sort_unstable();
+    let mut sorted = [PrimRef::new(Vec3::ZERO, Vec3::ZERO, 0); SWEEP_MAX];
+    for (to, &key) in sorted.iter_mut().zip(keys.iter()) {
+        *to = refs[key as u32 as usize];
+    }
+    refs.copy_from_slice(&sorted[..n]);
+    // right_cost[i]: area·count of refs[i..].
+    let mut right_cost = [0.0f32; SWEEP_MAX];
+    let mut acc = Aabb::EMPTY;
+    for i in (1..n).rev() {
+        acc.grow(refs[i].lower, refs[i].upper);
+        right_cost[i] = acc.half_area() * (n - i) as f32;
+    }
+    let mut acc = Aabb::EMPTY;
+    let (mut mid, mut cost) = (0, f32::INFINITY);
+    for i in 1..n {
+        acc.grow(refs[i - 1].lower, refs[i - 1].upper);
+        let c = acc.half_area() * i as f32 + right_cost[i];
+        if c < cost {
+            (mid, cost) = (i, c);
+        }
+    }
+    let area = bounds.half_area();
+    let pays =
+        TRAVERSAL_COST * area + INTERSECTION_COST * cost < INTERSECTION_COST * n as f32 * area;
+    if !pays && n <= MAX_LEAF_SIZE {
+        return None;
+    }
+    // Only a NaN cost leaves `mid` at 0; split in the middle then.
+    Some(measured_split(refs, if mid == 0 { n / 2 } else { mid }))
 }
 
 /// Subtrees with at least this many primitives build their two children on separate threads.
@@ -221,24 +420,38 @@ enum Piece {
 }
 
 impl Subtree {
-    /// The flattened nodes, offsets absolute.
+    /// The flattened nodes, offsets absolute: each piece copied into its place in parallel,
+    /// into zeroed memory the kernel maps lazily (so its page faults are parallel too).
     fn assemble(self) -> Vec<BvhNode> {
-        let mut nodes = Vec::with_capacity(self.len);
+        let mut nodes: Vec<BvhNode> = bytemuck::zeroed_vec(self.len);
+        let mut rest = nodes.as_mut_slice();
+        let mut jobs = Vec::with_capacity(self.pieces.len());
+        let mut base = 0u32;
         for piece in self.pieces {
-            let base = nodes.len() as u32;
-            match piece {
-                Piece::Range(range) => nodes.extend(range.into_iter().map(|mut n| {
-                    if !n.is_leaf() {
-                        n.offset += base;
+            let len = match &piece {
+                Piece::Range(range) => range.len(),
+                Piece::Interior(..) => 1,
+            };
+            let (out, tail) = rest.split_at_mut(len);
+            rest = tail;
+            jobs.push((base, piece, out));
+            base += len as u32;
+        }
+        jobs.into_par_iter()
+            .for_each(|(base, piece, out)| match piece {
+                Piece::Range(range) => {
+                    for (to, mut n) in out.iter_mut().zip(range) {
+                        if !n.is_leaf() {
+                            n.offset += base;
+                        }
+                        *to = n;
                     }
-                    n
-                })),
+                }
                 Piece::Interior(mut n, right) => {
                     n.offset = base + right as u32;
-                    nodes.push(n);
+                    out[0] = n;
                 }
-            }
-        }
+            });
         nodes
     }
 }
@@ -253,9 +466,10 @@ fn build_parallel(
     depth: usize,
     bounds: Aabb,
     centroids: Aabb,
+    bins: Option<Box<Bins>>,
 ) -> Subtree {
-    let sequential = |refs: &mut [PrimRef]| {
-        let (nodes, stats) = build_range(refs, start, depth, bounds, centroids);
+    let sequential = |refs: &mut [PrimRef], bins| {
+        let (nodes, stats) = build_range(refs, start, depth, bounds, centroids, bins);
         Subtree {
             len: nodes.len(),
             pieces: vec![Piece::Range(nodes)],
@@ -263,15 +477,25 @@ fn build_parallel(
         }
     };
     if refs.len() < PARALLEL_MIN {
-        return sequential(refs);
+        return sequential(refs, bins);
     }
-    let Some(split) = choose_split(refs, &bounds, &centroids, depth) else {
-        return sequential(refs);
+    let Some(split) = choose_split(refs, &bounds, &centroids, depth, bins) else {
+        return sequential(refs, None);
     };
     let mid = split.mid;
     let (left, right) = refs.split_at_mut(mid);
+    let (lbins, rbins) = split.bins;
     let (l, r) = rayon::join(
-        || build_parallel(left, start, depth + 1, split.bounds.0, split.centroids.0),
+        || {
+            build_parallel(
+                left,
+                start,
+                depth + 1,
+                split.bounds.0,
+                split.centroids.0,
+                lbins,
+            )
+        },
         || {
             build_parallel(
                 right,
@@ -279,13 +503,14 @@ fn build_parallel(
                 depth + 1,
                 split.bounds.1,
                 split.centroids.1,
+                rbins,
             )
         },
     );
     let node = BvhNode {
-        bounds_min: bounds.min.into(),
+        bounds_min: bounds.lower(),
         offset: 0,
-        bounds_max: bounds.max.into(),
+        bounds_max: bounds.upper(),
         count: 0,
     };
     let mut pieces = Vec::with_capacity(1 + l.pieces.len() + r.pieces.len());
@@ -308,8 +533,8 @@ fn build_parallel(
 fn range_bounds(refs: &[PrimRef]) -> (Aabb, Aabb) {
     let (mut bounds, mut centroids) = (Aabb::EMPTY, Aabb::EMPTY);
     for r in refs {
-        bounds.grow(r.min, r.max);
-        centroids.grow(r.centroid(), r.centroid());
+        bounds.grow(r.lower, r.upper);
+        centroids.grow_point(r.centroid2());
     }
     (bounds, centroids)
 }
@@ -322,6 +547,7 @@ fn build_range(
     depth: usize,
     bounds: Aabb,
     centroids: Aabb,
+    bins: Option<Box<Bins>>,
 ) -> (Vec<BvhNode>, BvhStats) {
     let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
     let mut stats = BvhStats::default();
@@ -332,6 +558,7 @@ fn build_range(
         patch: u32::MAX,
         bounds,
         centroids,
+        bins,
     }];
     while let Some(task) = stack.pop() {
         let index = nodes.len() as u32;
@@ -341,14 +568,15 @@ fn build_range(
         let range = &mut refs[task.start..task.end];
         let (bounds, centroids) = (task.bounds, task.centroids);
         let mut node = BvhNode {
-            bounds_min: bounds.min.into(),
+            bounds_min: bounds.lower(),
             offset: 0,
-            bounds_max: bounds.max.into(),
+            bounds_max: bounds.upper(),
             count: 0,
         };
-        match choose_split(range, &bounds, &centroids, task.depth) {
+        match choose_split(range, &bounds, &centroids, task.depth, task.bins) {
             Some(split) => {
                 let mid = task.start + split.mid;
+                let (lbins, rbins) = split.bins;
                 // Right pushed first: the left subtree is built (and numbered) first.
                 stack.push(Task {
                     start: mid,
@@ -357,6 +585,7 @@ fn build_range(
                     patch: index,
                     bounds: split.bounds.1,
                     centroids: split.centroids.1,
+                    bins: rbins,
                 });
                 stack.push(Task {
                     start: task.start,
@@ -365,6 +594,7 @@ fn build_range(
                     patch: u32::MAX,
                     bounds: split.bounds.0,
                     centroids: split.centroids.0,
+                    bins: lbins,
                 });
             }
             None => {
@@ -384,26 +614,29 @@ impl Bvh {
     /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
     /// for millions (work stack, bounded depth).
     pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
-        Bvh::build_boxes(
-            &triangles
-                .iter()
-                .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
-                .collect::<Vec<_>>(),
-        )
+        let start_time = Instant::now();
+        let refs = triangles
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                PrimRef::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
+            })
+            .collect();
+        Bvh::build_refs(refs, start_time)
     }
 
     /// The same build over axis-aligned boxes (min, max): the top level over instances.
     pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> Bvh {
         let start_time = Instant::now();
-        let mut refs: Vec<PrimRef> = boxes
-            .iter()
+        let refs = boxes
+            .par_iter()
             .enumerate()
-            .map(|(i, &(min, max))| PrimRef {
-                min,
-                max,
-                id: i as u32,
-            })
+            .map(|(i, &(min, max))| PrimRef::new(min, max, i as u32))
             .collect();
+        Bvh::build_refs(refs, start_time)
+    }
+
+    fn build_refs(mut refs: Vec<PrimRef>, start_time: Instant) -> Bvh {
         let (nodes, mut stats) = if refs.is_empty() {
             let empty = BvhNode {
                 bounds_min: [f32::MAX; 3],
@@ -414,7 +647,7 @@ impl Bvh {
             (vec![empty], BvhStats::default())
         } else {
             let (bounds, centroids) = range_bounds(&refs);
-            let tree = build_parallel(&mut refs, 0, 0, bounds, centroids);
+            let tree = build_parallel(&mut refs, 0, 0, bounds, centroids, None);
             let stats = tree.stats.clone();
             (tree.assemble(), stats)
         };
@@ -424,7 +657,7 @@ impl Bvh {
         stats.build_time = start_time.elapsed();
         Bvh {
             nodes,
-            order: refs.iter().map(|r| r.id).collect(),
+            order: refs.iter().map(PrimRef::id).collect(),
             stats,
         }
     }
@@ -435,8 +668,8 @@ impl Bvh {
 pub fn sah_cost(nodes: &[BvhNode]) -> f32 {
     let area = |n: &BvhNode| {
         Aabb {
-            min: n.bounds_min.into(),
-            max: n.bounds_max.into(),
+            min: Vec3::from(n.bounds_min).extend(0.0),
+            max: Vec3::from(n.bounds_max).extend(0.0),
         }
         .half_area()
     };
@@ -458,39 +691,119 @@ pub fn sah_cost(nodes: &[BvhNode]) -> f32 {
 }
 
 #[cfg(test)]
-mod parallel_tests {
+mod tests {
     use super::*;
+
+    /// Boxes of random size around random points, denser towards y = 0.
+    fn random_refs(n: usize, seed: u32) -> Vec<PrimRef> {
+        (0..n as u32)
+            .map(|i| {
+                let u = crate::sampling::rng_uniform4(seed, i, 0, 0);
+                let c = Vec3::new(u.x, u.y * u.y, u.z) * 100.0;
+                let h = Vec3::splat(0.01 + u.w);
+                PrimRef::new(c - h, c + h, i)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn primitive_indices_survive_the_w_lane() {
+        for id in [
+            0,
+            1,
+            0x3f_ffff,
+            0x3fff_ffff,
+            0x4000_0000,
+            0x7f80_0001,
+            u32::MAX,
+        ] {
+            let r = PrimRef::new(Vec3::ZERO, Vec3::ONE, id);
+            assert_eq!(r.id(), id);
+            assert_eq!(r.centroid2().truncate(), Vec3::ONE);
+        }
+    }
+
+    /// The bins a partition fills for each side are the bins that side would fill itself:
+    /// the same primitives, binned by the same expression, so the tree does not depend on who
+    /// binned them.
+    #[test]
+    fn partition_bins_equal_each_sides_own_bins() {
+        let mut checked = 0;
+        for (n, seed) in [(100, 1), (1000, 2), (5000, 3), (40, 4)] {
+            let mut refs = random_refs(n, seed);
+            let (bounds, centroids) = range_bounds(&refs);
+            let split = choose_split(&mut refs, &bounds, &centroids, 0, None).expect("a split");
+            let (left, right) = refs.split_at(split.mid);
+            for (side, bins, b, c) in [
+                (left, &split.bins.0, split.bounds.0, split.centroids.0),
+                (right, &split.bins.1, split.bounds.1, split.centroids.1),
+            ] {
+                assert_eq!((b, c), range_bounds(side));
+                match binned_path(side.len(), 1, &c) {
+                    Some(binning) => {
+                        assert_eq!(bins.as_deref(), Some(&Bins::of(side, &binning)));
+                        checked += 1;
+                    }
+                    None => assert!(bins.is_none()),
+                }
+            }
+        }
+        assert!(checked >= 4, "{checked}");
+    }
+
+    /// SAH cost (unnormalised, as `choose_split` weighs it) of splitting `refs` at `mid`.
+    fn split_cost(refs: &[PrimRef], mid: usize) -> f32 {
+        let (l, _) = range_bounds(&refs[..mid]);
+        let (r, _) = range_bounds(&refs[mid..]);
+        l.half_area() * mid as f32 + r.half_area() * (refs.len() - mid) as f32
+    }
+
+    /// The sweep tries every split between neighbours along the axis, so none of the 15
+    /// planes between 16 bins on that axis does better.
+    #[test]
+    fn sweep_is_at_least_as_good_as_every_bin_plane() {
+        for seed in 0..200 {
+            let n = 2 + seed as usize % (SWEEP_MAX - 1);
+            let mut refs = random_refs(n, 100 + seed);
+            let (bounds, centroids) = range_bounds(&refs);
+            let (axis, extent) = longest_axis(&centroids);
+            let Some(split) = sweep_split(&mut refs, &bounds, axis) else {
+                assert!(n <= MAX_LEAF_SIZE);
+                continue;
+            };
+            let swept = split_cost(&refs, split.mid);
+            let binning = Binning {
+                axis,
+                lo: centroids.min[axis],
+                scale: SAH_BINS as f32 / extent,
+            };
+            for plane in 1..SAH_BINS {
+                let mut trial = refs.clone();
+                let mid = partition_binned(&mut trial, &binning, plane, None, None).0;
+                if mid > 0 && mid < n {
+                    let binned = split_cost(&trial, mid);
+                    assert!(swept <= binned, "n {n}, plane {plane}: {swept} > {binned}");
+                }
+            }
+        }
+    }
 
     /// The parallel build makes the same tree, node for node and in the same order, as the
     /// sequential one: the threads only change who builds a subtree.
     #[test]
     fn parallel_build_equals_sequential_build() {
         let n = 3 * PARALLEL_MIN + 123;
-        let make = || -> Vec<PrimRef> {
-            (0..n as u32)
-                .map(|i| {
-                    let u = crate::sampling::rng_uniform4(3, i, 0, 0);
-                    let c = Vec3::new(u.x, u.y * u.y, u.z) * 100.0;
-                    let h = Vec3::splat(0.01 + u.w);
-                    PrimRef {
-                        min: c - h,
-                        max: c + h,
-                        id: i,
-                    }
-                })
-                .collect()
-        };
-        let (mut a, mut b) = (make(), make());
+        let (mut a, mut b) = (random_refs(n, 3), random_refs(n, 3));
         let (bounds, centroids) = range_bounds(&a);
-        let tree = build_parallel(&mut a, 0, 0, bounds, centroids);
+        let tree = build_parallel(&mut a, 0, 0, bounds, centroids, None);
         let sa = tree.stats.clone();
         let pa = tree.assemble();
-        let (pb, sb) = build_range(&mut b, 0, 0, bounds, centroids);
+        let (pb, sb) = build_range(&mut b, 0, 0, bounds, centroids, None);
         assert!(pa.len() > 2 * n / MAX_LEAF_SIZE);
         assert_eq!(pa, pb);
         assert_eq!(
-            a.iter().map(|r| r.id).collect::<Vec<_>>(),
-            b.iter().map(|r| r.id).collect::<Vec<_>>()
+            a.iter().map(PrimRef::id).collect::<Vec<_>>(),
+            b.iter().map(PrimRef::id).collect::<Vec<_>>()
         );
         assert_eq!(
             (sa.leaves, sa.max_depth, sa.max_leaf_size),
