@@ -2,9 +2,10 @@
 //! CPU twin of `shaders/inc/bvh.glsl` (closest-hit and any-hit traversal, same maths and names).
 //!
 //! Build: binned surface area heuristic on the longest centroid axis (Wald 2007, "On fast
-//! Construction of SAH-based Bounding Volume Hierarchies"), an explicit work stack (no recursion),
-//! and depth-first flattening as it goes: an interior node's left child is the next node, its
-//! `offset` is the right child. Node bounds are exact f32 unions of the triangles' vertices.
+//! Construction of SAH-based Bounding Volume Hierarchies"), a full SAH sweep for ranges of 32 or
+//! fewer primitives, an explicit work stack (no recursion), and depth-first flattening as it goes:
+//! an interior node's left child is the next node, its `offset` is the right child. Node bounds
+//! are exact f32 unions of the triangles' vertices.
 //!
 //! Depth is bounded by [`MAX_DEPTH`] (= the traversal stack): a subtree that could otherwise grow
 //! deeper is split at the object median, which halves it per level. Traversal therefore never
