@@ -11,8 +11,11 @@ The glTF file is converted, not approximated: only what both renderers mean the 
 accepted — triangle meshes (node matrices or TRS, any hierarchy), materials that are exactly
 Lambertian in wavetrace (metallicFactor 0 and KHR_materials_specular specularFactor 0: base
 colour factor only, no textures), emission (emissiveFactor × KHR_materials_emissive_strength,
-from the front face) and a perspective camera. Anything else is refused with its name, so a
-figure printed is always for the same image. The meshes go to temporary binary PLY files.
+from the front face) and a perspective camera. Anything else is refused with its name. One
+difference stays: where doubleSided is false wavetrace culls back faces and Mitsuba's one-sided
+diffuse shows them black, so the two images agree where no back face is seen (a closed room
+from inside, as the Cornell box; doubleSided true becomes Mitsuba's twosided). The meshes go to
+temporary binary PLY files.
 
 Settings are matched to `wavetrace render`'s: --max-depth bounces (Mitsuba's max_depth counts
 path segments, so it gets one more), Russian roulette from the same vertex (--rr-depth, the
@@ -128,7 +131,7 @@ def lambertian_colour(path, doc, index):
     colour = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
     strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {})
     emission = [e * strength.get("emissiveStrength", 1.0) for e in m.get("emissiveFactor", [0, 0, 0])]
-    return colour, emission
+    return colour, emission, m.get("doubleSided", False)
 
 
 def write_ply(file, positions, faces):
@@ -180,7 +183,7 @@ def scene_dict(path, args, folder):
                 ]
                 if "material" not in prim:
                     fail(path, f"{mesh.get('name', node['mesh'])}: the default material is not Lambertian")
-                colour, emission = lambertian_colour(path, doc, prim["material"])
+                colour, emission, two_sided = lambertian_colour(path, doc, prim["material"])
                 file = os.path.join(folder, f"mesh{count}.ply")
                 write_ply(file, world_positions, faces)
                 shape = {
@@ -189,6 +192,8 @@ def scene_dict(path, args, folder):
                     "face_normals": True,
                     "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": colour}},
                 }
+                if two_sided:
+                    shape["bsdf"] = {"type": "twosided", "bsdf": shape["bsdf"]}
                 if any(e > 0 for e in emission):
                     shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emission}}
                 scene[f"mesh{count}"] = shape
