@@ -235,6 +235,22 @@ impl Bvh {
     }
 }
 
+/// A node to visit, as the traversal needs it once its box has been tested (`bvh.glsl`,
+/// `bvh_cursor`): an interior node's children [left, right] or a leaf's primitives [first,
+/// count | CURSOR_LEAF]. A deferred node is kept as its cursor, made from the record read with
+/// its sibling, so visiting it later reads nothing.
+type Cursor = [u32; 2];
+
+const CURSOR_LEAF: u32 = 1 << 31;
+
+fn cursor(index: u32, node: &BvhNode) -> Cursor {
+    if node.is_leaf() {
+        [node.first_triangle(), node.count | CURSOR_LEAF]
+    } else {
+        [index + 1, node.right_child()]
+    }
+}
+
 /// Front-to-back traversal of the subtree rooted at `root` for the closest hit, shared by both
 /// levels (`tlas.rs`): `leaf(first, count, t_far)` tests a leaf's primitives against hits closer
 /// than `t_far` and returns the closest it found; subtrees the ray enters beyond the closest hit
@@ -249,43 +265,46 @@ pub(crate) fn traverse_closest(
     mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
 ) -> u32 {
     let mut t_far = t_max;
-    let mut stack = [(0u32, 0f32); MAX_DEPTH];
+    let mut stack = [([0u32; 2], 0f32); MAX_DEPTH];
     let mut sp = 0;
-    let (mut index, mut node) = (root, nodes[root as usize]);
+    let node = &nodes[root as usize];
     let mut boxes = 1;
-    if bvh_slab(&node, ray, t_min, t_far).is_none() {
+    if bvh_slab(node, ray, t_min, t_far).is_none() {
         return boxes;
     }
+    let mut at = cursor(root, node);
     loop {
-        if node.is_leaf() {
-            if let Some(t) = leaf(node.first_triangle(), node.count, t_far) {
+        let [a, b] = at;
+        if b & CURSOR_LEAF != 0 {
+            if let Some(t) = leaf(a, b & !CURSOR_LEAF, t_far) {
                 t_far = t;
             }
         } else {
             // Both children: descend into the nearer, keep the farther for later.
-            let (li, ri) = (index + 1, node.right_child());
-            let (left, right) = (nodes[li as usize], nodes[ri as usize]);
-            let dl = bvh_slab(&left, ray, t_min, t_far);
-            let dr = bvh_slab(&right, ray, t_min, t_far);
+            let (li, ri) = (a, b);
+            let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
+            let dl = bvh_slab(left, ray, t_min, t_far);
+            let dr = bvh_slab(right, ray, t_min, t_far);
             boxes += 2;
+            let (cl, cr) = (cursor(li, left), cursor(ri, right));
             match (dl, dr) {
-                (Some(a), Some(b)) => {
-                    let (near, far) = if a <= b {
-                        ((li, left), (ri, b))
+                (Some(dl), Some(dr)) => {
+                    let (near, far) = if dl <= dr {
+                        (cl, (cr, dr))
                     } else {
-                        ((ri, right), (li, a))
+                        (cr, (cl, dl))
                     };
                     stack[sp] = far;
                     sp += 1;
-                    (index, node) = near;
+                    at = near;
                     continue;
                 }
                 (Some(_), None) => {
-                    (index, node) = (li, left);
+                    at = cl;
                     continue;
                 }
                 (None, Some(_)) => {
-                    (index, node) = (ri, right);
+                    at = cr;
                     continue;
                 }
                 (None, None) => {}
@@ -300,8 +319,7 @@ pub(crate) fn traverse_closest(
             sp -= 1;
             let (deferred, t_enter) = stack[sp];
             if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
-                index = deferred;
-                node = nodes[index as usize];
+                at = deferred;
                 break;
             }
         }
@@ -318,28 +336,31 @@ pub(crate) fn traverse_any(
     t_max: f32,
     mut leaf: impl FnMut(u32, u32) -> bool,
 ) -> bool {
-    let mut stack = [0u32; MAX_DEPTH];
+    let mut stack = [[0u32; 2]; MAX_DEPTH];
     let mut sp = 0;
-    let (mut index, mut node) = (root, nodes[root as usize]);
-    if bvh_slab(&node, ray, t_min, t_max).is_none() {
+    let node = &nodes[root as usize];
+    if bvh_slab(node, ray, t_min, t_max).is_none() {
         return false;
     }
+    let mut at = cursor(root, node);
     loop {
-        if node.is_leaf() {
-            if leaf(node.first_triangle(), node.count) {
+        let [a, b] = at;
+        if b & CURSOR_LEAF != 0 {
+            if leaf(a, b & !CURSOR_LEAF) {
                 return true;
             }
         } else {
-            let (li, ri) = (index + 1, node.right_child());
-            let (left, right) = (nodes[li as usize], nodes[ri as usize]);
-            let hit_left = bvh_slab(&left, ray, t_min, t_max).is_some();
-            let hit_right = bvh_slab(&right, ray, t_min, t_max).is_some();
+            let (li, ri) = (a, b);
+            let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
+            let hit_left = bvh_slab(left, ray, t_min, t_max).is_some();
+            let hit_right = bvh_slab(right, ray, t_min, t_max).is_some();
+            let (cl, cr) = (cursor(li, left), cursor(ri, right));
             if hit_left && hit_right {
-                stack[sp] = ri;
+                stack[sp] = cr;
                 sp += 1;
             }
             if hit_left || hit_right {
-                (index, node) = if hit_left { (li, left) } else { (ri, right) };
+                at = if hit_left { cl } else { cr };
                 continue;
             }
         }
@@ -347,8 +368,7 @@ pub(crate) fn traverse_any(
             return false;
         }
         sp -= 1;
-        index = stack[sp];
-        node = nodes[index as usize];
+        at = stack[sp];
     }
 }
 

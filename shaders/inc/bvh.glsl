@@ -77,6 +77,22 @@ bool bvh_slab(BvhNode node, BvhSlabRay ray, float t_min, float t_max, out float 
     return t_enter - abs(t_enter) * BVH_SLAB_SLACK <= t_exit;
 }
 
+// A node to visit, as the traversal needs it once its box has been tested (src/bvh.rs, Cursor):
+// an interior node's children (left, right) or a leaf's primitives (first, count |
+// BVH_CURSOR_LEAF). A deferred node is kept as its cursor, made from the record fetched with its
+// sibling, so visiting it later fetches nothing.
+#define BVH_CURSOR_LEAF 0x80000000u
+
+uvec2 bvh_cursor(uint index, BvhNode node) {
+    return bvh_node_is_leaf(node)
+        ? uvec2(bvh_node_first_triangle(node), node.count | BVH_CURSOR_LEAF)
+        : uvec2(index + 1u, bvh_node_right_child(node));
+}
+
+bool bvh_cursor_is_leaf(uvec2 cursor) { return (cursor.y & BVH_CURSOR_LEAF) != 0u; }
+
+uint bvh_cursor_count(uvec2 cursor) { return cursor.y & ~BVH_CURSOR_LEAF; }
+
 bool bvh_is_empty() {
     return bvh_node_at(0).bounds_min.x > bvh_node_at(0).bounds_max.x;
 }
@@ -89,21 +105,21 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     // Deferred nodes with the distance at which the ray enters them: the top two in registers
     // (top, below), the rest in stack[0 .. sp - 2), which a CPU Vulkan device keeps in memory.
-    uint stack[BVH_STACK_SIZE];
+    uvec2 stack[BVH_STACK_SIZE];
     float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint top = 0u, below = 0u;
+    uvec2 top = uvec2(0u), below = uvec2(0u);
     float top_enter = 0.0, below_enter = 0.0;
-    uint index = root;
     BvhNode node = bvh_node_at(root);
     float t_far = hit.t;
     bool found = false;
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_far, t_enter)) return false;
+    uvec2 cursor = bvh_cursor(root, node);
     for (;;) {
-        if (bvh_node_is_leaf(node)) {
-            uint first = bvh_node_first_triangle(node);
-            for (uint i = first; i < first + node.count; ++i) {
+        if (bvh_cursor_is_leaf(cursor)) {
+            uint first = cursor.x;
+            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
                 float t, u, v;
                 GpuTriangle tri = triangle_at(i);
                 // The top two material bits say whether the hit needs an any-hit test.
@@ -119,13 +135,15 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             }
         } else {
             // Both children: descend into the nearer, keep the farther for later.
-            uint li = index + 1u;
-            uint ri = bvh_node_right_child(node);
+            uint li = cursor.x;
+            uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
             BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_far, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
+            uvec2 cl = bvh_cursor(li, left);
+            uvec2 cr = bvh_cursor(ri, right);
             if (hit_left && hit_right) {
                 bool left_first = dl <= dr;
                 if (sp >= 2u) {
@@ -134,23 +152,21 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
                 }
                 below = top;
                 below_enter = top_enter;
-                top = left_first ? ri : li;
+                top = left_first ? cr : cl;
                 top_enter = left_first ? dr : dl;
                 ++sp;
-                index = left_first ? li : ri;
-                node = left_first ? left : right;
+                cursor = left_first ? cl : cr;
                 continue;
             }
             if (hit_left || hit_right) {
-                index = hit_left ? li : ri;
-                node = hit_left ? left : right;
+                cursor = hit_left ? cl : cr;
                 continue;
             }
         }
         // Pop the next node the ray enters before the closest hit so far.
         bool popped = false;
         while (sp > 0u) {
-            uint next = top;
+            uvec2 next = top;
             float next_enter = top_enter;
             top = below;
             top_enter = below_enter;
@@ -160,8 +176,7 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             }
             --sp;
             if (next_enter - abs(next_enter) * BVH_SLAB_SLACK <= t_far) {
-                index = next;
-                node = bvh_node_at(index);
+                cursor = next;
                 popped = true;
                 break;
             }
@@ -184,48 +199,48 @@ bool bvh_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec
 bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     // As in bvh_closest_from: the top two deferred nodes in registers.
-    uint stack[BVH_STACK_SIZE];
+    uvec2 stack[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint top = 0u, below = 0u;
-    uint index = root;
+    uvec2 top = uvec2(0u), below = uvec2(0u);
     BvhNode node = bvh_node_at(root);
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
+    uvec2 cursor = bvh_cursor(root, node);
     for (;;) {
-        if (bvh_node_is_leaf(node)) {
-            uint first = bvh_node_first_triangle(node);
-            for (uint i = first; i < first + node.count; ++i) {
+        if (bvh_cursor_is_leaf(cursor)) {
+            uint first = cursor.x;
+            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
                 float t, u, v;
                 GpuTriangle tri = triangle_at(i);
                 if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
                     && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) return true;
             }
         } else {
-            uint li = index + 1u;
-            uint ri = bvh_node_right_child(node);
+            uint li = cursor.x;
+            uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
             BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
+            uvec2 cl = bvh_cursor(li, left);
+            uvec2 cr = bvh_cursor(ri, right);
             if (hit_left && hit_right) {
                 if (sp >= 2u) stack[sp - 2u] = below;
                 below = top;
-                top = ri;
+                top = cr;
                 ++sp;
             }
             if (hit_left || hit_right) {
-                index = hit_left ? li : ri;
-                node = hit_left ? left : right;
+                cursor = hit_left ? cl : cr;
                 continue;
             }
         }
         if (sp == 0u) return false;
-        index = top;
+        cursor = top;
         top = below;
         if (sp >= 3u) below = stack[sp - 3u];
         --sp;
-        node = bvh_node_at(index);
     }
     return false;
 }

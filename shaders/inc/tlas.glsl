@@ -32,42 +32,42 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         return bvh_closest_from(instances[0].blas_root, origin, dir, t_min, key, hit);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    uint stack[BVH_STACK_SIZE];
+    uvec2 stack[BVH_STACK_SIZE];
     float stack_enter[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint index = frame.tlas_root;
-    BvhNode node = bvh_node_at(index);
+    BvhNode node = bvh_node_at(frame.tlas_root);
     float t_enter;
     if (!bvh_slab(node, ray, t_min, hit.t, t_enter)) return false;
+    uvec2 cursor = bvh_cursor(frame.tlas_root, node);
     for (;;) {
-        if (bvh_node_is_leaf(node)) {
-            uint first = bvh_node_first_triangle(node);
-            for (uint k = first; k < first + node.count; ++k) {
+        if (bvh_cursor_is_leaf(cursor)) {
+            uint first = cursor.x;
+            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
                 GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
                 if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
             }
         } else {
-            uint li = index + 1u;
-            uint ri = bvh_node_right_child(node);
+            uint li = cursor.x;
+            uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
             BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, hit.t, dl);
             bool hit_right = bvh_slab(right, ray, t_min, hit.t, dr);
+            uvec2 cl = bvh_cursor(li, left);
+            uvec2 cr = bvh_cursor(ri, right);
             if (hit_left && hit_right) {
                 bool left_first = dl <= dr;
-                stack[sp] = left_first ? ri : li;
+                stack[sp] = left_first ? cr : cl;
                 stack_enter[sp] = left_first ? dr : dl;
                 ++sp;
-                index = left_first ? li : ri;
-                node = left_first ? left : right;
+                cursor = left_first ? cl : cr;
                 continue;
             }
             if (hit_left || hit_right) {
-                index = hit_left ? li : ri;
-                node = hit_left ? left : right;
+                cursor = hit_left ? cl : cr;
                 continue;
             }
         }
@@ -75,8 +75,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         while (sp > 0u) {
             --sp;
             if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= hit.t) {
-                index = stack[sp];
-                node = bvh_node_at(index);
+                cursor = stack[sp];
                 popped = true;
                 break;
             }
@@ -93,39 +92,39 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         return bvh_any_from(instances[0].blas_root, origin, dir, t_min, t_max, key);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    uint stack[BVH_STACK_SIZE];
+    uvec2 stack[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint index = frame.tlas_root;
-    BvhNode node = bvh_node_at(index);
+    BvhNode node = bvh_node_at(frame.tlas_root);
     float t_enter;
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
+    uvec2 cursor = bvh_cursor(frame.tlas_root, node);
     for (;;) {
-        if (bvh_node_is_leaf(node)) {
-            uint first = bvh_node_first_triangle(node);
-            for (uint k = first; k < first + node.count; ++k) {
+        if (bvh_cursor_is_leaf(cursor)) {
+            uint first = cursor.x;
+            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
                 GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
                 if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
             }
         } else {
-            uint li = index + 1u;
-            uint ri = bvh_node_right_child(node);
+            uint li = cursor.x;
+            uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
             BvhNode right = bvh_node_at(ri);
             float dl, dr;
             bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
             bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
-            if (hit_left && hit_right) stack[sp++] = ri;
+            uvec2 cl = bvh_cursor(li, left);
+            uvec2 cr = bvh_cursor(ri, right);
+            if (hit_left && hit_right) stack[sp++] = cr;
             if (hit_left || hit_right) {
-                index = hit_left ? li : ri;
-                node = hit_left ? left : right;
+                cursor = hit_left ? cl : cr;
                 continue;
             }
         }
         if (sp == 0u) return false;
-        index = stack[--sp];
-        node = bvh_node_at(index);
+        cursor = stack[--sp];
     }
     return false;
 }
