@@ -117,23 +117,10 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
     if (!bvh_slab(node, ray, t_min, t_far, t_enter)) return false;
     uvec2 cursor = bvh_cursor(root, node);
     for (;;) {
-        if (bvh_cursor_is_leaf(cursor)) {
-            uint first = cursor.x;
-            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
-                float t, u, v;
-                GpuTriangle tri = triangle_at(i);
-                // The top two material bits say whether the hit needs an any-hit test.
-                if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) {
-                    t_far = t;
-                    hit.t = t;
-                    hit.triangle = i;
-                    hit.u = u;
-                    hit.v = v;
-                    found = true;
-                }
-            }
-        } else {
+        // While-while (Aila & Laine 2009): descend through interior nodes until every
+        // lane of a SIMD group stands on a leaf or a dead end, then test the leaves together.
+        bool at_leaf = true;
+        while (!bvh_cursor_is_leaf(cursor)) {
             // Both children: descend into the nearer, keep the farther for later.
             uint li = cursor.x;
             uint ri = cursor.y;
@@ -161,6 +148,25 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
             if (hit_left || hit_right) {
                 cursor = hit_left ? cl : cr;
                 continue;
+            }
+            at_leaf = false;
+            break;
+        }
+        if (at_leaf) {
+            uint first = cursor.x;
+            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
+                float t, u, v;
+                GpuTriangle tri = triangle_at(i);
+                // The top two material bits say whether the hit needs an any-hit test.
+                if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
+                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) {
+                    t_far = t;
+                    hit.t = t;
+                    hit.triangle = i;
+                    hit.u = u;
+                    hit.v = v;
+                    found = true;
+                }
             }
         }
         // Pop the next node the ray enters before the closest hit so far.
@@ -207,15 +213,10 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
     uvec2 cursor = bvh_cursor(root, node);
     for (;;) {
-        if (bvh_cursor_is_leaf(cursor)) {
-            uint first = cursor.x;
-            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
-                float t, u, v;
-                GpuTriangle tri = triangle_at(i);
-                if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) return true;
-            }
-        } else {
+        // While-while (Aila & Laine 2009): descend through interior nodes until every
+        // lane of a SIMD group stands on a leaf or a dead end, then test the leaves together.
+        bool at_leaf = true;
+        while (!bvh_cursor_is_leaf(cursor)) {
             uint li = cursor.x;
             uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
@@ -234,6 +235,17 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
             if (hit_left || hit_right) {
                 cursor = hit_left ? cl : cr;
                 continue;
+            }
+            at_leaf = false;
+            break;
+        }
+        if (at_leaf) {
+            uint first = cursor.x;
+            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
+                float t, u, v;
+                GpuTriangle tri = triangle_at(i);
+                if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
+                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) return true;
             }
         }
         if (sp == 0u) return false;

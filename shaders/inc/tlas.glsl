@@ -40,15 +40,10 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
     if (!bvh_slab(node, ray, t_min, hit.t, t_enter)) return false;
     uvec2 cursor = bvh_cursor(frame.tlas_root, node);
     for (;;) {
-        if (bvh_cursor_is_leaf(cursor)) {
-            uint first = cursor.x;
-            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
-                GpuInstance inst = instance_inverse_at(k);
-                vec3 o, d;
-                instance_ray(inst, origin, dir, o, d);
-                if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
-            }
-        } else {
+        // While-while, as in bvh.glsl: the top level's interior nodes first, then the
+        // instances of the leaves reached, lanes together.
+        bool at_leaf = true;
+        while (!bvh_cursor_is_leaf(cursor)) {
             uint li = cursor.x;
             uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
@@ -69,6 +64,17 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
             if (hit_left || hit_right) {
                 cursor = hit_left ? cl : cr;
                 continue;
+            }
+            at_leaf = false;
+            break;
+        }
+        if (at_leaf) {
+            uint first = cursor.x;
+            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
+                GpuInstance inst = instance_inverse_at(k);
+                vec3 o, d;
+                instance_ray(inst, origin, dir, o, d);
+                if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
             }
         }
         bool popped = false;
@@ -99,15 +105,10 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
     if (!bvh_slab(node, ray, t_min, t_max, t_enter)) return false;
     uvec2 cursor = bvh_cursor(frame.tlas_root, node);
     for (;;) {
-        if (bvh_cursor_is_leaf(cursor)) {
-            uint first = cursor.x;
-            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
-                GpuInstance inst = instance_inverse_at(k);
-                vec3 o, d;
-                instance_ray(inst, origin, dir, o, d);
-                if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
-            }
-        } else {
+        // While-while, as in bvh.glsl: the top level's interior nodes first, then the
+        // instances of the leaves reached, lanes together.
+        bool at_leaf = true;
+        while (!bvh_cursor_is_leaf(cursor)) {
             uint li = cursor.x;
             uint ri = cursor.y;
             BvhNode left = bvh_node_at(li);
@@ -121,6 +122,17 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
             if (hit_left || hit_right) {
                 cursor = hit_left ? cl : cr;
                 continue;
+            }
+            at_leaf = false;
+            break;
+        }
+        if (at_leaf) {
+            uint first = cursor.x;
+            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
+                GpuInstance inst = instance_inverse_at(k);
+                vec3 o, d;
+                instance_ray(inst, origin, dir, o, d);
+                if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
             }
         }
         if (sp == 0u) return false;
