@@ -251,6 +251,22 @@ fn cursor(index: u32, node: &BvhNode) -> Cursor {
     }
 }
 
+/// The children of the interior node `[left, right]` names (`bvh.glsl`, `bvh_children`): where
+/// the ray enters each before `t_far`, if it does, and the cursor of each.
+fn children(
+    nodes: &[BvhNode],
+    [li, ri]: Cursor,
+    ray: &SlabRay,
+    t_min: f32,
+    t_far: f32,
+) -> ((Option<f32>, Cursor), (Option<f32>, Cursor)) {
+    let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
+    (
+        (bvh_slab(left, ray, t_min, t_far), cursor(li, left)),
+        (bvh_slab(right, ray, t_min, t_far), cursor(ri, right)),
+    )
+}
+
 /// Front-to-back traversal of the subtree rooted at `root` for the closest hit, shared by both
 /// levels (`tlas.rs`): `leaf(first, count, t_far)` tests a leaf's primitives against hits closer
 /// than `t_far` and returns the closest it found; subtrees the ray enters beyond the closest hit
@@ -281,12 +297,8 @@ pub(crate) fn traverse_closest(
             }
         } else {
             // Both children: descend into the nearer, keep the farther for later.
-            let (li, ri) = (a, b);
-            let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
-            let dl = bvh_slab(left, ray, t_min, t_far);
-            let dr = bvh_slab(right, ray, t_min, t_far);
+            let ((dl, cl), (dr, cr)) = children(nodes, at, ray, t_min, t_far);
             boxes += 2;
-            let (cl, cr) = (cursor(li, left), cursor(ri, right));
             match (dl, dr) {
                 (Some(dl), Some(dr)) => {
                     let (near, far) = if dl <= dr {
@@ -350,11 +362,8 @@ pub(crate) fn traverse_any(
                 return true;
             }
         } else {
-            let (li, ri) = (a, b);
-            let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
-            let hit_left = bvh_slab(left, ray, t_min, t_max).is_some();
-            let hit_right = bvh_slab(right, ray, t_min, t_max).is_some();
-            let (cl, cr) = (cursor(li, left), cursor(ri, right));
+            let ((dl, cl), (dr, cr)) = children(nodes, at, ray, t_min, t_max);
+            let (hit_left, hit_right) = (dl.is_some(), dr.is_some());
             if hit_left && hit_right {
                 stack[sp] = cr;
                 sp += 1;

@@ -93,6 +93,18 @@ bool bvh_cursor_is_leaf(uvec2 cursor) { return (cursor.y & BVH_CURSOR_LEAF) != 0
 
 uint bvh_cursor_count(uvec2 cursor) { return cursor.y & ~BVH_CURSOR_LEAF; }
 
+// The children of the interior node `cursor` names (src/bvh.rs, children): whether the ray
+// enters each before t_far, at which distance, and the cursor of each.
+void bvh_children(uvec2 cursor, BvhSlabRay ray, float t_min, float t_far, out bool hit_left,
+                  out bool hit_right, out float dl, out float dr, out uvec2 cl, out uvec2 cr) {
+    BvhNode left = bvh_node_at(cursor.x);
+    BvhNode right = bvh_node_at(cursor.y);
+    hit_left = bvh_slab(left, ray, t_min, t_far, dl);
+    hit_right = bvh_slab(right, ray, t_min, t_far, dr);
+    cl = bvh_cursor(cursor.x, left);
+    cr = bvh_cursor(cursor.y, right);
+}
+
 bool bvh_is_empty() {
     return bvh_node_at(0).bounds_min.x > bvh_node_at(0).bounds_max.x;
 }
@@ -122,15 +134,10 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
             // Both children: descend into the nearer, keep the farther for later.
-            uint li = cursor.x;
-            uint ri = cursor.y;
-            BvhNode left = bvh_node_at(li);
-            BvhNode right = bvh_node_at(ri);
+            bool hit_left, hit_right;
             float dl, dr;
-            bool hit_left = bvh_slab(left, ray, t_min, t_far, dl);
-            bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
-            uvec2 cl = bvh_cursor(li, left);
-            uvec2 cr = bvh_cursor(ri, right);
+            uvec2 cl, cr;
+            bvh_children(cursor, ray, t_min, t_far, hit_left, hit_right, dl, dr, cl, cr);
             if (hit_left && hit_right) {
                 bool left_first = dl <= dr;
                 if (sp >= 2u) {
@@ -217,15 +224,10 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
         // lane of a SIMD group stands on a leaf or a dead end, then test the leaves together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            uint li = cursor.x;
-            uint ri = cursor.y;
-            BvhNode left = bvh_node_at(li);
-            BvhNode right = bvh_node_at(ri);
+            bool hit_left, hit_right;
             float dl, dr;
-            bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
-            bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
-            uvec2 cl = bvh_cursor(li, left);
-            uvec2 cr = bvh_cursor(ri, right);
+            uvec2 cl, cr;
+            bvh_children(cursor, ray, t_min, t_max, hit_left, hit_right, dl, dr, cl, cr);
             if (hit_left && hit_right) {
                 if (sp >= 2u) stack[sp - 2u] = below;
                 below = top;

@@ -44,15 +44,10 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         // instances of the leaves reached, lanes together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            uint li = cursor.x;
-            uint ri = cursor.y;
-            BvhNode left = bvh_node_at(li);
-            BvhNode right = bvh_node_at(ri);
+            bool hit_left, hit_right;
             float dl, dr;
-            bool hit_left = bvh_slab(left, ray, t_min, hit.t, dl);
-            bool hit_right = bvh_slab(right, ray, t_min, hit.t, dr);
-            uvec2 cl = bvh_cursor(li, left);
-            uvec2 cr = bvh_cursor(ri, right);
+            uvec2 cl, cr;
+            bvh_children(cursor, ray, t_min, hit.t, hit_left, hit_right, dl, dr, cl, cr);
             if (hit_left && hit_right) {
                 bool left_first = dl <= dr;
                 stack[sp] = left_first ? cr : cl;
@@ -109,15 +104,10 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         // instances of the leaves reached, lanes together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            uint li = cursor.x;
-            uint ri = cursor.y;
-            BvhNode left = bvh_node_at(li);
-            BvhNode right = bvh_node_at(ri);
+            bool hit_left, hit_right;
             float dl, dr;
-            bool hit_left = bvh_slab(left, ray, t_min, t_max, dl);
-            bool hit_right = bvh_slab(right, ray, t_min, t_max, dr);
-            uvec2 cl = bvh_cursor(li, left);
-            uvec2 cr = bvh_cursor(ri, right);
+            uvec2 cl, cr;
+            bvh_children(cursor, ray, t_min, t_max, hit_left, hit_right, dl, dr, cl, cr);
             if (hit_left && hit_right) stack[sp++] = cr;
             if (hit_left || hit_right) {
                 cursor = hit_left ? cl : cr;
