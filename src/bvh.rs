@@ -251,20 +251,30 @@ fn cursor(index: u32, node: &BvhNode) -> Cursor {
     }
 }
 
-/// The children of the interior node `[left, right]` names (`bvh.glsl`, `bvh_children`): where
-/// the ray enters each before `t_far`, if it does, and the cursor of each.
-fn children(
+/// One step down from the interior node `[left, right]` names (`bvh.glsl`, `bvh_step`): the
+/// child to visit next, and the one to defer with its entry distance when the ray enters both;
+/// `None` when it enters neither. By distance, the nearer child first (closest hit); else the
+/// left child first (any hit).
+fn step(
     nodes: &[BvhNode],
     [li, ri]: Cursor,
     ray: &SlabRay,
     t_min: f32,
     t_far: f32,
-) -> ((Option<f32>, Cursor), (Option<f32>, Cursor)) {
+    by_distance: bool,
+) -> Option<(Cursor, Option<(Cursor, f32)>)> {
     let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
-    (
-        (bvh_slab(left, ray, t_min, t_far), cursor(li, left)),
-        (bvh_slab(right, ray, t_min, t_far), cursor(ri, right)),
-    )
+    let (cl, cr) = (cursor(li, left), cursor(ri, right));
+    match (
+        bvh_slab(left, ray, t_min, t_far),
+        bvh_slab(right, ray, t_min, t_far),
+    ) {
+        (Some(dl), Some(dr)) if by_distance && dr < dl => Some((cr, Some((cl, dl)))),
+        (Some(_), Some(dr)) => Some((cl, Some((cr, dr)))),
+        (Some(_), None) => Some((cl, None)),
+        (None, Some(_)) => Some((cr, None)),
+        (None, None) => None,
+    }
 }
 
 /// Front-to-back traversal of the subtree rooted at `root` for the closest hit, shared by both
@@ -296,30 +306,15 @@ pub(crate) fn traverse_closest(
                 t_far = t;
             }
         } else {
-            // Both children: descend into the nearer, keep the farther for later.
-            let ((dl, cl), (dr, cr)) = children(nodes, at, ray, t_min, t_far);
+            // Descend into the nearer child; keep the farther for later when both are entered.
             boxes += 2;
-            match (dl, dr) {
-                (Some(dl), Some(dr)) => {
-                    let (near, far) = if dl <= dr {
-                        (cl, (cr, dr))
-                    } else {
-                        (cr, (cl, dl))
-                    };
+            if let Some((near, far)) = step(nodes, at, ray, t_min, t_far, true) {
+                if let Some(far) = far {
                     stack[sp] = far;
                     sp += 1;
-                    at = near;
-                    continue;
                 }
-                (Some(_), None) => {
-                    at = cl;
-                    continue;
-                }
-                (None, Some(_)) => {
-                    at = cr;
-                    continue;
-                }
-                (None, None) => {}
+                at = near;
+                continue;
             }
         }
         // Pop the next node the ray enters before the closest hit so far (its entry distance
@@ -362,14 +357,12 @@ pub(crate) fn traverse_any(
                 return true;
             }
         } else {
-            let ((dl, cl), (dr, cr)) = children(nodes, at, ray, t_min, t_max);
-            let (hit_left, hit_right) = (dl.is_some(), dr.is_some());
-            if hit_left && hit_right {
-                stack[sp] = cr;
-                sp += 1;
-            }
-            if hit_left || hit_right {
-                at = if hit_left { cl } else { cr };
+            if let Some((near, far)) = step(nodes, at, ray, t_min, t_max, false) {
+                if let Some((far, _)) = far {
+                    stack[sp] = far;
+                    sp += 1;
+                }
+                at = near;
                 continue;
             }
         }

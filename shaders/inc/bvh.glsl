@@ -93,16 +93,24 @@ bool bvh_cursor_is_leaf(uvec2 cursor) { return (cursor.y & BVH_CURSOR_LEAF) != 0
 
 uint bvh_cursor_count(uvec2 cursor) { return cursor.y & ~BVH_CURSOR_LEAF; }
 
-// The children of the interior node `cursor` names (src/bvh.rs, children): whether the ray
-// enters each before t_far, at which distance, and the cursor of each.
-void bvh_children(uvec2 cursor, BvhSlabRay ray, float t_min, float t_far, out bool hit_left,
-                  out bool hit_right, out float dl, out float dr, out uvec2 cl, out uvec2 cr) {
+// One step down from the interior node `cursor` names (src/bvh.rs, step): how many of its
+// children the ray enters before t_far (0, 1 or 2), the one to visit next (`near`) and, when
+// both, the one to defer (`far`, entered at `far_enter`). By distance, the nearer child first
+// (closest hit); else the left child first (any hit).
+uint bvh_step(uvec2 cursor, BvhSlabRay ray, float t_min, float t_far, bool by_distance,
+              out uvec2 near, out uvec2 far, out float far_enter) {
     BvhNode left = bvh_node_at(cursor.x);
     BvhNode right = bvh_node_at(cursor.y);
-    hit_left = bvh_slab(left, ray, t_min, t_far, dl);
-    hit_right = bvh_slab(right, ray, t_min, t_far, dr);
-    cl = bvh_cursor(cursor.x, left);
-    cr = bvh_cursor(cursor.y, right);
+    float dl, dr;
+    bool hit_left = bvh_slab(left, ray, t_min, t_far, dl);
+    bool hit_right = bvh_slab(right, ray, t_min, t_far, dr);
+    uvec2 cl = bvh_cursor(cursor.x, left);
+    uvec2 cr = bvh_cursor(cursor.y, right);
+    bool left_first = hit_left && (!hit_right || !by_distance || dl <= dr);
+    near = left_first ? cl : cr;
+    far = left_first ? cr : cl;
+    far_enter = left_first ? dr : dl;
+    return uint(hit_left) + uint(hit_right);
 }
 
 bool bvh_is_empty() {
@@ -133,31 +141,26 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
         // lane of a SIMD group stands on a leaf or a dead end, then test the leaves together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            // Both children: descend into the nearer, keep the farther for later.
-            bool hit_left, hit_right;
-            float dl, dr;
-            uvec2 cl, cr;
-            bvh_children(cursor, ray, t_min, t_far, hit_left, hit_right, dl, dr, cl, cr);
-            if (hit_left && hit_right) {
-                bool left_first = dl <= dr;
+            // Descend into the nearer child; keep the farther for later when both are entered.
+            uvec2 near, far;
+            float far_enter;
+            uint entered = bvh_step(cursor, ray, t_min, t_far, true, near, far, far_enter);
+            if (entered == 0u) {
+                at_leaf = false;
+                break;
+            }
+            if (entered == 2u) {
                 if (sp >= 2u) {
                     stack[sp - 2u] = below;
                     stack_enter[sp - 2u] = below_enter;
                 }
                 below = top;
                 below_enter = top_enter;
-                top = left_first ? cr : cl;
-                top_enter = left_first ? dr : dl;
+                top = far;
+                top_enter = far_enter;
                 ++sp;
-                cursor = left_first ? cl : cr;
-                continue;
             }
-            if (hit_left || hit_right) {
-                cursor = hit_left ? cl : cr;
-                continue;
-            }
-            at_leaf = false;
-            break;
+            cursor = near;
         }
         if (at_leaf) {
             uint first = cursor.x;
@@ -224,22 +227,20 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
         // lane of a SIMD group stands on a leaf or a dead end, then test the leaves together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            bool hit_left, hit_right;
-            float dl, dr;
-            uvec2 cl, cr;
-            bvh_children(cursor, ray, t_min, t_max, hit_left, hit_right, dl, dr, cl, cr);
-            if (hit_left && hit_right) {
+            uvec2 near, far;
+            float far_enter;
+            uint entered = bvh_step(cursor, ray, t_min, t_max, false, near, far, far_enter);
+            if (entered == 0u) {
+                at_leaf = false;
+                break;
+            }
+            if (entered == 2u) {
                 if (sp >= 2u) stack[sp - 2u] = below;
                 below = top;
-                top = cr;
+                top = far;
                 ++sp;
             }
-            if (hit_left || hit_right) {
-                cursor = hit_left ? cl : cr;
-                continue;
-            }
-            at_leaf = false;
-            break;
+            cursor = near;
         }
         if (at_leaf) {
             uint first = cursor.x;

@@ -44,24 +44,19 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         // instances of the leaves reached, lanes together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            bool hit_left, hit_right;
-            float dl, dr;
-            uvec2 cl, cr;
-            bvh_children(cursor, ray, t_min, hit.t, hit_left, hit_right, dl, dr, cl, cr);
-            if (hit_left && hit_right) {
-                bool left_first = dl <= dr;
-                stack[sp] = left_first ? cr : cl;
-                stack_enter[sp] = left_first ? dr : dl;
+            uvec2 near, far;
+            float far_enter;
+            uint entered = bvh_step(cursor, ray, t_min, hit.t, true, near, far, far_enter);
+            if (entered == 0u) {
+                at_leaf = false;
+                break;
+            }
+            if (entered == 2u) {
+                stack[sp] = far;
+                stack_enter[sp] = far_enter;
                 ++sp;
-                cursor = left_first ? cl : cr;
-                continue;
             }
-            if (hit_left || hit_right) {
-                cursor = hit_left ? cl : cr;
-                continue;
-            }
-            at_leaf = false;
-            break;
+            cursor = near;
         }
         if (at_leaf) {
             uint first = cursor.x;
@@ -104,17 +99,15 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         // instances of the leaves reached, lanes together.
         bool at_leaf = true;
         while (!bvh_cursor_is_leaf(cursor)) {
-            bool hit_left, hit_right;
-            float dl, dr;
-            uvec2 cl, cr;
-            bvh_children(cursor, ray, t_min, t_max, hit_left, hit_right, dl, dr, cl, cr);
-            if (hit_left && hit_right) stack[sp++] = cr;
-            if (hit_left || hit_right) {
-                cursor = hit_left ? cl : cr;
-                continue;
+            uvec2 near, far;
+            float far_enter;
+            uint entered = bvh_step(cursor, ray, t_min, t_max, false, near, far, far_enter);
+            if (entered == 0u) {
+                at_leaf = false;
+                break;
             }
-            at_leaf = false;
-            break;
+            if (entered == 2u) stack[sp++] = far;
+            cursor = near;
         }
         if (at_leaf) {
             uint first = cursor.x;
