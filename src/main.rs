@@ -1054,13 +1054,10 @@ fn bench_bvh(scenes: &[PathBuf], json: Option<&Path>) -> Result<()> {
         let (lo, hi) = (Vec3::from(root.bounds_min), Vec3::from(root.bounds_max));
         let ray = |i: u32| {
             let u = wavetrace::sampling::rng_uniform4(11, i, 0, 0);
-            let z = 1.0 - 2.0 * u.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = std::f32::consts::TAU * u.y;
             let o = wavetrace::sampling::rng_uniform4(11, i, 0, 1);
             Ray {
                 origin: lo + (hi - lo) * o.truncate(),
-                dir: Vec3::new(r * phi.cos(), r * phi.sin(), z),
+                dir: wavetrace::sampling::sample_uniform_cone(glam::Vec2::new(u.x, u.y), -1.0),
             }
         };
         let started = std::time::Instant::now();

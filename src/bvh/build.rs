@@ -286,12 +286,12 @@ fn choose_split(
         });
         return Some(measured_split(refs, n / 2));
     }
-    if n <= SWEEP_MAX {
+    // What is left of binned_path's conditions: at most SWEEP_MAX primitives.
+    let Some(binning) = binned_path(n, depth, centroids) else {
         return sweep_split(refs, bounds, axis);
-    }
+    };
 
     // Binned SAH: bounds and counts per bin, then sweep the 15 planes between bins.
-    let binning = binned_path(n, depth, centroids).expect("the binned path's conditions");
     let bins = bins.unwrap_or_else(|| Box::new(Bins::of(refs, &binning)));
     let mut right_cost = [0.0f32; SAH_BINS];
     let (mut acc, mut count) = (Aabb::EMPTY, 0);
