@@ -261,6 +261,14 @@ vec3 bsdf_to_world(BsdfFrame f, vec3 v) {
     return f.t * v.x + f.b * v.y + f.n * v.z;
 }
 
+// No specular layer (BsdfFrame::specular_free): a dielectric with KHR_materials_specular's
+// factor 0 (F0 = F90 = 0), no metal, no thin film and no total internal reflection has fd = 0 at
+// every angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 - max(fd); eval
+// skips both (the same value bit for bit: x + 0 = x, x * 1 = x).
+bool bsdf_specular_free(BsdfFrame f) {
+    return f.metallic == 0.0 && f.f90 == 0.0 && max3(f.f0) == 0.0 && f.film <= 0.0 && f.etap >= 1.0;
+}
+
 bool bsdf_is_delta(BsdfFrame f) {
     return f.alpha.x < ALPHA_DELTA;
 }
@@ -307,13 +315,19 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     float dielectric = 1.0 - f.metallic;
     if (wi.z > 0.0) {
         vec3 h = normalize(wo + wi);
-        float vh = dot(wo, h);
-        vec3 fd, fm;
-        bsdf_fresnel(f, vh, fd, fm);
-        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
-        if (!bsdf_is_delta(f)) {
-            float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
-            value += (dielectric * fd + f.metallic * fm) * spec;
+        vec3 value;
+        if (bsdf_specular_free(f)) {
+            // fd = 0: the diffuse lobe's factor 1 - max(fd) is 1 and the reflection adds 0.
+            value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * INV_PI * f.base;
+        } else {
+            float vh = dot(wo, h);
+            vec3 fd, fm;
+            bsdf_fresnel(f, vh, fd, fm);
+            value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
+            if (!bsdf_is_delta(f)) {
+                float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
+                value += (dielectric * fd + f.metallic * fm) * spec;
+            }
         }
         if (f.sheen_max > 0.0) {
             value = value * bsdf_sheen_scale(f, wi.z)

@@ -470,6 +470,19 @@ impl BsdfFrame {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
 
+    /// No specular layer: a dielectric with KHR_materials_specular's factor 0 (F0 = F90 = 0),
+    /// no metal, no thin film and no total internal reflection (η ≥ 1) has fd = 0 at every
+    /// angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 − max(fd);
+    /// [`eval_local`](Self::eval_local) skips both (the same value bit for bit: x + 0 = x,
+    /// x·1 = x).
+    fn specular_free(&self) -> bool {
+        self.metallic == 0.0
+            && self.f90 == 0.0
+            && self.f0.max_element() == 0.0
+            && self.film.factor <= 0.0
+            && self.etap >= 1.0
+    }
+
     fn is_delta(&self) -> bool {
         self.alpha.x < ALPHA_DELTA
     }
@@ -515,18 +528,24 @@ impl BsdfFrame {
         let dielectric = 1.0 - self.metallic;
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
-            let vh = wo.dot(h);
-            let (fd, fm) = self.fresnel(vh);
-            let mut f = dielectric
-                * (1.0 - self.transmission)
-                * (1.0 - self.dt)
-                * (1.0 - fd.max_element())
-                * FRAC_1_PI
-                * self.base;
-            if !self.is_delta() {
-                let spec = ggx_d(h, self.alpha) * ggx_visibility(wo, wi, self.alpha);
-                f += (dielectric * fd + self.metallic * fm) * spec;
-            }
+            let mut f = if self.specular_free() {
+                // fd = 0: the diffuse lobe's factor 1 − max(fd) is 1 and the reflection adds 0.
+                dielectric * (1.0 - self.transmission) * (1.0 - self.dt) * FRAC_1_PI * self.base
+            } else {
+                let vh = wo.dot(h);
+                let (fd, fm) = self.fresnel(vh);
+                let mut f = dielectric
+                    * (1.0 - self.transmission)
+                    * (1.0 - self.dt)
+                    * (1.0 - fd.max_element())
+                    * FRAC_1_PI
+                    * self.base;
+                if !self.is_delta() {
+                    let spec = ggx_d(h, self.alpha) * ggx_visibility(wo, wi, self.alpha);
+                    f += (dielectric * fd + self.metallic * fm) * spec;
+                }
+                f
+            };
             if self.sheen_max > 0.0 {
                 f = f * self.sheen_scale(wi.z)
                     + self.sheen_color
