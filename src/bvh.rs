@@ -15,6 +15,7 @@
 //! count 0), so the GPU buffer is never empty; both traversals check for it and report a miss.
 
 use crate::layout::{BvhNode, GpuTriangle};
+use arrayvec::ArrayVec;
 use glam::{BVec3, Vec3};
 use std::time::Duration;
 
@@ -292,8 +293,9 @@ pub(crate) fn traverse_closest(
     mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
 ) -> u32 {
     let mut t_far = t_max;
-    let mut stack = [([0u32; 2], 0f32); MAX_DEPTH];
-    let mut sp = 0;
+    // Deferred nodes with their entry distances; no deeper than the tree (MAX_DEPTH), and left
+    // uninitialised (zeroing 768 bytes per ray was 1.5 % of a CPU render).
+    let mut stack = ArrayVec::<(Cursor, f32), MAX_DEPTH>::new();
     let node = &nodes[root as usize];
     let mut boxes = 1;
     if bvh_slab(node, ray, t_min, t_far).is_none() {
@@ -311,8 +313,7 @@ pub(crate) fn traverse_closest(
             boxes += 2;
             if let Some((near, far)) = step(nodes, at, ray, t_min, t_far, true) {
                 if let Some(far) = far {
-                    stack[sp] = far;
-                    sp += 1;
+                    stack.push(far);
                 }
                 at = near;
                 continue;
@@ -321,11 +322,9 @@ pub(crate) fn traverse_closest(
         // Pop the next node the ray enters before the closest hit so far (its entry distance
         // was found when it was pushed; t_far can only have shrunk since).
         loop {
-            if sp == 0 {
+            let Some((deferred, t_enter)) = stack.pop() else {
                 return boxes;
-            }
-            sp -= 1;
-            let (deferred, t_enter) = stack[sp];
+            };
             if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
                 at = deferred;
                 break;
@@ -344,8 +343,8 @@ pub(crate) fn traverse_any(
     t_max: f32,
     mut leaf: impl FnMut(u32, u32) -> bool,
 ) -> bool {
-    let mut stack = [[0u32; 2]; MAX_DEPTH];
-    let mut sp = 0;
+    // As in traverse_closest: no deeper than the tree, uninitialised.
+    let mut stack = ArrayVec::<Cursor, MAX_DEPTH>::new();
     let node = &nodes[root as usize];
     if bvh_slab(node, ray, t_min, t_max).is_none() {
         return false;
@@ -360,18 +359,16 @@ pub(crate) fn traverse_any(
         } else {
             if let Some((near, far)) = step(nodes, at, ray, t_min, t_max, false) {
                 if let Some((far, _)) = far {
-                    stack[sp] = far;
-                    sp += 1;
+                    stack.push(far);
                 }
                 at = near;
                 continue;
             }
         }
-        if sp == 0 {
+        let Some(deferred) = stack.pop() else {
             return false;
-        }
-        sp -= 1;
-        at = stack[sp];
+        };
+        at = deferred;
     }
 }
 

@@ -462,11 +462,11 @@ impl BsdfFrame {
         wi.dot(self.n).abs()
     }
 
-    fn to_local(self, v: Vec3) -> Vec3 {
+    fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
-    fn to_world(self, v: Vec3) -> Vec3 {
+    fn to_world(&self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
 
@@ -682,7 +682,7 @@ impl BsdfFrame {
         self.cc_alpha.x < ALPHA_DELTA
     }
 
-    fn to_cc_local(self, v: Vec3) -> Vec3 {
+    fn to_cc_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.cc_t), v.dot(self.cc_b), v.dot(self.cc_n))
     }
 
@@ -732,7 +732,7 @@ impl BsdfFrame {
     }
 
     /// f(wo, wi) of the non-delta lobes for world-space `wi` ([`bsdf_eval`] with this frame).
-    pub fn eval(self, wi: Vec3, mode: TransportMode) -> Vec3 {
+    pub fn eval(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
         let base = self.eval_local(self.to_local(wi), mode);
         if self.clearcoat <= 0.0 {
             return base;
@@ -742,7 +742,7 @@ impl BsdfFrame {
     }
 
     /// The mixture pdf at world-space `wi` ([`bsdf_pdf`] with this frame).
-    pub fn pdf(self, wi: Vec3) -> f32 {
+    pub fn pdf(&self, wi: Vec3) -> f32 {
         let base = self.pdf_local(self.to_local(wi));
         if self.clearcoat <= 0.0 || self.lobe_pmf[LOBE_CLEARCOAT] <= 0.0 {
             return base;
