@@ -244,18 +244,29 @@ type Cursor = [u32; 2];
 
 const CURSOR_LEAF: u32 = 1 << 31;
 
+#[inline(always)]
 fn cursor(index: u32, node: &BvhNode) -> Cursor {
-    if node.is_leaf() {
-        [node.first_triangle(), node.count | CURSOR_LEAF]
-    } else {
-        [index + 1, node.right_child()]
-    }
+    // Selects rather than a branch on the node's kind, which the CPU cannot predict.
+    let leaf = node.is_leaf();
+    [
+        if leaf {
+            node.first_triangle()
+        } else {
+            index + 1
+        },
+        if leaf {
+            node.count | CURSOR_LEAF
+        } else {
+            node.right_child()
+        },
+    ]
 }
 
-/// One step down from the interior node `[left, right]` names (`bvh.glsl`, `bvh_step`): the
-/// child to visit next, and the one to defer with its entry distance when the ray enters both;
-/// `None` when it enters neither. By distance, the nearer child first (closest hit); else the
-/// left child first (any hit).
+/// One step down from the interior node `[left, right]` names (`bvh.glsl`, `bvh_step`): how
+/// many of its children the ray enters before `t_far` (0, 1 or 2), the one to visit next
+/// (`near`) and, when both, the one to defer (`far`, entered at `far_enter`). By distance, the
+/// nearer child first (closest hit); else the left child first (any hit). Written with selects,
+/// as the GLSL is: which children a ray enters is what the CPU's branch predictor guesses worst.
 #[inline(always)]
 fn step(
     nodes: &[BvhNode],
@@ -264,19 +275,22 @@ fn step(
     t_min: f32,
     t_far: f32,
     by_distance: bool,
-) -> Option<(Cursor, Option<(Cursor, f32)>)> {
+) -> (u32, Cursor, Cursor, f32) {
     let (left, right) = (&nodes[li as usize], &nodes[ri as usize]);
-    let (cl, cr) = (cursor(li, left), cursor(ri, right));
-    match (
+    let (l, r) = (
         bvh_slab(left, ray, t_min, t_far),
         bvh_slab(right, ray, t_min, t_far),
-    ) {
-        (Some(dl), Some(dr)) if by_distance && dr < dl => Some((cr, Some((cl, dl)))),
-        (Some(_), Some(dr)) => Some((cl, Some((cr, dr)))),
-        (Some(_), None) => Some((cl, None)),
-        (None, Some(_)) => Some((cr, None)),
-        (None, None) => None,
-    }
+    );
+    let (hit_left, dl) = (l.is_some(), l.unwrap_or(0.0));
+    let (hit_right, dr) = (r.is_some(), r.unwrap_or(0.0));
+    let (cl, cr) = (cursor(li, left), cursor(ri, right));
+    let left_first = hit_left && (!hit_right || !by_distance || dl <= dr);
+    let (near, far, far_enter) = if left_first {
+        (cl, cr, dr)
+    } else {
+        (cr, cl, dl)
+    };
+    (hit_left as u32 + hit_right as u32, near, far, far_enter)
 }
 
 /// Front-to-back traversal of the subtree rooted at `root` for the closest hit, shared by both
@@ -311,9 +325,10 @@ pub(crate) fn traverse_closest(
         } else {
             // Descend into the nearer child; keep the farther for later when both are entered.
             boxes += 2;
-            if let Some((near, far)) = step(nodes, at, ray, t_min, t_far, true) {
-                if let Some(far) = far {
-                    stack.push(far);
+            let (entered, near, far, far_enter) = step(nodes, at, ray, t_min, t_far, true);
+            if entered > 0 {
+                if entered == 2 {
+                    stack.push((far, far_enter));
                 }
                 at = near;
                 continue;
@@ -357,8 +372,9 @@ pub(crate) fn traverse_any(
                 return true;
             }
         } else {
-            if let Some((near, far)) = step(nodes, at, ray, t_min, t_max, false) {
-                if let Some((far, _)) = far {
+            let (entered, near, far, _) = step(nodes, at, ray, t_min, t_max, false);
+            if entered > 0 {
+                if entered == 2 {
                     stack.push(far);
                 }
                 at = near;
@@ -417,8 +433,12 @@ pub(crate) fn bvh_slab(node: &BvhNode, ray: &SlabRay, t_min: f32, t_max: f32) ->
     let (o, inv, n) = (ray.origin, ray.inv_dir, ray.negative);
     let near = |a: usize| (planes[n[a]][a] - o[a]) * inv[a];
     let far = |a: usize| (planes[1 - n[a]][a] - o[a]) * inv[a];
-    let t_enter = near(0).max(near(1)).max(near(2)).max(t_min);
-    let t_exit = far(0).min(far(1)).min(far(2)).min(t_max);
+    // No NaN arises, so plain compare-and-select (one instruction each; f32::max and min add
+    // NaN handling).
+    let max = |a: f32, b: f32| if a > b { a } else { b };
+    let min = |a: f32, b: f32| if a < b { a } else { b };
+    let t_enter = max(max(max(near(0), near(1)), near(2)), t_min);
+    let t_exit = min(min(min(far(0), far(1)), far(2)), t_max);
     (t_enter - t_enter.abs() * SLAB_SLACK <= t_exit).then_some(t_enter)
 }
 

@@ -604,7 +604,7 @@ pub struct BenchArgs {
     pub gpu_only: bool,
     /// Measure the BVH instead of rendering: each scene's triangles built 5 times (the median
     /// time), the tree's SAH cost, nodes and depth, and what a closest-hit ray costs in it on
-    /// the CPU (boxes and triangles tested per ray, M rays/s) for 2^18 random rays through its
+    /// the CPU (boxes and triangles tested per ray, M rays/s) for 2^20 random rays through its
     /// bounds.
     #[arg(long)]
     pub bvh: bool,

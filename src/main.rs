@@ -1016,7 +1016,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
 fn bench_bvh(scenes: &[PathBuf], json: Option<&Path>) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray};
     const BUILDS: usize = 7;
-    const RAYS: u32 = 1 << 18;
+    const RAYS: u32 = 1 << 20;
     println!(
         "wavetrace bench --bvh: {BUILDS} builds (median and best), {RAYS} random closest-hit rays; cpu = {} threads",
         rayon::current_num_threads()
