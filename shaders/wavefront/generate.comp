@@ -36,7 +36,8 @@ void kernel_main() {
 
     QueuedRay ray;
     vec2 jitter = sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK, u.xy);
-    vec2 lens_u = sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK + 2u, u.zw);
+    // The lens's pair only where a thin lens reads it (camera_ray); a pinhole ignores it.
+    vec2 lens_u = frame.lens_radius > 0.0 ? sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK + 2u, u.zw) : u.zw;
     camera_ray(frame, pixel, jitter, lens_u, ray.origin, ray.dir);
     ray.path = i;
     ray.pad = 0u;

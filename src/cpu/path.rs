@@ -184,13 +184,18 @@ pub fn primary_ray(frame: &FrameParams, pixel: u32, sample: u32) -> Ray {
         4 * dim::CAMERA_BLOCK,
         Vec2::new(u.x, u.y),
     );
-    let lens_u = sample_pair(
-        frame,
-        pixel,
-        sample,
-        4 * dim::CAMERA_BLOCK + 2,
-        Vec2::new(u.z, u.w),
-    );
+    // The lens's pair only where a thin lens reads it (`camera_ray`); a pinhole ignores it.
+    let lens_u = if frame.lens_radius > 0.0 {
+        sample_pair(
+            frame,
+            pixel,
+            sample,
+            4 * dim::CAMERA_BLOCK + 2,
+            Vec2::new(u.z, u.w),
+        )
+    } else {
+        Vec2::new(u.z, u.w)
+    };
     camera_ray(frame, pixel, jitter, lens_u)
 }
 
