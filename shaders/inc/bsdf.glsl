@@ -263,8 +263,8 @@ vec3 bsdf_to_world(BsdfFrame f, vec3 v) {
 
 // No specular layer (BsdfFrame::specular_free): a dielectric with KHR_materials_specular's
 // factor 0 (F0 = F90 = 0), no metal, no thin film and no total internal reflection has fd = 0 at
-// every angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 - max(fd); eval
-// skips both (the same value bit for bit: x + 0 = x, x * 1 = x).
+// every angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 - max(fd) = 1; eval
+// skips the Fresnel and the reflection term (the same value bit for bit: x + 0 = x).
 bool bsdf_specular_free(BsdfFrame f) {
     return f.metallic == 0.0 && f.f90 == 0.0 && max3(f.f0) == 0.0 && f.film <= 0.0 && f.etap >= 1.0;
 }
@@ -315,19 +315,14 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     float dielectric = 1.0 - f.metallic;
     if (wi.z > 0.0) {
         vec3 h = normalize(wo + wi);
-        vec3 value;
-        if (bsdf_specular_free(f)) {
-            // fd = 0: the diffuse lobe's factor 1 - max(fd) is 1 and the reflection adds 0.
-            value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * INV_PI * f.base;
-        } else {
-            float vh = dot(wo, h);
-            vec3 fd, fm;
-            bsdf_fresnel(f, vh, fd, fm);
-            value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
-            if (!bsdf_is_delta(f)) {
-                float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
-                value += (dielectric * fd + f.metallic * fm) * spec;
-            }
+        // Without a specular layer fd = 0: no Fresnel to evaluate and no reflection term.
+        bool specular = !bsdf_specular_free(f);
+        vec3 fd = vec3(0.0), fm = vec3(0.0);
+        if (specular) bsdf_fresnel(f, dot(wo, h), fd, fm);
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
+        if (specular && !bsdf_is_delta(f)) {
+            float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
+            value += (dielectric * fd + f.metallic * fm) * spec;
         }
         if (f.sheen_max > 0.0) {
             value = value * bsdf_sheen_scale(f, wi.z)

@@ -473,8 +473,8 @@ impl BsdfFrame {
     /// No specular layer: a dielectric with KHR_materials_specular's factor 0 (F0 = F90 = 0),
     /// no metal, no thin film and no total internal reflection (η ≥ 1) has fd = 0 at every
     /// angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 − max(fd);
-    /// [`eval_local`](Self::eval_local) skips both (the same value bit for bit: x + 0 = x,
-    /// x·1 = x).
+    /// [`eval_local`](Self::eval_local) skips the Fresnel and the reflection term (the same value
+    /// bit for bit: x + 0 = x).
     fn specular_free(&self) -> bool {
         self.metallic == 0.0
             && self.f90 == 0.0
@@ -528,24 +528,23 @@ impl BsdfFrame {
         let dielectric = 1.0 - self.metallic;
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
-            let mut f = if self.specular_free() {
-                // fd = 0: the diffuse lobe's factor 1 − max(fd) is 1 and the reflection adds 0.
-                dielectric * (1.0 - self.transmission) * (1.0 - self.dt) * FRAC_1_PI * self.base
+            // Without a specular layer fd = 0: no Fresnel to evaluate and no reflection term.
+            let specular = !self.specular_free();
+            let (fd, fm) = if specular {
+                self.fresnel(wo.dot(h))
             } else {
-                let vh = wo.dot(h);
-                let (fd, fm) = self.fresnel(vh);
-                let mut f = dielectric
-                    * (1.0 - self.transmission)
-                    * (1.0 - self.dt)
-                    * (1.0 - fd.max_element())
-                    * FRAC_1_PI
-                    * self.base;
-                if !self.is_delta() {
-                    let spec = ggx_d(h, self.alpha) * ggx_visibility(wo, wi, self.alpha);
-                    f += (dielectric * fd + self.metallic * fm) * spec;
-                }
-                f
+                (Vec3::ZERO, Vec3::ZERO)
             };
+            let mut f = dielectric
+                * (1.0 - self.transmission)
+                * (1.0 - self.dt)
+                * (1.0 - fd.max_element())
+                * FRAC_1_PI
+                * self.base;
+            if specular && !self.is_delta() {
+                let spec = ggx_d(h, self.alpha) * ggx_visibility(wo, wi, self.alpha);
+                f += (dielectric * fd + self.metallic * fm) * spec;
+            }
             if self.sheen_max > 0.0 {
                 f = f * self.sheen_scale(wi.z)
                     + self.sheen_color
