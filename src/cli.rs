@@ -602,12 +602,15 @@ pub struct BenchArgs {
     /// Skip the CPU integrator.
     #[arg(long)]
     pub gpu_only: bool,
-    /// Measure the BVH instead of rendering: each scene's triangles built 5 times (the median
-    /// time), the tree's SAH cost, nodes and depth, and what a closest-hit ray costs in it on
-    /// the CPU (boxes and triangles tested per ray, M rays/s) for 2^20 random rays through its
-    /// bounds.
+    /// Measure the BVH instead of rendering: each scene's triangles built --builds times (the
+    /// median and the best time), the tree's SAH cost, nodes and depth, and what a closest-hit
+    /// ray costs in it on the CPU (boxes and triangles tested per ray, M rays/s) for 2^20
+    /// random rays through its bounds.
     #[arg(long)]
     pub bvh: bool,
+    /// How many times `--bvh` builds each scene's tree (after one build not counted).
+    #[arg(long, requires = "bvh", default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub builds: u32,
     /// The estimator to measure.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
     pub integrator: IntegratorArg,

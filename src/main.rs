@@ -837,7 +837,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
         args.scenes.clone()
     };
     if args.bvh {
-        return bench_bvh(&scenes, args.json.as_deref());
+        return bench_bvh(&scenes, args.builds as usize, args.json.as_deref());
     }
     let settings = RenderSettings {
         width: args.width,
@@ -1013,12 +1013,11 @@ fn bench(args: &BenchArgs) -> Result<()> {
 }
 
 /// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
-fn bench_bvh(scenes: &[PathBuf], json: Option<&Path>) -> Result<()> {
+fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray};
-    const BUILDS: usize = 7;
     const RAYS: u32 = 1 << 20;
     println!(
-        "wavetrace bench --bvh: {BUILDS} builds (median and best), {RAYS} random closest-hit rays; cpu = {} threads",
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays; cpu = {} threads",
         rayon::current_num_threads()
     );
     println!(
@@ -1041,12 +1040,12 @@ fn bench_bvh(scenes: &[PathBuf], json: Option<&Path>) -> Result<()> {
         let positions: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
         let mut times = Vec::new();
         let mut bvh = Bvh::build(&positions);
-        for _ in 0..BUILDS {
+        for _ in 0..builds {
             bvh = Bvh::build(&positions);
             times.push(bvh.stats.build_time.as_secs_f64() * 1e3);
         }
         times.sort_by(f64::total_cmp);
-        let build_ms = times[BUILDS / 2];
+        let build_ms = times[builds / 2];
         let triangles = gpu_triangles(&positions, &[], &bvh.order);
         // Rays from uniform points of the root's box in uniform directions (seeded, so every
         // build of the same tree is measured on the same rays).
