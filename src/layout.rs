@@ -36,8 +36,9 @@ pub mod dim {
 }
 
 /// A node of the flattened BVH, depth-first: an interior node's left child is the next node.
-/// Total: 32 bytes.
-#[repr(C)]
+/// Total: 32 bytes, 16-byte aligned like the builder's primitive references, so the build
+/// writes its nodes into their memory (`bvh::build`) instead of faulting in fresh pages.
+#[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
     pub bounds_min: [f32; 3], // 12 bytes
