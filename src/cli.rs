@@ -608,7 +608,8 @@ pub struct BenchArgs {
     /// random rays through its bounds.
     #[arg(long)]
     pub bvh: bool,
-    /// How many times `--bvh` builds each scene's tree (after one build not counted).
+    /// How many times `--bvh` builds each scene's tree after the first (reported apart: it pays
+    /// for fresh memory, as a render's one build does; the median and best are of the rest).
     #[arg(long, requires = "bvh", default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub builds: u32,
     /// The estimator to measure.

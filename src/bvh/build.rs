@@ -710,29 +710,35 @@ fn build_range(
     (nodes, stats)
 }
 
+/// An empty vector for `n` primitive references with room for the nodes of their tree, which
+/// are written over them: a tree of n primitives has at most 2n − 1 nodes, and the scenes
+/// measured have 0.9–1.2 n (leaves of 1.7–2.2 primitives); past n·5/4 the nodes reallocate.
+fn with_node_room(n: usize) -> Vec<PrimRef> {
+    Vec::with_capacity(n + n / 4 + 1)
+}
+
 impl Bvh {
     /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
     /// for millions (work stack, bounded depth).
     pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         let start_time = Instant::now();
-        let refs = triangles
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| {
-                PrimRef::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
-            })
-            .collect();
+        let mut refs = with_node_room(triangles.len());
+        refs.par_extend(triangles.par_iter().enumerate().map(|(i, t)| {
+            PrimRef::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
+        }));
         Bvh::build_refs(refs, start_time)
     }
 
     /// The same build over axis-aligned boxes (min, max): the top level over instances.
     pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> Bvh {
         let start_time = Instant::now();
-        let refs = boxes
-            .par_iter()
-            .enumerate()
-            .map(|(i, &(min, max))| PrimRef::new(min, max, i as u32))
-            .collect();
+        let mut refs = with_node_room(boxes.len());
+        refs.par_extend(
+            boxes
+                .par_iter()
+                .enumerate()
+                .map(|(i, &(min, max))| PrimRef::new(min, max, i as u32)),
+        );
         Bvh::build_refs(refs, start_time)
     }
 
