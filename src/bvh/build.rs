@@ -667,6 +667,12 @@ fn build_range(
         }
         let range = &mut refs[task.start..task.end];
         let (bounds, centroids) = (task.bounds, task.centroids);
+        if range.len() <= SWEEP_MAX {
+            // No bins below SWEEP_MAX (see `binned_path`).
+            let at = start + task.start;
+            build_small(range, at, task.depth, bounds, centroids, &mut nodes, &mut stats);
+            continue;
+        }
         let mut node = BvhNode {
             bounds_min: bounds.lower(),
             offset: 0,
@@ -708,6 +714,44 @@ fn build_range(
         nodes.push(node);
     }
     (nodes, stats)
+}
+
+/// [`build_range`]'s loop for a range of at most [`SWEEP_MAX`] primitives (starting at `at` in
+/// the whole array), by recursion instead of a work stack: the same `choose_split` decisions and
+/// the same depth-first, left-first order, without moving a `Task` per node (most nodes are in
+/// such ranges).
+fn build_small(
+    refs: &mut [PrimRef],
+    at: usize,
+    depth: usize,
+    bounds: Aabb,
+    centroids: Aabb,
+    nodes: &mut Vec<BvhNode>,
+    stats: &mut BvhStats,
+) {
+    let index = nodes.len();
+    nodes.push(BvhNode {
+        bounds_min: bounds.lower(),
+        offset: at as u32,
+        bounds_max: bounds.upper(),
+        count: refs.len() as u32,
+    });
+    match choose_split(refs, &bounds, &centroids, depth, None) {
+        Some(split) => {
+            let (left, right) = refs.split_at_mut(split.mid);
+            let (lb, rb) = split.bounds;
+            let (lc, rc) = split.centroids;
+            nodes[index].count = 0;
+            build_small(left, at, depth + 1, lb, lc, nodes, stats);
+            nodes[index].offset = nodes.len() as u32;
+            build_small(right, at + split.mid, depth + 1, rb, rc, nodes, stats);
+        }
+        None => {
+            stats.leaves += 1;
+            stats.max_depth = stats.max_depth.max(depth);
+            stats.max_leaf_size = stats.max_leaf_size.max(refs.len());
+        }
+    }
 }
 
 /// An empty vector for `n` primitive references with room for the nodes of their tree, which
