@@ -670,7 +670,9 @@ fn build_range(
         if range.len() <= SWEEP_MAX {
             // No bins below SWEEP_MAX (see `binned_path`).
             let at = start + task.start;
-            build_small(range, at, task.depth, bounds, centroids, &mut nodes, &mut stats);
+            build_small(
+                range, at, task.depth, bounds, centroids, &mut nodes, &mut stats,
+            );
             continue;
         }
         let mut node = BvhNode {
