@@ -3,7 +3,7 @@
 //!
 //! Build: binned surface area heuristic on the longest centroid axis (Wald 2007, "On fast
 //! Construction of SAH-based Bounding Volume Hierarchies"), a full SAH sweep for ranges of 32 or
-//! fewer primitives, an explicit work stack (no recursion), and depth-first flattening as it goes:
+//! fewer primitives, recursion no deeper than [`MAX_DEPTH`], and depth-first flattening as it goes:
 //! an interior node's left child is the next node, its `offset` is the right child. Node bounds
 //! are exact f32 unions of the triangles' vertices.
 //!

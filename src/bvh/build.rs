@@ -97,19 +97,6 @@ impl PrimRef {
     }
 }
 
-/// A range of `refs` still to become a subtree, with the bounds of its primitives and of their
-/// doubled centroids; `patch` is the node whose `offset` must point to it (it is a right
-/// child), or `u32::MAX`.
-struct Task {
-    start: usize,
-    end: usize,
-    depth: usize,
-    patch: u32,
-    bounds: Aabb,
-    centroids: Aabb,
-    bins: Option<Box<Bins>>,
-}
-
 /// Where a range splits: the first `mid` primitives (after reordering) go left; the bounds of
 /// each side's primitives and doubled centroids, and each side's bins where the partition
 /// binned them, as (left, right).
@@ -640,7 +627,7 @@ fn range_bounds(refs: &[PrimRef]) -> (Aabb, Aabb) {
 }
 
 /// The sequential build of the subtree over `refs` (which start at `start` in the whole array)
-/// at `depth`, with a work stack: node indices relative to the result, leaf offsets absolute.
+/// at `depth`: node indices relative to the result, leaf offsets absolute.
 fn build_range(
     refs: &mut [PrimRef],
     start: usize,
@@ -649,109 +636,54 @@ fn build_range(
     centroids: Aabb,
     bins: Option<Box<Bins>>,
 ) -> (Vec<BvhNode>, BvhStats) {
-    let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * refs.len().max(1));
-    let mut stats = BvhStats::default();
-    let mut stack = vec![Task {
-        start: 0,
-        end: refs.len(),
-        depth,
-        patch: u32::MAX,
-        bounds,
-        centroids,
-        bins,
-    }];
-    while let Some(task) = stack.pop() {
-        let index = nodes.len() as u32;
-        if task.patch != u32::MAX {
-            nodes[task.patch as usize].offset = index;
-        }
-        let range = &mut refs[task.start..task.end];
-        let (bounds, centroids) = (task.bounds, task.centroids);
-        if range.len() <= SWEEP_MAX {
-            // No bins below SWEEP_MAX (see `binned_path`).
-            let at = start + task.start;
-            build_small(
-                range, at, task.depth, bounds, centroids, &mut nodes, &mut stats,
-            );
-            continue;
-        }
-        let mut node = BvhNode {
-            bounds_min: bounds.lower(),
-            offset: 0,
-            bounds_max: bounds.upper(),
-            count: 0,
-        };
-        match choose_split(range, &bounds, &centroids, task.depth, task.bins) {
-            Some(split) => {
-                let mid = task.start + split.mid;
-                let (lbins, rbins) = split.bins;
-                // Right pushed first: the left subtree is built (and numbered) first.
-                stack.push(Task {
-                    start: mid,
-                    end: task.end,
-                    depth: task.depth + 1,
-                    patch: index,
-                    bounds: split.bounds.1,
-                    centroids: split.centroids.1,
-                    bins: rbins,
-                });
-                stack.push(Task {
-                    start: task.start,
-                    end: mid,
-                    depth: task.depth + 1,
-                    patch: u32::MAX,
-                    bounds: split.bounds.0,
-                    centroids: split.centroids.0,
-                    bins: lbins,
-                });
-            }
-            None => {
-                node.offset = (start + task.start) as u32;
-                node.count = range.len() as u32;
-                stats.leaves += 1;
-                stats.max_depth = stats.max_depth.max(task.depth);
-                stats.max_leaf_size = stats.max_leaf_size.max(range.len());
-            }
-        }
-        nodes.push(node);
-    }
-    (nodes, stats)
+    let mut flat = Flattened {
+        nodes: Vec::with_capacity(2 * refs.len().max(1)),
+        stats: BvhStats::default(),
+    };
+    flat.subtree(refs, start, depth, bounds, centroids, bins);
+    (flat.nodes, flat.stats)
 }
 
-/// [`build_range`]'s loop for a range of at most [`SWEEP_MAX`] primitives (starting at `at` in
-/// the whole array), by recursion instead of a work stack: the same `choose_split` decisions and
-/// the same depth-first, left-first order, without moving a `Task` per node (most nodes are in
-/// such ranges).
-fn build_small(
-    refs: &mut [PrimRef],
-    at: usize,
-    depth: usize,
-    bounds: Aabb,
-    centroids: Aabb,
-    nodes: &mut Vec<BvhNode>,
-    stats: &mut BvhStats,
-) {
-    let index = nodes.len();
-    nodes.push(BvhNode {
-        bounds_min: bounds.lower(),
-        offset: at as u32,
-        bounds_max: bounds.upper(),
-        count: refs.len() as u32,
-    });
-    match choose_split(refs, &bounds, &centroids, depth, None) {
-        Some(split) => {
-            let (left, right) = refs.split_at_mut(split.mid);
-            let (lb, rb) = split.bounds;
-            let (lc, rc) = split.centroids;
-            nodes[index].count = 0;
-            build_small(left, at, depth + 1, lb, lc, nodes, stats);
-            nodes[index].offset = nodes.len() as u32;
-            build_small(right, at + split.mid, depth + 1, rb, rc, nodes, stats);
-        }
-        None => {
-            stats.leaves += 1;
-            stats.max_depth = stats.max_depth.max(depth);
-            stats.max_leaf_size = stats.max_leaf_size.max(refs.len());
+/// A sequentially built subtree's nodes, in depth-first, left-first order, and its statistics.
+struct Flattened {
+    nodes: Vec<BvhNode>,
+    stats: BvhStats,
+}
+
+impl Flattened {
+    /// Appends the subtree over `refs` (starting at `at` in the whole array) at `depth`. The
+    /// recursion is no deeper than [`MAX_DEPTH`] (`choose_split` halves ranges near it).
+    fn subtree(
+        &mut self,
+        refs: &mut [PrimRef],
+        at: usize,
+        depth: usize,
+        bounds: Aabb,
+        centroids: Aabb,
+        bins: Option<Box<Bins>>,
+    ) {
+        let index = self.nodes.len();
+        self.nodes.push(BvhNode {
+            bounds_min: bounds.lower(),
+            offset: at as u32,
+            bounds_max: bounds.upper(),
+            count: refs.len() as u32,
+        });
+        match choose_split(refs, &bounds, &centroids, depth, bins) {
+            Some(split) => {
+                let (left, right) = refs.split_at_mut(split.mid);
+                let ((lb, rb), (lc, rc), (lbins, rbins)) =
+                    (split.bounds, split.centroids, split.bins);
+                self.nodes[index].count = 0;
+                self.subtree(left, at, depth + 1, lb, lc, lbins);
+                self.nodes[index].offset = self.nodes.len() as u32;
+                self.subtree(right, at + split.mid, depth + 1, rb, rc, rbins);
+            }
+            None => {
+                self.stats.leaves += 1;
+                self.stats.max_depth = self.stats.max_depth.max(depth);
+                self.stats.max_leaf_size = self.stats.max_leaf_size.max(refs.len());
+            }
         }
     }
 }
@@ -765,7 +697,7 @@ fn with_node_room(n: usize) -> Vec<PrimRef> {
 
 impl Bvh {
     /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
-    /// for millions (work stack, bounded depth).
+    /// for millions (recursion no deeper than [`MAX_DEPTH`]).
     pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         let start_time = Instant::now();
         let mut refs = with_node_room(triangles.len());
