@@ -118,8 +118,16 @@ impl Bvh {
         t_max: f32,
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
-        self.closest_counted(root, triangles, ray, t_min, t_max, accept)
-            .0
+        closest_triangle(
+            self.nodes.as_slice(),
+            root,
+            triangles,
+            ray,
+            t_min,
+            t_max,
+            accept,
+        )
+        .0
     }
 
     /// What a closest-hit query from the root costs: (boxes slab-tested, triangles
@@ -134,54 +142,16 @@ impl Bvh {
         if self.is_empty() {
             return (0, 0);
         }
-        let (_, boxes, tested) =
-            self.closest_counted(0, triangles, ray, t_min, t_max, |_, _, _| true);
-        (boxes, tested)
-    }
-
-    /// The closest hit, with the boxes and triangles its traversal tested.
-    fn closest_counted(
-        &self,
-        root: u32,
-        triangles: &[GpuTriangle],
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        accept: impl Fn(u32, f32, f32) -> bool,
-    ) -> (Option<Hit>, u32, u32) {
-        let mut closest: Option<Hit> = None;
-        let mut tested = 0;
-        let boxes = traverse_closest(
-            &self.nodes,
-            root,
-            &SlabRay::new(ray),
+        let (_, boxes, tested) = closest_triangle(
+            self.nodes.as_slice(),
+            0,
+            triangles,
+            ray,
             t_min,
             t_max,
-            |first, count, t_far| {
-                tested += count;
-                let mut found = None;
-                for i in first..first + count {
-                    if let Some((t, u, v)) = intersect_triangle(
-                        &triangles[i as usize],
-                        ray,
-                        t_min,
-                        found.unwrap_or(t_far),
-                    )
-                    .filter(|&(_, u, v)| accept(i, u, v))
-                    {
-                        found = Some(t);
-                        closest = Some(Hit {
-                            t,
-                            triangle: i,
-                            u,
-                            v,
-                        });
-                    }
-                }
-                found
-            },
+            |_, _, _| true,
         );
-        (closest, boxes, tested)
+        (boxes, tested)
     }
 
     /// True if anything is hit with t in (t_min, t_max) (shadow rays; exits at the first hit).
@@ -220,20 +190,121 @@ impl Bvh {
         t_max: f32,
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> bool {
-        traverse_any(
-            &self.nodes,
+        any_triangle(
+            self.nodes.as_slice(),
             root,
-            &SlabRay::new(ray),
+            triangles,
+            ray,
             t_min,
             t_max,
-            |first, count| {
-                (first..first + count).any(|i| {
-                    intersect_triangle(&triangles[i as usize], ray, t_min, t_max)
-                        .is_some_and(|(_, u, v)| accept(i, u, v))
-                })
-            },
+            accept,
         )
     }
+}
+
+/// A tree of boxes over primitive ranges that a ray walks, its roots named by their node index
+/// in the binary layout: the binary tree itself (`[BvhNode]`, twin of `bvh.glsl`, which the GPU
+/// walks) or its 4-wide collapse ([`WideBvh`], which the CPU integrators walk). Leaves are
+/// (first, count) ranges of triangles, or of instances in the top level (`tlas.rs`).
+pub trait Hierarchy {
+    /// Front-to-back walk for the closest hit: `leaf(first, count, t_far)` tests a leaf's
+    /// primitives against hits closer than `t_far` and returns the closest it found; subtrees
+    /// the ray enters beyond the closest hit so far are skipped. Returns the boxes tested.
+    fn traverse_closest(
+        &self,
+        root: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> u32;
+
+    /// Walk until `leaf(first, count)` reports a hit (shadow rays).
+    fn traverse_any(
+        &self,
+        root: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        leaf: impl FnMut(u32, u32) -> bool,
+    ) -> bool;
+}
+
+impl Hierarchy for [BvhNode] {
+    fn traverse_closest(
+        &self,
+        root: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> u32 {
+        traverse_closest(self, root, &SlabRay::new(ray), t_min, t_max, leaf)
+    }
+
+    fn traverse_any(
+        &self,
+        root: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        leaf: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        traverse_any(self, root, &SlabRay::new(ray), t_min, t_max, leaf)
+    }
+}
+
+/// The closest hit (t in (t_min, t_max), `accept`ed) among the triangles of the tree rooted at
+/// `root`, with the boxes and triangles its walk tested.
+pub fn closest_triangle<H: Hierarchy + ?Sized>(
+    tree: &H,
+    root: u32,
+    triangles: &[GpuTriangle],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    accept: impl Fn(u32, f32, f32) -> bool,
+) -> (Option<Hit>, u32, u32) {
+    let mut closest: Option<Hit> = None;
+    let mut tested = 0;
+    let boxes = tree.traverse_closest(root, ray, t_min, t_max, |first, count, t_far| {
+        tested += count;
+        let mut found = None;
+        for i in first..first + count {
+            if let Some((t, u, v)) =
+                intersect_triangle(&triangles[i as usize], ray, t_min, found.unwrap_or(t_far))
+                    .filter(|&(_, u, v)| accept(i, u, v))
+            {
+                found = Some(t);
+                closest = Some(Hit {
+                    t,
+                    triangle: i,
+                    u,
+                    v,
+                });
+            }
+        }
+        found
+    });
+    (closest, boxes, tested)
+}
+
+/// True if an `accept`ed triangle of the tree rooted at `root` is hit with t in (t_min, t_max).
+pub fn any_triangle<H: Hierarchy + ?Sized>(
+    tree: &H,
+    root: u32,
+    triangles: &[GpuTriangle],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    accept: impl Fn(u32, f32, f32) -> bool,
+) -> bool {
+    tree.traverse_any(root, ray, t_min, t_max, |first, count| {
+        (first..first + count).any(|i| {
+            intersect_triangle(&triangles[i as usize], ray, t_min, t_max)
+                .is_some_and(|(_, u, v)| accept(i, u, v))
+        })
+    })
 }
 
 /// A node to visit, as the traversal needs it once its box has been tested (`bvh.glsl`,
@@ -526,8 +597,10 @@ pub fn gpu_triangles(
 }
 
 mod build;
+pub mod wide;
 
 pub use build::sah_cost;
+pub use wide::{WideBvh, WideNode};
 
 #[cfg(test)]
 mod tests;

@@ -1,7 +1,7 @@
 //! What both integrators share: render settings, the scene prepared for tracing (BVH, triangles
 //! in BVH order, materials, emitter table), the per-render constants and the render's output.
 
-use crate::bvh::{gpu_triangles, Bvh};
+use crate::bvh::{gpu_triangles, Bvh, WideBvh};
 use crate::bvh::{Hit, Ray};
 use crate::environment::EnvironmentMap;
 use crate::film::Film;
@@ -138,6 +138,9 @@ pub struct PreparedScene {
     pub bvh: Bvh,
     /// The top level's root node in `bvh.nodes`.
     pub tlas_root: u32,
+    /// `bvh.nodes` collapsed to 4-wide nodes for the CPU integrators, made when one first
+    /// traces a ray ([`PreparedScene::wide_bvh`]), so that a GPU render does not pay for it.
+    pub wide: std::sync::OnceLock<WideBvh>,
     /// The top level's leaves, in its order.
     pub instances: Vec<GpuInstance>,
     /// KHR_lights_punctual lights (emitter entries with `LIGHT_ENTRY_PUNCTUAL` index them).
@@ -495,6 +498,7 @@ impl PreparedScene {
                 stats: baked.stats,
             },
             tlas_root,
+            wide: std::sync::OnceLock::new(),
             instances,
             triangles,
             materials,
@@ -544,7 +548,7 @@ impl PreparedScene {
         key: UVec4,
     ) -> Option<(Hit, u32)> {
         scene_intersect_closest(
-            &self.bvh,
+            self.wide_bvh(),
             self.tlas_root,
             &self.instances,
             &self.triangles,
@@ -553,6 +557,16 @@ impl PreparedScene {
             t_max,
             self.any_hit(key),
         )
+    }
+
+    /// The CPU's 4-wide BVH over every level (`bvh::wide`), collapsed on first use.
+    pub fn wide_bvh(&self) -> &WideBvh {
+        self.wide.get_or_init(|| {
+            let roots: Vec<u32> = std::iter::once(self.tlas_root)
+                .chain(self.instances.iter().map(|i| i.blas_root))
+                .collect();
+            WideBvh::collapse(&self.bvh.nodes, &roots)
+        })
     }
 
     /// The any-hit test of a ray with alpha key `key`: (triangle, u, v, instance, direction in
@@ -565,7 +579,7 @@ impl PreparedScene {
     /// True if anything is hit with t in (t_min, t_max) (alpha as in `intersect_closest`).
     pub fn intersect_any(&self, ray: &Ray, t_min: f32, t_max: f32, key: UVec4) -> bool {
         scene_intersect_any(
-            &self.bvh,
+            self.wide_bvh(),
             self.tlas_root,
             &self.instances,
             &self.triangles,

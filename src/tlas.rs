@@ -8,7 +8,7 @@
 //! so t is the same in both spaces. A scene with one identity instance (no instancing) skips
 //! the top level: its traversal is exactly the one-level traversal.
 
-use crate::bvh::{traverse_any, traverse_closest, Bvh, Hit, Ray, SlabRay};
+use crate::bvh::{any_triangle, closest_triangle, Bvh, Hierarchy, Hit, Ray};
 use crate::layout::{BvhNode, GpuInstance, GpuTriangle, INSTANCE_IDENTITY, INSTANCE_MIRRORED};
 use glam::{Mat4, UVec4, Vec3, Vec4};
 
@@ -113,10 +113,11 @@ fn object_ray(instance: &GpuInstance, ray: &Ray) -> Ray {
 }
 
 /// Closest hit with t in (t_min, t_max) over every instance, with the instance's index;
-/// `accept(triangle, u, v, instance, object-space direction)` is the any-hit test.
+/// `accept(triangle, u, v, instance, object-space direction)` is the any-hit test. `tree` is the
+/// binary node array (the GPU's walk) or its wide collapse (the CPU integrators').
 #[allow(clippy::too_many_arguments)]
-pub fn scene_intersect_closest(
-    nodes: &Bvh,
+pub fn scene_intersect_closest<H: Hierarchy + ?Sized>(
+    tree: &H,
     tlas_root: u32,
     instances: &[GpuInstance],
     triangles: &[GpuTriangle],
@@ -129,51 +130,42 @@ pub fn scene_intersect_closest(
         return None;
     }
     if single_identity_instance(instances) {
-        return nodes
-            .intersect_closest_from(
-                instances[0].blas_root,
-                triangles,
-                ray,
-                t_min,
-                t_max,
-                |i, u, v| accept(i, u, v, 0, ray.dir),
-            )
-            .map(|h| (h, 0));
+        let root = instances[0].blas_root;
+        return closest_triangle(tree, root, triangles, ray, t_min, t_max, |i, u, v| {
+            accept(i, u, v, 0, ray.dir)
+        })
+        .0
+        .map(|h| (h, 0));
     }
     let mut closest: Option<(Hit, u32)> = None;
-    traverse_closest(
-        &nodes.nodes,
-        tlas_root,
-        &SlabRay::new(ray),
-        t_min,
-        t_max,
-        |first, count, t_far| {
-            let mut found = None;
-            for k in first..first + count {
-                let inst = &instances[k as usize];
-                let r = object_ray(inst, ray);
-                if let Some(hit) = nodes.intersect_closest_from(
-                    inst.blas_root,
-                    triangles,
-                    &r,
-                    t_min,
-                    found.unwrap_or(t_far),
-                    |i, u, v| accept(i, u, v, k, r.dir),
-                ) {
-                    found = Some(hit.t);
-                    closest = Some((hit, k));
-                }
+    tree.traverse_closest(tlas_root, ray, t_min, t_max, |first, count, t_far| {
+        let mut found = None;
+        for k in first..first + count {
+            let inst = &instances[k as usize];
+            let r = object_ray(inst, ray);
+            let t_max = found.unwrap_or(t_far);
+            if let (Some(hit), ..) = closest_triangle(
+                tree,
+                inst.blas_root,
+                triangles,
+                &r,
+                t_min,
+                t_max,
+                |i, u, v| accept(i, u, v, k, r.dir),
+            ) {
+                found = Some(hit.t);
+                closest = Some((hit, k));
             }
-            found
-        },
-    );
+        }
+        found
+    });
     closest
 }
 
 /// True if anything of any instance is hit with t in (t_min, t_max).
 #[allow(clippy::too_many_arguments)]
-pub fn scene_intersect_any(
-    nodes: &Bvh,
+pub fn scene_intersect_any<H: Hierarchy + ?Sized>(
+    tree: &H,
     tlas_root: u32,
     instances: &[GpuInstance],
     triangles: &[GpuTriangle],
@@ -186,29 +178,24 @@ pub fn scene_intersect_any(
         return false;
     }
     if single_identity_instance(instances) {
-        return nodes.intersect_any_from(
-            instances[0].blas_root,
-            triangles,
-            ray,
-            t_min,
-            t_max,
-            |i, u, v| accept(i, u, v, 0, ray.dir),
-        );
+        let root = instances[0].blas_root;
+        return any_triangle(tree, root, triangles, ray, t_min, t_max, |i, u, v| {
+            accept(i, u, v, 0, ray.dir)
+        });
     }
-    traverse_any(
-        &nodes.nodes,
-        tlas_root,
-        &SlabRay::new(ray),
-        t_min,
-        t_max,
-        |first, count| {
-            (first..first + count).any(|k| {
-                let inst = &instances[k as usize];
-                let r = object_ray(inst, ray);
-                nodes.intersect_any_from(inst.blas_root, triangles, &r, t_min, t_max, |i, u, v| {
-                    accept(i, u, v, k, r.dir)
-                })
-            })
-        },
-    )
+    tree.traverse_any(tlas_root, ray, t_min, t_max, |first, count| {
+        (first..first + count).any(|k| {
+            let inst = &instances[k as usize];
+            let r = object_ray(inst, ray);
+            any_triangle(
+                tree,
+                inst.blas_root,
+                triangles,
+                &r,
+                t_min,
+                t_max,
+                |i, u, v| accept(i, u, v, k, r.dir),
+            )
+        })
+    })
 }

@@ -84,3 +84,78 @@ fn gpu_agrees_with_cpu_on_instances() {
     let scene = PreparedScene::new(&load(true, 1 << 30).unwrap());
     gpu_agrees_with_cpu(&scene, &settings(3), &settings(4), "instances.gltf");
 }
+
+/// The CPU integrators' 4-wide walk of both levels (`bvh::wide`) finds the hits of the binary
+/// walk the GPU runs (`bvh.glsl`, `tlas.glsl`): the same distance, and the same triangle,
+/// instance and (u, v) unless two surfaces lie at exactly that distance. Rays from a grid of
+/// origins around the scene towards points inside it, and shadow-ray ranges around each hit.
+#[test]
+fn wide_and_binary_walks_find_the_same_hits() {
+    use wavetrace::bvh::{Hierarchy, Hit, Ray};
+    use wavetrace::tlas::{scene_intersect_any, scene_intersect_closest};
+    fn closest<H: Hierarchy + ?Sized>(
+        tree: &H,
+        p: &PreparedScene,
+        ray: &Ray,
+    ) -> Option<(Hit, u32)> {
+        let (instances, triangles) = (&p.instances, &p.triangles);
+        scene_intersect_closest(
+            tree,
+            p.tlas_root,
+            instances,
+            triangles,
+            ray,
+            0.0,
+            f32::MAX,
+            |_, _, _, _, _| true,
+        )
+    }
+    fn any<H: Hierarchy + ?Sized>(tree: &H, p: &PreparedScene, ray: &Ray, t_max: f32) -> bool {
+        let (instances, triangles) = (&p.instances, &p.triangles);
+        scene_intersect_any(
+            tree,
+            p.tlas_root,
+            instances,
+            triangles,
+            ray,
+            0.0,
+            t_max,
+            |_, _, _, _, _| true,
+        )
+    }
+    let scene = load(true, 1 << 30).unwrap();
+    let p = PreparedScene::new(&scene);
+    let (lo, hi) = p.bounds();
+    let (binary, wide) = (p.bvh.nodes.as_slice(), p.wide_bvh());
+    let (mut hits, mut ties) = (0, 0);
+    let steps = 24;
+    for i in 0..steps * steps * steps {
+        let f = |k: u32| (k as f32 + 0.5) / steps as f32;
+        let g = Vec3::new(f(i % steps), f(i / steps % steps), f(i / (steps * steps)));
+        let origin = lo - (hi - lo) * 0.25 + (hi - lo) * 1.5 * g;
+        let target = lo + (hi - lo) * Vec3::new(g.z, g.x, g.y);
+        let ray = Ray {
+            origin,
+            dir: target - origin,
+        };
+        let (a, b) = (closest(binary, &p, &ray), closest(wide, &p, &ray));
+        match (a, b) {
+            (Some(x), Some(y)) if (x.0.triangle, x.1) != (y.0.triangle, y.1) => {
+                assert_eq!(x.0.t, y.0.t, "{ray:?}");
+                ties += 1;
+            }
+            _ => assert_eq!(a, b, "{ray:?}"),
+        }
+        hits += a.is_some() as u32;
+        let t = a.map_or(1.0, |h| h.0.t);
+        for t_max in [t * 0.999, t * 1.001] {
+            assert_eq!(
+                any(binary, &p, &ray, t_max),
+                any(wide, &p, &ray, t_max),
+                "{ray:?} t_max {t_max}"
+            );
+        }
+    }
+    assert!(hits > 5000, "{hits} hits: the test is too weak");
+    assert!(ties < hits / 100, "{ties} ties in {hits} hits");
+}

@@ -246,6 +246,8 @@ fn validate(bvh: &Bvh, tris: &[[Vec3; 3]]) {
 fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
     let bvh = Bvh::build(tris);
     validate(&bvh, tris);
+    let wide = WideBvh::collapse(&bvh.nodes, &[0]);
+    validate_wide(&bvh, &wide);
     let gpu = gpu_triangles(tris, &[], &bvh.order);
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for p in tris.iter().flatten() {
@@ -262,6 +264,13 @@ fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
         let t_max = [f32::INFINITY, f32::MAX, rng.range(0.0, 2.0)][rng.below(3) as usize];
         let got = bvh.intersect_closest(&gpu, &ray, t_min, t_max);
         let want = brute_closest(&gpu, &ray, t_min, t_max);
+        // The wide walk finds the binary walk's hit: the same t and, unless another triangle
+        // lies at exactly that distance, the same triangle and (u, v).
+        let (wide_hit, ..) = closest_triangle(&wide, 0, &gpu, &ray, t_min, t_max, |_, _, _| true);
+        match (wide_hit, got) {
+            (Some(w), Some(g)) if w.triangle != g.triangle => assert_eq!(w.t, g.t),
+            _ => assert_eq!(wide_hit, got, "wide: {ray:?} ({t_min}, {t_max})"),
+        }
         match (got, want) {
             (None, None) => {}
             (Some(g), Some(w)) => {
@@ -283,8 +292,53 @@ fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
             brute_any(&gpu, &ray, t_min, t_max),
             "{ray:?} ({t_min}, {t_max})"
         );
+        assert_eq!(
+            any_triangle(&wide, 0, &gpu, &ray, t_min, t_max, |_, _, _| true),
+            brute_any(&gpu, &ray, t_min, t_max),
+            "wide: {ray:?} ({t_min}, {t_max})"
+        );
     }
     (bvh, hits)
+}
+
+/// The wide collapse holds every leaf of the binary tree once with its box, and its other boxes
+/// are boxes of the binary tree's interior nodes (those it did not open).
+fn validate_wide(bvh: &Bvh, wide: &WideBvh) {
+    let key = |(lo, hi, leaf): ([f32; 3], [f32; 3], Option<(u32, u32)>)| {
+        (lo.map(f32::to_bits), hi.map(f32::to_bits), leaf)
+    };
+    let binary: Vec<_> = bvh
+        .nodes
+        .iter()
+        .map(|n| {
+            let leaf = n.is_leaf().then(|| (n.first_triangle(), n.count));
+            key((n.bounds_min, n.bounds_max, leaf))
+        })
+        .collect();
+    let slots: Vec<_> = wide.boxes(0).into_iter().map(key).collect();
+    let leaves = |boxes: &[_]| {
+        let mut l: Vec<_> = boxes
+            .iter()
+            .filter(|b: &&(_, _, Option<_>)| b.2.is_some())
+            .copied()
+            .collect();
+        l.sort_unstable();
+        l
+    };
+    assert_eq!(
+        leaves(&slots),
+        leaves(&binary),
+        "the same leaves and leaf boxes"
+    );
+    let interior: std::collections::HashSet<_> = binary.iter().filter(|b| b.2.is_none()).collect();
+    assert!(
+        slots
+            .iter()
+            .filter(|b| b.2.is_none())
+            .all(|b| interior.contains(b)),
+        "every interior slot's box is a binary node's"
+    );
+    assert!(wide.nodes.len() <= (bvh.nodes.len() - bvh.stats.leaves).max(1));
 }
 
 #[test]
@@ -414,4 +468,65 @@ fn sign_selected_slab_equals_min_max_slab() {
     }
     // Both outcomes occur often enough for the comparison to mean something.
     assert!((2_000..198_000).contains(&hits), "{hits} hits");
+}
+
+/// The wide slab test is the binary one lane by lane: the same entry distance (bits) and the
+/// same answer for each of four boxes, on rays with and without still axes.
+#[test]
+fn slab4_equals_bvh_slab_per_lane() {
+    let mut rng = Pcg::new(23);
+    let grid = |rng: &mut Pcg| (rng.below(9) as f32 - 4.0) * 0.5;
+    let mut hits = 0;
+    for _ in 0..50_000 {
+        let nodes: Vec<BvhNode> = (0..4)
+            .map(|_| {
+                let a = Vec3::new(grid(&mut rng), grid(&mut rng), grid(&mut rng));
+                let b = Vec3::new(grid(&mut rng), grid(&mut rng), grid(&mut rng));
+                BvhNode {
+                    bounds_min: a.min(b).into(),
+                    offset: 0,
+                    bounds_max: a.max(b).into(),
+                    count: 1,
+                }
+            })
+            .collect();
+        // Root 0 with two interior children of two leaves each: one wide node of four slots.
+        let mut tree = vec![nodes[0]; 7];
+        tree[0].count = 0;
+        tree[0].offset = 4;
+        tree[1].count = 0;
+        tree[1].offset = 3;
+        tree[4].count = 0;
+        tree[4].offset = 6;
+        for (slot, &at) in [2usize, 3, 5, 6].iter().enumerate() {
+            tree[at] = nodes[slot];
+        }
+        let wide = WideBvh::collapse(&tree, &[0]);
+        assert_eq!(wide.nodes.len(), 1);
+        let mut dir = Vec3::new(
+            rng.range(-2.0, 2.0),
+            rng.range(-2.0, 2.0),
+            rng.range(-2.0, 2.0),
+        );
+        if rng.below(4) == 0 {
+            dir[rng.below(3) as usize] = 0.0;
+        }
+        let ray = Ray {
+            origin: Vec3::new(grid(&mut rng), grid(&mut rng), grid(&mut rng)),
+            dir,
+        };
+        let (t_min, t_max) = (rng.range(0.0, 0.5), rng.range(0.5, 8.0));
+        let (t_enter, mask) = wide::slab4(&wide.nodes[0], &wide::WideRay::new(&ray), t_min, t_max);
+        let slab = SlabRay::new(&ray);
+        for (slot, node) in nodes.iter().enumerate() {
+            let want = bvh_slab(node, &slab, t_min, t_max).map(|t| (t + 0.0).to_bits());
+            let got = (mask & (1 << slot) != 0).then(|| (t_enter[slot] + 0.0).to_bits());
+            assert_eq!(
+                got, want,
+                "slot {slot}: {node:?} {ray:?} ({t_min}, {t_max})"
+            );
+            hits += want.is_some() as u32;
+        }
+    }
+    assert!((10_000..190_000).contains(&hits), "{hits} hits");
 }

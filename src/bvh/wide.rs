@@ -1,0 +1,379 @@
+//! The CPU integrators' form of the BVH: the binary tree the GPU traverses (`bvh.glsl`),
+//! collapsed into nodes of up to four children whose boxes one ray tests together, four lanes
+//! of one SIMD register per plane.
+//!
+//! The collapse keeps every box and leaf of the binary tree: a wide node's children are the
+//! binary nodes found by opening, from a binary interior node, the interior child of largest
+//! surface area until four are open or only leaves are left (as Embree's and pbrt's collapses
+//! do; Wald et al. 2008, "Getting Rid of Packets"). So the leaves, the triangle order and each
+//! box's slab test are the binary tree's — [`slab4`] is [`super::bvh_slab`] lane by lane, the
+//! same floats — and a ray finds the same closest hit; only the order in which subtrees are
+//! visited differs (nearest entry first, as in the binary traversal), which can change which of
+//! two hits at exactly the same distance is kept. Test `wide_traversal_finds_the_binary_hits`.
+//!
+//! Roots are named by their binary node index ([`Hierarchy`]): the bottom levels and the top
+//! level of `tlas.rs` share one node array, and each root the collapse was given has its own
+//! wide root.
+
+use super::{Hierarchy, Ray, SlabRay, SLAB_SLACK};
+use crate::layout::BvhNode;
+use arrayvec::ArrayVec;
+use glam::{BVec3, Vec4};
+
+/// Children per wide node.
+pub const WIDTH: usize = 4;
+
+/// A child reference that names a leaf: `first triangle | LEAF`, its count beside it.
+const LEAF: u32 = 1 << 31;
+
+/// Up to [`WIDTH`] children: their boxes per axis as four lanes (`bounds[0]` the minima,
+/// `bounds[1]` the maxima), each a wide node's index or a leaf's first triangle with
+/// [`LEAF`] set and its triangle count. Slots past `slots` are unused. Two cache lines.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug)]
+pub struct WideNode {
+    bounds: [[Vec4; 3]; 2],
+    child: [u32; WIDTH],
+    count: [u8; WIDTH],
+    /// Bit s set where slot s is in use (the first `slots` of them).
+    valid: u32,
+}
+
+impl WideNode {
+    const EMPTY: WideNode = WideNode {
+        bounds: [[Vec4::splat(f32::MAX); 3], [Vec4::splat(-f32::MAX); 3]],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
+        valid: 0,
+    };
+
+    /// Slot s as the traversal keeps it.
+    #[inline(always)]
+    fn entry(&self, s: usize) -> Entry {
+        Entry {
+            child: self.child[s],
+            count: self.count[s] as u32,
+        }
+    }
+
+    /// Slot s's box (min, max), as the binary node had it.
+    fn slot_bounds(&self, s: usize) -> ([f32; 3], [f32; 3]) {
+        let [lo, hi] = &self.bounds;
+        (
+            [lo[0][s], lo[1][s], lo[2][s]],
+            [hi[0][s], hi[1][s], hi[2][s]],
+        )
+    }
+}
+
+/// A wide node's slot: its box (min, max) and, for a leaf, its (first triangle, count).
+pub type SlotBox = ([f32; 3], [f32; 3], Option<(u32, u32)>);
+
+/// A subtree to visit: a wide node, or a leaf's triangles.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    child: u32,
+    count: u32,
+}
+
+/// Entries deferred on the traversal stack: at most three per wide node on the path from the
+/// root, and no path is longer than the binary tree's (`MAX_DEPTH`).
+const STACK: usize = (WIDTH - 1) * super::MAX_DEPTH;
+
+/// The binary tree collapsed to [`WideNode`]s, and the wide root of each binary root it was
+/// given.
+#[derive(Clone, Debug, Default)]
+pub struct WideBvh {
+    pub nodes: Vec<WideNode>,
+    /// (binary root, wide root), sorted by binary root.
+    roots: Vec<(u32, u32)>,
+}
+
+impl WideBvh {
+    /// The wide form of the trees rooted at `roots` in `nodes` (the depth-first binary layout of
+    /// `bvh.rs`: an interior node's left child follows it, `offset` is its right child).
+    pub fn collapse(nodes: &[BvhNode], roots: &[u32]) -> WideBvh {
+        let mut wide = WideBvh {
+            nodes: Vec::with_capacity(nodes.len() / 2 + 1),
+            roots: Vec::with_capacity(roots.len()),
+        };
+        for &root in roots {
+            if wide.roots.iter().any(|&(r, _)| r == root) || root as usize >= nodes.len() {
+                continue;
+            }
+            let at = if nodes[root as usize].is_leaf() {
+                // A tree that is one leaf: one wide node holding it.
+                let mut node = WideNode::EMPTY;
+                wide.fill_slot(&mut node, 0, nodes, root);
+                wide.nodes.push(node);
+                wide.nodes.len() as u32 - 1
+            } else {
+                wide.collapse_interior(nodes, root)
+            };
+            wide.roots.push((root, at));
+        }
+        wide.roots.sort_unstable();
+        wide
+    }
+
+    /// The wide node of binary interior node `at`, its subtrees after it depth first.
+    fn collapse_interior(&mut self, nodes: &[BvhNode], at: u32) -> u32 {
+        let children = |i: u32| [i + 1, nodes[i as usize].right_child()];
+        let half_area = |i: u32| {
+            let n = &nodes[i as usize];
+            let d = glam::Vec3::from(n.bounds_max) - glam::Vec3::from(n.bounds_min);
+            d.x * d.y + d.y * d.z + d.z * d.x
+        };
+        // Open the largest interior child until four are open (left-to-right order kept).
+        let mut open = ArrayVec::<u32, WIDTH>::from_iter(children(at));
+        while open.len() < WIDTH {
+            let largest = open
+                .iter()
+                .enumerate()
+                .filter(|&(_, &i)| !nodes[i as usize].is_leaf())
+                .max_by(|a, b| half_area(*a.1).total_cmp(&half_area(*b.1)));
+            let Some((k, &i)) = largest else { break };
+            let [l, r] = children(i);
+            open[k] = l;
+            open.insert(k + 1, r);
+        }
+        let index = self.nodes.len();
+        self.nodes.push(WideNode::EMPTY);
+        let mut node = WideNode::EMPTY;
+        for (s, &i) in open.iter().enumerate() {
+            self.fill_slot(&mut node, s, nodes, i);
+        }
+        self.nodes[index] = node;
+        index as u32
+    }
+
+    /// Slot s of `node` for binary node `i`: its box, and its leaf or its collapsed subtree.
+    fn fill_slot(&mut self, node: &mut WideNode, s: usize, nodes: &[BvhNode], i: u32) {
+        let n = &nodes[i as usize];
+        for a in 0..3 {
+            node.bounds[0][a][s] = n.bounds_min[a];
+            node.bounds[1][a][s] = n.bounds_max[a];
+        }
+        if n.is_leaf() {
+            node.child[s] = n.first_triangle() | LEAF;
+            node.count[s] = n.count as u8;
+        } else {
+            node.child[s] = self.collapse_interior(nodes, i);
+        }
+        node.valid |= 1 << s;
+    }
+
+    /// The wide root of binary root `root` (one the collapse was given).
+    #[inline]
+    fn root(&self, root: u32) -> Option<u32> {
+        match self.roots.as_slice() {
+            [(r, w)] => (*r == root).then_some(*w),
+            roots => roots
+                .binary_search_by_key(&root, |&(r, _)| r)
+                .ok()
+                .map(|k| roots[k].1),
+        }
+    }
+
+    /// Every slot of the wide tree of binary root `root` (for tests).
+    pub fn boxes(&self, root: u32) -> Vec<SlotBox> {
+        let mut out = Vec::new();
+        let mut todo: Vec<u32> = self.root(root).into_iter().collect();
+        while let Some(w) = todo.pop() {
+            let node = &self.nodes[w as usize];
+            for s in (0..WIDTH).filter(|&s| node.valid & (1 << s) != 0) {
+                let (lo, hi) = node.slot_bounds(s);
+                let e = node.entry(s);
+                if e.child & LEAF != 0 {
+                    out.push((lo, hi, Some((e.child & !LEAF, e.count))));
+                } else {
+                    out.push((lo, hi, None));
+                    todo.push(e.child);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A ray prepared for [`slab4`]: [`SlabRay`]'s terms, each splatted across four lanes.
+pub(super) struct WideRay {
+    origin: [Vec4; 3],
+    inv_dir: [Vec4; 3],
+    still: BVec3,
+    moving: bool,
+    negative: [usize; 3],
+}
+
+impl WideRay {
+    pub(super) fn new(ray: &Ray) -> WideRay {
+        let s = SlabRay::new(ray);
+        WideRay {
+            origin: [0, 1, 2].map(|a| Vec4::splat(s.origin[a])),
+            inv_dir: [0, 1, 2].map(|a| Vec4::splat(s.inv_dir[a])),
+            still: s.still,
+            moving: s.moving,
+            negative: s.negative,
+        }
+    }
+}
+
+/// The slab test of a wide node's four boxes at once: per lane, the entry distance and whether
+/// the box overlaps (t_min, t_max) — lane by lane the operations of [`super::bvh_slab`] in the
+/// same order (`Vec4::max`/`min` are the SSE compare-and-select that its `max`/`min` are), so
+/// the same floats and the same answers.
+#[inline(always)]
+pub(super) fn slab4(node: &WideNode, ray: &WideRay, t_min: f32, t_max: f32) -> (Vec4, u32) {
+    let (o, inv) = (&ray.origin, &ray.inv_dir);
+    let (near, far) = if ray.moving {
+        let n = ray.negative;
+        let near = |a: usize| (node.bounds[n[a]][a] - o[a]) * inv[a];
+        let far = |a: usize| (node.bounds[1 - n[a]][a] - o[a]) * inv[a];
+        (
+            near(0).max(near(1)).max(near(2)),
+            far(0).min(far(1)).min(far(2)),
+        )
+    } else {
+        // super::bvh_slab_min_max: a still axis admits every t if the origin lies within the
+        // slab, none otherwise.
+        let axis = |a: usize| {
+            let (lo, hi) = (node.bounds[0][a] - o[a], node.bounds[1][a] - o[a]);
+            let (t0, t1) = (lo * inv[a], hi * inv[a]);
+            if ray.still.test(a) {
+                let outside = lo.max(-hi).cmpgt(Vec4::ZERO);
+                let near = Vec4::select(outside, Vec4::splat(f32::MAX), Vec4::splat(-f32::MAX));
+                (near, -near)
+            } else {
+                (t0.min(t1), t0.max(t1))
+            }
+        };
+        let ((nx, fx), (ny, fy), (nz, fz)) = (axis(0), axis(1), axis(2));
+        (nx.max(ny).max(nz), fx.min(fy).min(fz))
+    };
+    let t_enter = near.max(Vec4::splat(t_min));
+    let t_exit = far.min(Vec4::splat(t_max));
+    let hit = (t_enter - t_enter.abs() * SLAB_SLACK).cmple(t_exit);
+    (t_enter, hit.bitmask() & node.valid)
+}
+
+/// Slots set in `mask`, nearest entry first (ties: lower slot first).
+#[inline(always)]
+fn by_distance(mut mask: u32, t: &[f32; 4]) -> ArrayVec<usize, WIDTH> {
+    let mut order = ArrayVec::<usize, WIDTH>::new();
+    while mask != 0 {
+        let s = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        // Insertion: few entries, mostly in order already.
+        let mut k = order.len();
+        order.push(s);
+        while k > 0 && t[order[k - 1]] > t[s] {
+            order[k] = order[k - 1];
+            k -= 1;
+        }
+        order[k] = s;
+    }
+    order
+}
+
+impl Hierarchy for WideBvh {
+    /// Front to back: of a node's children the ray enters, the nearest is visited next and the
+    /// others deferred with their entry distances, nearest on top.
+    fn traverse_closest(
+        &self,
+        root: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> u32 {
+        let Some(root) = self.root(root) else {
+            return 0;
+        };
+        let ray = WideRay::new(ray);
+        let mut t_far = t_max;
+        let mut boxes = 0;
+        let mut stack = ArrayVec::<(Entry, f32), STACK>::new();
+        let mut at = Entry {
+            child: root,
+            count: 0,
+        };
+        loop {
+            if at.child & LEAF != 0 {
+                if let Some(t) = leaf(at.child & !LEAF, at.count, t_far) {
+                    t_far = t;
+                }
+            } else {
+                let node = &self.nodes[at.child as usize];
+                boxes += node.valid.count_ones();
+                let (t_enter, mask) = slab4(node, &ray, t_min, t_far);
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        at = node.entry(mask.trailing_zeros() as usize);
+                        continue;
+                    }
+                    let t = t_enter.to_array();
+                    let order = by_distance(mask, &t);
+                    for &s in order[1..].iter().rev() {
+                        stack.push((node.entry(s), t[s]));
+                    }
+                    at = node.entry(order[0]);
+                    continue;
+                }
+            }
+            // The next deferred subtree the ray enters before the closest hit so far.
+            loop {
+                let Some((deferred, t_enter)) = stack.pop() else {
+                    return boxes;
+                };
+                if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
+                    at = deferred;
+                    break;
+                }
+            }
+        }
+    }
+
+    fn traverse_any(
+        &self,
+        root: u32,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        mut leaf: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        let Some(root) = self.root(root) else {
+            return false;
+        };
+        let ray = WideRay::new(ray);
+        let mut stack = ArrayVec::<Entry, STACK>::new();
+        let mut at = Entry {
+            child: root,
+            count: 0,
+        };
+        loop {
+            if at.child & LEAF != 0 {
+                if leaf(at.child & !LEAF, at.count) {
+                    return true;
+                }
+            } else {
+                let node = &self.nodes[at.child as usize];
+                let (_, mut mask) = slab4(node, &ray, t_min, t_max);
+                if mask != 0 {
+                    // The lowest slot next, the others deferred.
+                    let s = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        stack.push(node.entry(mask.trailing_zeros() as usize));
+                        mask &= mask - 1;
+                    }
+                    at = node.entry(s);
+                    continue;
+                }
+            }
+            let Some(deferred) = stack.pop() else {
+                return false;
+            };
+            at = deferred;
+        }
+    }
+}
