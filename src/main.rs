@@ -1014,14 +1014,14 @@ fn bench(args: &BenchArgs) -> Result<()> {
 
 /// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
 fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
-    use wavetrace::bvh::{gpu_triangles, Bvh, Ray};
+    use wavetrace::bvh::{closest_triangle, gpu_triangles, Bvh, Ray, WideBvh};
     const RAYS: u32 = 1 << 20;
     println!(
-        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays; cpu = {} threads",
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's walk) and its 4-wide collapse (the CPU's); cpu = {} threads",
         rayon::current_num_threads()
     );
     println!(
-        "{:<32} {:>10} {:>9} {:>8} {:>9} {:>10} {:>9} {:>6} {:>9} {:>10} {:>10} {:>10}",
+        "{:<32} {:>10} {:>9} {:>8} {:>9} {:>10} {:>9} {:>6} {:>9} {:>10} {:>10} {:>10} {:>10} {:>11} {:>12}",
         "scene",
         "triangles",
         "build ms",
@@ -1033,7 +1033,10 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         "SAH cost",
         "boxes/ray",
         "tris/ray",
-        "M rays/s"
+        "M rays/s",
+        "wide ms",
+        "wide boxes",
+        "wide M rays/s"
     );
     let mut rows = Vec::new();
     for path in scenes {
@@ -1072,6 +1075,20 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             })
             .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
         let rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
+        let started = std::time::Instant::now();
+        let wide = WideBvh::collapse(&bvh.nodes, &[0]);
+        let collapse_ms = started.elapsed().as_secs_f64() * 1e3;
+        let started = std::time::Instant::now();
+        let wide_boxes = (0..RAYS)
+            .into_par_iter()
+            .map(|i| {
+                let any = |_, _, _| true;
+                let ray = ray(i);
+                closest_triangle(&wide, 0, &triangles, &ray, 0.0, f32::INFINITY, any).1 as u64
+            })
+            .sum::<u64>() as f64
+            / RAYS as f64;
+        let wide_rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
         let name = path
             .file_name()
             .and_then(|s| s.to_str())
@@ -1081,13 +1098,14 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         let (boxes, tested) = (boxes as f64 / RAYS as f64, tested as f64 / RAYS as f64);
         let per_million = build_ms * 1e6 / positions.len().max(1) as f64;
         println!(
-            "{name:<32} {:>10} {build_ms:>9.1} {:>8.1} {first_ms:>9.1} {per_million:>10.1} {:>9} {:>6} {:>9.2} {boxes:>10.1} {tested:>10.1} {:>10.2}",
+            "{name:<32} {:>10} {build_ms:>9.1} {:>8.1} {first_ms:>9.1} {per_million:>10.1} {:>9} {:>6} {:>9.2} {boxes:>10.1} {tested:>10.1} {:>10.2} {collapse_ms:>10.1} {wide_boxes:>11.1} {:>12.2}",
             positions.len(),
             times[0],
             s.nodes,
             s.max_depth,
             s.sah_cost,
-            rays_per_second * 1e-6
+            rays_per_second * 1e-6,
+            wide_rays_per_second * 1e-6
         );
         rows.push(serde_json::json!({
             "scene": name,
@@ -1103,6 +1121,10 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             "boxes_per_ray": boxes,
             "triangles_per_ray": tested,
             "rays_per_second": rays_per_second,
+            "wide_collapse_ms": collapse_ms,
+            "wide_nodes": wide.nodes.len(),
+            "wide_boxes_per_ray": wide_boxes,
+            "wide_rays_per_second": wide_rays_per_second,
         }));
     }
     if let Some(file) = json {

@@ -256,6 +256,24 @@ pub(super) fn slab4(node: &WideNode, ray: &WideRay, t_min: f32, t_max: f32) -> (
     (t_enter, hit.bitmask() & node.valid)
 }
 
+/// Asks the memory system for the wide node `e` names (both cache lines) before it is visited:
+/// on large scenes most of a walk's time is the wait for a node not in cache.
+#[inline(always)]
+fn prefetch(nodes: &[WideNode], e: Entry) {
+    #[cfg(target_arch = "x86_64")]
+    if e.child & LEAF == 0 {
+        if let Some(node) = nodes.get(e.child as usize) {
+            let at = (node as *const WideNode).cast::<i8>();
+            // SAFETY: prefetching has no effect on memory; both addresses lie in the node.
+            unsafe {
+                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                _mm_prefetch::<_MM_HINT_T0>(at);
+                _mm_prefetch::<_MM_HINT_T0>(at.add(64));
+            }
+        }
+    }
+}
+
 /// Slots set in `mask`, nearest entry first (ties: lower slot first).
 #[inline(always)]
 fn by_distance(mut mask: u32, t: &[f32; 4]) -> ArrayVec<usize, WIDTH> {
@@ -314,6 +332,7 @@ impl Hierarchy for WideBvh {
                     let t = t_enter.to_array();
                     let order = by_distance(mask, &t);
                     for &s in order[1..].iter().rev() {
+                        prefetch(&self.nodes, node.entry(s));
                         stack.push((node.entry(s), t[s]));
                     }
                     at = node.entry(order[0]);
@@ -363,7 +382,9 @@ impl Hierarchy for WideBvh {
                     let s = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     while mask != 0 {
-                        stack.push(node.entry(mask.trailing_zeros() as usize));
+                        let e = node.entry(mask.trailing_zeros() as usize);
+                        prefetch(&self.nodes, e);
+                        stack.push(e);
                         mask &= mask - 1;
                     }
                     at = node.entry(s);
