@@ -210,6 +210,8 @@ pub trait Hierarchy {
     /// Front-to-back walk for the closest hit: `leaf(first, count, t_far)` tests a leaf's
     /// primitives against hits closer than `t_far` and returns the closest it found; subtrees
     /// the ray enters beyond the closest hit so far are skipped. Returns the boxes tested.
+    /// `prefetch_leaf(first, count)` may be called for a leaf the walk will visit, to ask for
+    /// its primitives' memory early ([`wide::prefetch_range`]).
     fn traverse_closest(
         &self,
         root: u32,
@@ -217,6 +219,7 @@ pub trait Hierarchy {
         t_min: f32,
         t_max: f32,
         leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+        prefetch_leaf: impl Fn(u32, u32),
     ) -> u32;
 
     /// Walk until `leaf(first, count)` reports a hit (shadow rays).
@@ -227,6 +230,7 @@ pub trait Hierarchy {
         t_min: f32,
         t_max: f32,
         leaf: impl FnMut(u32, u32) -> bool,
+        prefetch_leaf: impl Fn(u32, u32),
     ) -> bool;
 }
 
@@ -238,6 +242,7 @@ impl Hierarchy for [BvhNode] {
         t_min: f32,
         t_max: f32,
         leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+        _: impl Fn(u32, u32),
     ) -> u32 {
         traverse_closest(self, root, &SlabRay::new(ray), t_min, t_max, leaf)
     }
@@ -249,6 +254,7 @@ impl Hierarchy for [BvhNode] {
         t_min: f32,
         t_max: f32,
         leaf: impl FnMut(u32, u32) -> bool,
+        _: impl Fn(u32, u32),
     ) -> bool {
         traverse_any(self, root, &SlabRay::new(ray), t_min, t_max, leaf)
     }
@@ -267,7 +273,7 @@ pub fn closest_triangle<H: Hierarchy + ?Sized>(
 ) -> (Option<Hit>, u32, u32) {
     let mut closest: Option<Hit> = None;
     let mut tested = 0;
-    let boxes = tree.traverse_closest(root, ray, t_min, t_max, |first, count, t_far| {
+    let leaf = |first, count, t_far| {
         tested += count;
         let mut found = None;
         for i in first..first + count {
@@ -285,7 +291,9 @@ pub fn closest_triangle<H: Hierarchy + ?Sized>(
             }
         }
         found
-    });
+    };
+    let prefetch = |first, count| wide::prefetch_range(triangles, first, count);
+    let boxes = tree.traverse_closest(root, ray, t_min, t_max, leaf, prefetch);
     (closest, boxes, tested)
 }
 
@@ -299,12 +307,14 @@ pub fn any_triangle<H: Hierarchy + ?Sized>(
     t_max: f32,
     accept: impl Fn(u32, f32, f32) -> bool,
 ) -> bool {
-    tree.traverse_any(root, ray, t_min, t_max, |first, count| {
+    let leaf = |first, count| {
         (first..first + count).any(|i| {
             intersect_triangle(&triangles[i as usize], ray, t_min, t_max)
                 .is_some_and(|(_, u, v)| accept(i, u, v))
         })
-    })
+    };
+    let prefetch = |first, count| wide::prefetch_range(triangles, first, count);
+    tree.traverse_any(root, ray, t_min, t_max, leaf, prefetch)
 }
 
 /// A node to visit, as the traversal needs it once its box has been tested (`bvh.glsl`,

@@ -8,6 +8,7 @@
 //! so t is the same in both spaces. A scene with one identity instance (no instancing) skips
 //! the top level: its traversal is exactly the one-level traversal.
 
+use crate::bvh::wide::prefetch_range;
 use crate::bvh::{any_triangle, closest_triangle, Bvh, Hierarchy, Hit, Ray};
 use crate::layout::{BvhNode, GpuInstance, GpuTriangle, INSTANCE_IDENTITY, INSTANCE_MIRRORED};
 use glam::{Mat4, UVec4, Vec3, Vec4};
@@ -138,7 +139,8 @@ pub fn scene_intersect_closest<H: Hierarchy + ?Sized>(
         .map(|h| (h, 0));
     }
     let mut closest: Option<(Hit, u32)> = None;
-    tree.traverse_closest(tlas_root, ray, t_min, t_max, |first, count, t_far| {
+    let prefetch = |first, count| prefetch_range(instances, first, count);
+    let leaf = |first, count, t_far| {
         let mut found = None;
         for k in first..first + count {
             let inst = &instances[k as usize];
@@ -158,7 +160,8 @@ pub fn scene_intersect_closest<H: Hierarchy + ?Sized>(
             }
         }
         found
-    });
+    };
+    tree.traverse_closest(tlas_root, ray, t_min, t_max, leaf, prefetch);
     closest
 }
 
@@ -183,7 +186,7 @@ pub fn scene_intersect_any<H: Hierarchy + ?Sized>(
             accept(i, u, v, 0, ray.dir)
         });
     }
-    tree.traverse_any(tlas_root, ray, t_min, t_max, |first, count| {
+    let leaf = |first, count| {
         (first..first + count).any(|k| {
             let inst = &instances[k as usize];
             let r = object_ray(inst, ray);
@@ -197,5 +200,7 @@ pub fn scene_intersect_any<H: Hierarchy + ?Sized>(
                 |i, u, v| accept(i, u, v, k, r.dir),
             )
         })
-    })
+    };
+    let prefetch = |first, count| prefetch_range(instances, first, count);
+    tree.traverse_any(tlas_root, ray, t_min, t_max, leaf, prefetch)
 }

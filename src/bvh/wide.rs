@@ -163,6 +163,22 @@ impl WideBvh {
         node.valid |= 1 << s;
     }
 
+    /// Prefetches what the slots in `mask` of `node` name: wide nodes here, leaves through
+    /// `prefetch_leaf` (which knows their primitives), so that the misses of the children a
+    /// ray enters overlap.
+    #[inline(always)]
+    fn prefetch(&self, node: &WideNode, mut mask: u32, prefetch_leaf: &impl Fn(u32, u32)) {
+        while mask != 0 {
+            let e = node.entry(mask.trailing_zeros() as usize);
+            if e.child & LEAF != 0 {
+                prefetch_leaf(e.child & !LEAF, e.count);
+            } else {
+                prefetch_range(&self.nodes, e.child, 1);
+            }
+            mask &= mask - 1;
+        }
+    }
+
     /// The wide root of binary root `root` (one the collapse was given).
     #[inline]
     fn root(&self, root: u32) -> Option<u32> {
@@ -256,22 +272,26 @@ pub(super) fn slab4(node: &WideNode, ray: &WideRay, t_min: f32, t_max: f32) -> (
     (t_enter, hit.bitmask() & node.valid)
 }
 
-/// Asks the memory system for the wide node `e` names (both cache lines) before it is visited:
-/// on large scenes most of a walk's time is the wait for a node not in cache.
+/// Asks the memory system for the bytes of `items[first..first + count]` (at most 8 cache
+/// lines) before they are read: on large scenes most of a walk's time is the wait for a node or
+/// a leaf's triangles that are not in cache (`perf`: 40 % of the wide walk on the first load
+/// of a node, 70 % of the triangle test on its first load, 1M-triangle scenes).
 #[inline(always)]
-fn prefetch(nodes: &[WideNode], e: Entry) {
+pub fn prefetch_range<T>(items: &[T], first: u32, count: u32) {
     #[cfg(target_arch = "x86_64")]
-    if e.child & LEAF == 0 {
-        if let Some(node) = nodes.get(e.child as usize) {
-            let at = (node as *const WideNode).cast::<i8>();
-            // SAFETY: prefetching has no effect on memory; both addresses lie in the node.
+    if let Some(range) = items.get(first as usize..(first + count) as usize) {
+        let bytes = std::mem::size_of_val(range).min(8 * 64);
+        let start = range.as_ptr().cast::<i8>();
+        for offset in (0..bytes).step_by(64) {
+            // SAFETY: a prefetch has no effect on memory; the address lies in `range`.
             unsafe {
                 use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                _mm_prefetch::<_MM_HINT_T0>(at);
-                _mm_prefetch::<_MM_HINT_T0>(at.add(64));
+                _mm_prefetch::<_MM_HINT_T0>(start.add(offset));
             }
         }
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (items, first, count);
 }
 
 /// Slots set in `mask`, nearest entry first (ties: lower slot first).
@@ -303,6 +323,7 @@ impl Hierarchy for WideBvh {
         t_min: f32,
         t_max: f32,
         mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+        prefetch_leaf: impl Fn(u32, u32),
     ) -> u32 {
         let Some(root) = self.root(root) else {
             return 0;
@@ -329,10 +350,10 @@ impl Hierarchy for WideBvh {
                         at = node.entry(mask.trailing_zeros() as usize);
                         continue;
                     }
+                    self.prefetch(node, mask, &prefetch_leaf);
                     let t = t_enter.to_array();
                     let order = by_distance(mask, &t);
                     for &s in order[1..].iter().rev() {
-                        prefetch(&self.nodes, node.entry(s));
                         stack.push((node.entry(s), t[s]));
                     }
                     at = node.entry(order[0]);
@@ -359,6 +380,7 @@ impl Hierarchy for WideBvh {
         t_min: f32,
         t_max: f32,
         mut leaf: impl FnMut(u32, u32) -> bool,
+        prefetch_leaf: impl Fn(u32, u32),
     ) -> bool {
         let Some(root) = self.root(root) else {
             return false;
@@ -377,14 +399,15 @@ impl Hierarchy for WideBvh {
             } else {
                 let node = &self.nodes[at.child as usize];
                 let (_, mut mask) = slab4(node, &ray, t_min, t_max);
+                if mask & mask.wrapping_sub(1) != 0 {
+                    self.prefetch(node, mask, &prefetch_leaf);
+                }
                 if mask != 0 {
                     // The lowest slot next, the others deferred.
                     let s = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     while mask != 0 {
-                        let e = node.entry(mask.trailing_zeros() as usize);
-                        prefetch(&self.nodes, e);
-                        stack.push(e);
+                        stack.push(node.entry(mask.trailing_zeros() as usize));
                         mask &= mask - 1;
                     }
                     at = node.entry(s);
