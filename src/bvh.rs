@@ -1,5 +1,7 @@
 //! Bounding volume hierarchy: binned SAH build, depth-first flattening into [`BvhNode`]s, and the
 //! CPU twin of `shaders/inc/bvh.glsl` (closest-hit and any-hit traversal, same maths and names).
+//! The CPU integrators walk the same tree collapsed to four children per node ([`wide`]); both
+//! walks are a [`Hierarchy`], and they find the same hits.
 //!
 //! Build: binned surface area heuristic on the longest centroid axis (Wald 2007, "On fast
 //! Construction of SAH-based Bounding Volume Hierarchies"), a full SAH sweep for ranges of 32 or
