@@ -600,8 +600,11 @@ pub struct BenchArgs {
     #[arg(long)]
     pub wavefront: Option<u32>,
     /// Skip the CPU integrator.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "cpu_only")]
     pub gpu_only: bool,
+    /// Skip the GPU (no Vulkan device is opened): the CPU integrator alone.
+    #[arg(long)]
+    pub cpu_only: bool,
     /// Measure the BVH instead of rendering: each scene's triangles built --builds times (the
     /// median and the best time), the tree's SAH cost, nodes and depth, and what a closest-hit
     /// ray costs in it on the CPU (boxes and triangles tested per ray, M rays/s) for 2^20

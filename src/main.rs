@@ -855,13 +855,17 @@ fn bench(args: &BenchArgs) -> Result<()> {
         integrator: args.integrator.integrator(),
         ..RenderSettings::default()
     };
-    let gpu = GpuRenderer::new(&GpuOptions {
-        device_index: args.gpu_index,
-        validation: false,
-        timing: true,
-        // One atomic addition per invocation and kernel: within the run-to-run spread.
-        count_fetches: true,
-    });
+    let gpu = if args.cpu_only {
+        Err(anyhow::anyhow!("not opened (--cpu-only)"))
+    } else {
+        GpuRenderer::new(&GpuOptions {
+            device_index: args.gpu_index,
+            validation: false,
+            timing: true,
+            // One atomic addition per invocation and kernel: within the run-to-run spread.
+            count_fetches: true,
+        })
+    };
     // Warm-up: the first dispatches of a pipeline include the driver's lazy work.
     if let (Ok(g), Some(first)) = (&gpu, scenes.first()) {
         let (_, prepared) = load(first)?;

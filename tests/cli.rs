@@ -297,3 +297,36 @@ fn compare_tells_agreeing_renders_from_different_ones() {
     assert_eq!(error.status.code(), Some(2));
     assert!(stderr(&error).contains("x.png"), "{}", stderr(&error));
 }
+
+/// `bench --cpu-only` opens no Vulkan device (it runs where there is no driver at all) and
+/// writes CPU rows only, with the JSON fields a later `--baseline` reads.
+#[test]
+fn bench_cpu_only_needs_no_vulkan() {
+    let json = temp("bench-cpu.json");
+    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args([
+            "bench",
+            "--cpu-only",
+            "scenes/leaf.gltf",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "2",
+            "--json",
+        ])
+        .arg(&json)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{doc}");
+    assert_eq!(rows[0]["device"], "cpu");
+    assert!(rows[0]["samples_per_second"].as_f64().unwrap() > 0.0);
+}
