@@ -417,18 +417,27 @@ pub(crate) fn traverse_closest(
                 continue;
             }
         }
-        // Pop the next node the ray enters before the closest hit so far (its entry distance
-        // was found when it was pushed; t_far can only have shrunk since).
-        loop {
-            let Some((deferred, t_enter)) = stack.pop() else {
-                return boxes;
-            };
-            if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
-                at = deferred;
-                break;
-            }
+        match pop_entered(&mut stack, t_far) {
+            Some(deferred) => at = deferred,
+            None => return boxes,
         }
     }
+}
+
+/// Pops the next deferred subtree the ray enters before the closest hit so far, `t_far` (its
+/// entry distance was found when it was pushed; `t_far` can only have shrunk since), dropping
+/// those it does not; `None` when the stack is empty. Both walks' closest-hit stacks.
+#[inline(always)]
+pub(crate) fn pop_entered<E, const N: usize>(
+    stack: &mut ArrayVec<(E, f32), N>,
+    t_far: f32,
+) -> Option<E> {
+    while let Some((deferred, t_enter)) = stack.pop() {
+        if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
+            return Some(deferred);
+        }
+    }
+    None
 }
 
 /// Traversal of the subtree rooted at `root` until `leaf(first, count)` reports a hit (shadow

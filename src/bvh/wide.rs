@@ -15,7 +15,7 @@
 //! level of `tlas.rs` share one node array, and each root the collapse was given has its own
 //! wide root.
 
-use super::{Hierarchy, Ray, SlabRay, SLAB_SLACK};
+use super::{pop_entered, Hierarchy, Ray, SlabRay, SLAB_SLACK};
 use crate::layout::BvhNode;
 use arrayvec::ArrayVec;
 use glam::{BVec3, Vec4};
@@ -360,15 +360,9 @@ impl Hierarchy for WideBvh {
                     continue;
                 }
             }
-            // The next deferred subtree the ray enters before the closest hit so far.
-            loop {
-                let Some((deferred, t_enter)) = stack.pop() else {
-                    return boxes;
-                };
-                if t_enter - t_enter.abs() * SLAB_SLACK <= t_far {
-                    at = deferred;
-                    break;
-                }
+            match pop_entered(&mut stack, t_far) {
+                Some(deferred) => at = deferred,
+                None => return boxes,
             }
         }
     }
