@@ -372,6 +372,27 @@ fn matches_brute_force_on_random_soups() {
 #[test]
 fn empty_input_misses() {
     let bvh = Bvh::build(&[]);
+    // Its wide collapse has no root: both walks miss.
+    let wide = WideBvh::collapse(&bvh.nodes, &[0]);
+    assert!(wide.nodes.is_empty());
+    let ray = Ray {
+        origin: Vec3::ZERO,
+        dir: Vec3::X,
+    };
+    assert!(
+        closest_triangle(&wide, 0, &[], &ray, 0.0, f32::MAX, |_, _, _| true)
+            .0
+            .is_none()
+    );
+    assert!(!any_triangle(
+        &wide,
+        0,
+        &[],
+        &ray,
+        0.0,
+        f32::MAX,
+        |_, _, _| true
+    ));
     validate(&bvh, &[]);
     let ray = Ray {
         origin: Vec3::ZERO,

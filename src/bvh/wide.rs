@@ -2,14 +2,16 @@
 //! collapsed into nodes of up to four children whose boxes one ray tests together, four lanes
 //! of one SIMD register per plane.
 //!
-//! The collapse keeps every box and leaf of the binary tree: a wide node's children are the
-//! binary nodes found by opening, from a binary interior node, the interior child of largest
-//! surface area until four are open or only leaves are left (as Embree's and pbrt's collapses
-//! do; Wald et al. 2008, "Getting Rid of Packets"). So the leaves, the triangle order and each
-//! box's slab test are the binary tree's — [`slab4`] is [`super::bvh_slab`] lane by lane, the
-//! same floats — and a ray finds the same closest hit; only the order in which subtrees are
-//! visited differs (nearest entry first, as in the binary traversal), which can change which of
-//! two hits at exactly the same distance is kept. Test `wide_traversal_finds_the_binary_hits`.
+//! The collapse keeps every leaf of the binary tree and the box of every node it does not open:
+//! a wide node's children are the binary nodes found by opening, from a binary interior node,
+//! the interior child of largest surface area until four are open or only leaves are left (as
+//! Embree's and pbrt's collapses do; Wald et al. 2008, "Getting Rid of Packets"). So the
+//! leaves, the triangle order and each kept box's slab test are the binary tree's — [`slab4`]
+//! is [`super::bvh_slab`] lane by lane, the same floats — and a ray finds the same closest hit;
+//! only the order in which subtrees are visited differs (nearest entry first, as in the binary
+//! traversal), which can change which of two hits at exactly the same distance is kept. Tests
+//! `bvh::tests::matches_brute_force_on_random_soups` and
+//! `instancing::wide_and_binary_walks_find_the_same_hits`.
 //!
 //! Roots are named by their binary node index ([`Hierarchy`]): the bottom levels and the top
 //! level of `tlas.rs` share one node array, and each root the collapse was given has its own
@@ -28,14 +30,15 @@ const LEAF: u32 = 1 << 31;
 
 /// Up to [`WIDTH`] children: their boxes per axis as four lanes (`bounds[0]` the minima,
 /// `bounds[1]` the maxima), each a wide node's index or a leaf's first triangle with
-/// [`LEAF`] set and its triangle count. Slots past `slots` are unused. Two cache lines.
+/// [`LEAF`] set and its triangle count. Slots whose `valid` bit is clear are unused. Two
+/// cache lines.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug)]
 pub struct WideNode {
     bounds: [[Vec4; 3]; 2],
     child: [u32; WIDTH],
     count: [u8; WIDTH],
-    /// Bit s set where slot s is in use (the first `slots` of them).
+    /// Bit s set where slot s is in use (the slots in use come first).
     valid: u32,
 }
 
@@ -98,7 +101,12 @@ impl WideBvh {
             roots: Vec::with_capacity(roots.len()),
         };
         for &root in roots {
-            if wide.roots.iter().any(|&(r, _)| r == root) || root as usize >= nodes.len() {
+            // The tree of no triangles (one node with inverted bounds, `Bvh::is_empty`) has no
+            // wide root: its walks miss.
+            let empty = nodes
+                .get(root as usize)
+                .is_none_or(|n| !n.is_leaf() && n.bounds_min[0] > n.bounds_max[0]);
+            if empty || wide.roots.iter().any(|&(r, _)| r == root) {
                 continue;
             }
             let at = if nodes[root as usize].is_leaf() {
