@@ -28,6 +28,9 @@ pub const WIDTH: usize = 4;
 /// A child reference that names a leaf: `first triangle | LEAF`, its count beside it.
 const LEAF: u32 = 1 << 31;
 
+// A leaf's count is kept in a byte: the build makes no leaf larger than this.
+const _: () = assert!(super::MAX_LEAF_SIZE <= u8::MAX as usize);
+
 /// Up to [`WIDTH`] children: their boxes per axis as four lanes (`bounds[0]` the minima,
 /// `bounds[1]` the maxima), each a wide node's index or a leaf's first triangle with
 /// [`LEAF`] set and its triangle count. Slots whose `valid` bit is clear are unused. Two
