@@ -90,39 +90,13 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        self.intersect_closest_filtered(triangles, ray, t_min, t_max, |_, _, _| true)
-    }
-
-    /// [`intersect_closest`](Bvh::intersect_closest) counting only hits (triangle, u, v) that
-    /// `accept` (the any-hit test: alpha cut-outs and stochastic transparency, `surface.rs`).
-    pub fn intersect_closest_filtered(
-        &self,
-        triangles: &[GpuTriangle],
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        accept: impl Fn(u32, f32, f32) -> bool,
-    ) -> Option<Hit> {
         if self.is_empty() {
             return None;
         }
-        self.intersect_closest_from(0, triangles, ray, t_min, t_max, accept)
-    }
-
-    /// Closest hit in the subtree rooted at node `root` (a bottom-level BVH of the two-level
-    /// structure, `tlas.rs`), whose node and triangle indices are absolute.
-    pub fn intersect_closest_from(
-        &self,
-        root: u32,
-        triangles: &[GpuTriangle],
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        accept: impl Fn(u32, f32, f32) -> bool,
-    ) -> Option<Hit> {
+        let accept = |_, _, _| true;
         closest_triangle(
             self.nodes.as_slice(),
-            root,
+            0,
             triangles,
             ray,
             t_min,
@@ -144,6 +118,7 @@ impl Bvh {
         if self.is_empty() {
             return (0, 0);
         }
+        let accept = |_, _, _| true;
         let (_, boxes, tested) = closest_triangle(
             self.nodes.as_slice(),
             0,
@@ -151,7 +126,7 @@ impl Bvh {
             ray,
             t_min,
             t_max,
-            |_, _, _| true,
+            accept,
         );
         (boxes, tested)
     }
@@ -164,37 +139,13 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
     ) -> bool {
-        self.intersect_any_filtered(triangles, ray, t_min, t_max, |_, _, _| true)
-    }
-
-    /// [`intersect_any`](Bvh::intersect_any) counting only hits that `accept`.
-    pub fn intersect_any_filtered(
-        &self,
-        triangles: &[GpuTriangle],
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        accept: impl Fn(u32, f32, f32) -> bool,
-    ) -> bool {
         if self.is_empty() {
             return false;
         }
-        self.intersect_any_from(0, triangles, ray, t_min, t_max, accept)
-    }
-
-    /// [`intersect_any`](Bvh::intersect_any) in the subtree rooted at node `root`.
-    pub fn intersect_any_from(
-        &self,
-        root: u32,
-        triangles: &[GpuTriangle],
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        accept: impl Fn(u32, f32, f32) -> bool,
-    ) -> bool {
+        let accept = |_, _, _| true;
         any_triangle(
             self.nodes.as_slice(),
-            root,
+            0,
             triangles,
             ray,
             t_min,
@@ -236,6 +187,9 @@ pub trait Hierarchy {
     ) -> bool;
 }
 
+/// The binary walk, twin of `bvh.glsl` (`bvh_step`, `bvh_cursor`), for both levels
+/// (`tlas.rs`). Closest hit: an interior node's nearer child is visited first, the farther
+/// deferred with its entry distance. Any hit: the left child first.
 impl Hierarchy for [BvhNode] {
     fn traverse_closest(
         &self,
@@ -243,10 +197,43 @@ impl Hierarchy for [BvhNode] {
         ray: &Ray,
         t_min: f32,
         t_max: f32,
-        leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+        mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
         _: impl Fn(u32, u32),
     ) -> u32 {
-        traverse_closest(self, root, &SlabRay::new(ray), t_min, t_max, leaf)
+        let (nodes, ray) = (self, &SlabRay::new(ray));
+        let mut t_far = t_max;
+        // Deferred nodes with their entry distances; no deeper than the tree (MAX_DEPTH), and left
+        // uninitialised (zeroing 768 bytes per ray was 1.5 % of a CPU render).
+        let mut stack = ArrayVec::<(Cursor, f32), MAX_DEPTH>::new();
+        let node = &nodes[root as usize];
+        let mut boxes = 1;
+        if bvh_slab(node, ray, t_min, t_far).is_none() {
+            return boxes;
+        }
+        let mut at = cursor(root, node);
+        loop {
+            let [a, b] = at;
+            if b & CURSOR_LEAF != 0 {
+                if let Some(t) = leaf(a, b & !CURSOR_LEAF, t_far) {
+                    t_far = t;
+                }
+            } else {
+                // Descend into the nearer child; keep the farther for later when both are entered.
+                boxes += 2;
+                let (entered, near, far, far_enter) = step(nodes, at, ray, t_min, t_far, true);
+                if entered > 0 {
+                    if entered == 2 {
+                        stack.push((far, far_enter));
+                    }
+                    at = near;
+                    continue;
+                }
+            }
+            match pop_entered(&mut stack, t_far) {
+                Some(deferred) => at = deferred,
+                None => return boxes,
+            }
+        }
     }
 
     fn traverse_any(
@@ -255,10 +242,38 @@ impl Hierarchy for [BvhNode] {
         ray: &Ray,
         t_min: f32,
         t_max: f32,
-        leaf: impl FnMut(u32, u32) -> bool,
+        mut leaf: impl FnMut(u32, u32) -> bool,
         _: impl Fn(u32, u32),
     ) -> bool {
-        traverse_any(self, root, &SlabRay::new(ray), t_min, t_max, leaf)
+        let (nodes, ray) = (self, &SlabRay::new(ray));
+        // As in the closest-hit walk: no deeper than the tree, uninitialised.
+        let mut stack = ArrayVec::<Cursor, MAX_DEPTH>::new();
+        let node = &nodes[root as usize];
+        if bvh_slab(node, ray, t_min, t_max).is_none() {
+            return false;
+        }
+        let mut at = cursor(root, node);
+        loop {
+            let [a, b] = at;
+            if b & CURSOR_LEAF != 0 {
+                if leaf(a, b & !CURSOR_LEAF) {
+                    return true;
+                }
+            } else {
+                let (entered, near, far, _) = step(nodes, at, ray, t_min, t_max, false);
+                if entered > 0 {
+                    if entered == 2 {
+                        stack.push(far);
+                    }
+                    at = near;
+                    continue;
+                }
+            }
+            let Some(deferred) = stack.pop() else {
+                return false;
+            };
+            at = deferred;
+        }
     }
 }
 
@@ -376,54 +391,6 @@ fn step(
     (hit_left as u32 + hit_right as u32, near, far, far_enter)
 }
 
-/// Front-to-back traversal of the subtree rooted at `root` for the closest hit, shared by both
-/// levels (`tlas.rs`): `leaf(first, count, t_far)` tests a leaf's primitives against hits closer
-/// than `t_far` and returns the closest it found; subtrees the ray enters beyond the closest hit
-/// so far are skipped. An interior node's nearer child is visited first, the farther deferred
-/// with its entry distance. Returns how many boxes it tested (the cost `bench --bvh` reports).
-pub(crate) fn traverse_closest(
-    nodes: &[BvhNode],
-    root: u32,
-    ray: &SlabRay,
-    t_min: f32,
-    t_max: f32,
-    mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
-) -> u32 {
-    let mut t_far = t_max;
-    // Deferred nodes with their entry distances; no deeper than the tree (MAX_DEPTH), and left
-    // uninitialised (zeroing 768 bytes per ray was 1.5 % of a CPU render).
-    let mut stack = ArrayVec::<(Cursor, f32), MAX_DEPTH>::new();
-    let node = &nodes[root as usize];
-    let mut boxes = 1;
-    if bvh_slab(node, ray, t_min, t_far).is_none() {
-        return boxes;
-    }
-    let mut at = cursor(root, node);
-    loop {
-        let [a, b] = at;
-        if b & CURSOR_LEAF != 0 {
-            if let Some(t) = leaf(a, b & !CURSOR_LEAF, t_far) {
-                t_far = t;
-            }
-        } else {
-            // Descend into the nearer child; keep the farther for later when both are entered.
-            boxes += 2;
-            let (entered, near, far, far_enter) = step(nodes, at, ray, t_min, t_far, true);
-            if entered > 0 {
-                if entered == 2 {
-                    stack.push((far, far_enter));
-                }
-                at = near;
-                continue;
-            }
-        }
-        match pop_entered(&mut stack, t_far) {
-            Some(deferred) => at = deferred,
-            None => return boxes,
-        }
-    }
-}
-
 /// Pops the next deferred subtree the ray enters before the closest hit so far, `t_far` (its
 /// entry distance was found when it was pushed; `t_far` can only have shrunk since), dropping
 /// those it does not; `None` when the stack is empty. Both walks' closest-hit stacks.
@@ -438,46 +405,6 @@ pub(crate) fn pop_entered<E, const N: usize>(
         }
     }
     None
-}
-
-/// Traversal of the subtree rooted at `root` until `leaf(first, count)` reports a hit (shadow
-/// rays), shared by both levels.
-pub(crate) fn traverse_any(
-    nodes: &[BvhNode],
-    root: u32,
-    ray: &SlabRay,
-    t_min: f32,
-    t_max: f32,
-    mut leaf: impl FnMut(u32, u32) -> bool,
-) -> bool {
-    // As in traverse_closest: no deeper than the tree, uninitialised.
-    let mut stack = ArrayVec::<Cursor, MAX_DEPTH>::new();
-    let node = &nodes[root as usize];
-    if bvh_slab(node, ray, t_min, t_max).is_none() {
-        return false;
-    }
-    let mut at = cursor(root, node);
-    loop {
-        let [a, b] = at;
-        if b & CURSOR_LEAF != 0 {
-            if leaf(a, b & !CURSOR_LEAF) {
-                return true;
-            }
-        } else {
-            let (entered, near, far, _) = step(nodes, at, ray, t_min, t_max, false);
-            if entered > 0 {
-                if entered == 2 {
-                    stack.push(far);
-                }
-                at = near;
-                continue;
-            }
-        }
-        let Some(deferred) = stack.pop() else {
-            return false;
-        };
-        at = deferred;
-    }
 }
 
 /// A ray prepared for slab tests: inverse direction, with axes it does not move along

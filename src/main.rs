@@ -1086,9 +1086,9 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         let wide_boxes = (0..RAYS)
             .into_par_iter()
             .map(|i| {
-                let any = |_, _, _| true;
+                let accept = |_, _, _| true;
                 let ray = ray(i);
-                closest_triangle(&wide, 0, &triangles, &ray, 0.0, f32::INFINITY, any).1 as u64
+                closest_triangle(&wide, 0, &triangles, &ray, 0.0, f32::INFINITY, accept).1 as u64
             })
             .sum::<u64>() as f64
             / RAYS as f64;

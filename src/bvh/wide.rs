@@ -63,6 +63,7 @@ impl WideNode {
     }
 
     /// Slot s's box (min, max), as the binary node had it.
+    #[cfg(test)]
     fn slot_bounds(&self, s: usize) -> ([f32; 3], [f32; 3]) {
         let [lo, hi] = &self.bounds;
         (
@@ -73,7 +74,8 @@ impl WideNode {
 }
 
 /// A wide node's slot: its box (min, max) and, for a leaf, its (first triangle, count).
-pub type SlotBox = ([f32; 3], [f32; 3], Option<(u32, u32)>);
+#[cfg(test)]
+pub(crate) type SlotBox = ([f32; 3], [f32; 3], Option<(u32, u32)>);
 
 /// A subtree to visit: a wide node, or a leaf's triangles.
 #[derive(Clone, Copy, Debug)]
@@ -99,17 +101,21 @@ impl WideBvh {
     /// The wide form of the trees rooted at `roots` in `nodes` (the depth-first binary layout of
     /// `bvh.rs`: an interior node's left child follows it, `offset` is its right child).
     pub fn collapse(nodes: &[BvhNode], roots: &[u32]) -> WideBvh {
+        // Each root once (instances share bottom levels), in order: `root` searches them.
+        let mut distinct = roots.to_vec();
+        distinct.sort_unstable();
+        distinct.dedup();
         let mut wide = WideBvh {
             nodes: Vec::with_capacity(nodes.len() / 2 + 1),
-            roots: Vec::with_capacity(roots.len()),
+            roots: Vec::with_capacity(distinct.len()),
         };
-        for &root in roots {
+        for root in distinct {
             // The tree of no triangles (one node with inverted bounds, `Bvh::is_empty`) has no
             // wide root: its walks miss.
             let empty = nodes
                 .get(root as usize)
                 .is_none_or(|n| !n.is_leaf() && n.bounds_min[0] > n.bounds_max[0]);
-            if empty || wide.roots.iter().any(|&(r, _)| r == root) {
+            if empty {
                 continue;
             }
             let at = if nodes[root as usize].is_leaf() {
@@ -123,7 +129,6 @@ impl WideBvh {
             };
             wide.roots.push((root, at));
         }
-        wide.roots.sort_unstable();
         wide
     }
 
@@ -203,7 +208,8 @@ impl WideBvh {
     }
 
     /// Every slot of the wide tree of binary root `root` (for tests).
-    pub fn boxes(&self, root: u32) -> Vec<SlotBox> {
+    #[cfg(test)]
+    pub(crate) fn boxes(&self, root: u32) -> Vec<SlotBox> {
         let mut out = Vec::new();
         let mut todo: Vec<u32> = self.root(root).into_iter().collect();
         while let Some(w) = todo.pop() {
