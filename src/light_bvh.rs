@@ -620,8 +620,10 @@ fn light_bvh_walk(nodes: &[GpuLightNode], p: Vec3, n: Vec3, choice: Choice) -> O
     let by_trail = matches!(choice, Choice::Trail(_));
     let mut index = 0usize;
     let mut pmf = 1.0f32;
+    // The node at `index`: below the root, the child taken at its parent's level (the GLSL twin
+    // so fetches each node of the path once).
+    let mut node = &nodes[0];
     for _ in 0..=MAX_LIGHT_BVH_DEPTH {
-        let node = &nodes[index];
         if node.is_leaf() {
             if index == 0 && light_bounds_importance(node, p, n) <= 0.0 {
                 return None;
@@ -629,8 +631,9 @@ fn light_bvh_walk(nodes: &[GpuLightNode], p: Vec3, n: Vec3, choice: Choice) -> O
             return Some((node.child_or_light, pmf));
         }
         let second = node.child_or_light as usize;
-        let c0 = light_bounds_importance(&nodes[index + 1], p, n);
-        let c1 = light_bounds_importance(&nodes[second], p, n);
+        let (child0, child1) = (&nodes[index + 1], &nodes[second]);
+        let c0 = light_bounds_importance(child0, p, n);
+        let c1 = light_bounds_importance(child1, p, n);
         let sum = c0 + c1;
         if sum.is_nan() || sum <= 0.0 {
             return None;
@@ -641,11 +644,13 @@ fn light_bvh_walk(nodes: &[GpuLightNode], p: Vec3, n: Vec3, choice: Choice) -> O
             pmf *= p0;
             u = (u / p0).min(ONE_MINUS_EPSILON);
             index += 1;
+            node = child0;
         } else {
             let p1 = c1 / sum;
             pmf *= p1;
             u = ((u - p0) / p1).min(ONE_MINUS_EPSILON);
             index = second;
+            node = child1;
         }
         trail >>= 1;
     }

@@ -105,8 +105,10 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
     u = clamp(u, 0.0, ONE_MINUS_EPSILON);
     uint index = 0u;
     float prob = 1.0;
+    // The node at `index`: below the root, the child record read at its parent's level, so no
+    // node on the path is fetched twice (64 bytes, four texels, per level saved).
+    GpuLightNode node = light_node_at(0u);
     for (uint depth = 0u; depth <= MAX_LIGHT_BVH_DEPTH; depth++) {
-        GpuLightNode node = light_node_at(index);
         if (light_node_is_leaf(node)) {
             if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return false;
             light = node.child_or_light;
@@ -114,8 +116,10 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
             return true;
         }
         uint second = node.child_or_light;
-        float c0 = light_bounds_importance(light_node_at(index + 1u), p, n);
-        float c1 = light_bounds_importance(light_node_at(second), p, n);
+        GpuLightNode child0 = light_node_at(index + 1u);
+        GpuLightNode child1 = light_node_at(second);
+        float c0 = light_bounds_importance(child0, p, n);
+        float c1 = light_bounds_importance(child1, p, n);
         float sum = c0 + c1;
         if (!(sum > 0.0)) return false;
         float p0 = c0 / sum;
@@ -124,11 +128,13 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
             prob *= p0;
             u = min(u / p0, ONE_MINUS_EPSILON);
             index += 1u;
+            node = child0;
         } else {
             float p1 = c1 / sum;
             prob *= p1;
             u = min((u - p0) / p1, ONE_MINUS_EPSILON);
             index = second;
+            node = child1;
         }
         trail >>= 1u;
     }
