@@ -93,7 +93,7 @@ bool bdpt_sample_light_vertex(uint pixel, uint sample_index, float u, vec2 u_poi
     GpuTriangle tri = triangle_at(entry.triangle);
     vec2 b = sample_uniform_triangle(u_point);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, ALPHA_CONNECT - 1u, true);
-    if (!triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))) return false;
+    if (!triangle_present(tri, entry.triangle, b.x, b.y, key, vec3(0.0))) return false;
     float p_a = pmf / tri.area;
     v = bdpt_endpoint(BDPT_VERTEX_AREA_LIGHT, tri.p0 + b.x * tri.e1 + b.y * tri.e2,
                       normalize(cross(tri.e1, tri.e2)), vec3(1.0 / p_a), p_a, entry.triangle);

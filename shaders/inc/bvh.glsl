@@ -17,9 +17,9 @@
 
 // The any-hit test: a kernel that defines BVH_ANY_HIT (and includes surface.glsl) honours
 // alpha cut-outs and stochastic transparency (surface.rs); others accept every hit.
-bool bvh_accept(uint i, float u, float v, uvec4 key, vec3 dir) {
+bool bvh_accept(GpuTriangle tri, uint i, float u, float v, uvec4 key, vec3 dir) {
 #ifdef BVH_ANY_HIT
-    return triangle_present(i, u, v, key, dir);
+    return triangle_present(tri, i, u, v, key, dir);
 #else
     return true;
 #endif
@@ -169,7 +169,7 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
                 GpuTriangle tri = triangle_at(i);
                 // The top two material bits say whether the hit needs an any-hit test.
                 if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) {
+                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) {
                     t_far = t;
                     hit.t = t;
                     hit.triangle = i;
@@ -248,7 +248,7 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
                 float t, u, v;
                 GpuTriangle tri = triangle_at(i);
                 if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(i, u, v, key, dir))) return true;
+                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) return true;
             }
         }
         if (sp == 0u) return false;

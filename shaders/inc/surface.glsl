@@ -242,11 +242,10 @@ bool culled(uvec4 key, vec3 dir, vec3 n) {
     return key.z == ALPHA_KEY_PRIMARY_Z && facing > 0.0;
 }
 
-// The any-hit test of both traversals: whether triangle `index` exists at (u, v) for the ray of
-// direction dir (triangle space): not where a TRIANGLE_TEST_CULL triangle is culled, alpha-
-// tested ones by their alpha.
-bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
-    GpuTriangle tri = triangle_at(index);
+// The any-hit test of both traversals: whether triangle `index` (its record `tri`, which the
+// caller has read) exists at (u, v) for the ray of direction dir (triangle space): not where a
+// TRIANGLE_TEST_CULL triangle is culled, alpha-tested ones by their alpha.
+bool triangle_present(GpuTriangle tri, uint index, float u, float v, uvec4 key, vec3 dir) {
     if ((tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL)) == 0u) return true;
     if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, cross(tri.e1, tri.e2))) return false;
     if ((tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
@@ -256,6 +255,11 @@ bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
     float alpha = m.alpha * sp.color.w;
     if (m.base_color_texture != NO_TEXTURE) alpha *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, LOD_MAGNIFY).w;
     return alpha_present(m.flags, alpha, m.alpha_cutoff, alpha_random(key, index));
+}
+
+// triangle_present for a triangle whose record the caller has not read.
+bool triangle_present(uint index, float u, float v, uvec4 key, vec3 dir) {
+    return triangle_present(triangle_at(index), index, u, v, key, dir);
 }
 
 #endif

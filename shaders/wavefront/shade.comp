@@ -106,7 +106,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     SurfacePoint light_sp = surface_point(light, triangle_vertices_at(entry.triangle), b.x, b.y);
     GpuMaterial light_mat = surface_emitter(material_at(triangle_material(light)), light_sp, LOD_MAGNIFY);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
-    ls.radiance = triangle_present(entry.triangle, b.x, b.y, key, vec3(0.0))
+    ls.radiance = triangle_present(light, entry.triangle, b.x, b.y, key, vec3(0.0))
         ? emitted_radiance(light_mat, cos_light) : vec3(0.0);
     // The shadow ray ends just off the light's surface, on the side it leaves towards p.
     ls.has_target = true;
