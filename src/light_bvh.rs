@@ -154,8 +154,11 @@ pub struct GpuLightNode {
     pub child_or_light: u32,
     /// [`LIGHT_NODE_LEAF`] | [`LIGHT_NODE_TWO_SIDED`].
     pub flags: u32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// Half the length of the box's diagonal: the radius of its bounding sphere (a constant of
+    /// the node, computed once instead of at every importance).
+    pub radius: f32,
+    /// sin θo = √max(0, 1 − cos²θo), likewise.
+    pub sin_theta_o: f32,
 }
 
 impl GpuLightNode {
@@ -170,8 +173,8 @@ impl GpuLightNode {
             child_or_light,
             flags: if leaf { LIGHT_NODE_LEAF } else { 0 }
                 | if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
-            pad0: 0,
-            pad1: 0,
+            radius: (b.bounds_max - b.bounds_min).length() * 0.5,
+            sin_theta_o: safe_sqrt(1.0 - b.cos_theta_o * b.cos_theta_o),
         }
     }
 
@@ -248,7 +251,7 @@ pub fn light_bounds_importance_terms(node: &GpuLightNode, p: Vec3, n: Vec3) -> I
     let bmin = Vec3::from(node.bounds_min);
     let bmax = Vec3::from(node.bounds_max);
     let pc = (bmin + bmax) * 0.5;
-    let radius = (bmax - bmin).length() * 0.5;
+    let radius = node.radius;
     let radius_squared = radius * radius;
     let to_p = p - pc;
     let distance_squared = to_p.dot(to_p);
@@ -279,7 +282,7 @@ pub fn light_bounds_importance_terms(node: &GpuLightNode, p: Vec3, n: Vec3) -> I
     let sin_theta_b = safe_sqrt(1.0 - cos_theta_b * cos_theta_b);
 
     let cos_theta_o = node.cos_theta_o;
-    let sin_theta_o = safe_sqrt(1.0 - cos_theta_o * cos_theta_o);
+    let sin_theta_o = node.sin_theta_o;
     let cos_theta_x = cos_sub_clamped(sin_theta_w, cos_theta_w, sin_theta_o, cos_theta_o);
     let sin_theta_x = sin_sub_clamped(sin_theta_w, cos_theta_w, sin_theta_o, cos_theta_o);
     let cos_theta_p = cos_sub_clamped(sin_theta_x, cos_theta_x, sin_theta_b, cos_theta_b);

@@ -272,8 +272,8 @@ fn gpu_light_node_layout_matches_glsl() {
         ("cos_theta_e", offset_of!(GpuLightNode, cos_theta_e)),
         ("child_or_light", offset_of!(GpuLightNode, child_or_light)),
         ("flags", offset_of!(GpuLightNode, flags)),
-        ("pad0", offset_of!(GpuLightNode, pad0)),
-        ("pad1", offset_of!(GpuLightNode, pad1)),
+        ("radius", offset_of!(GpuLightNode, radius)),
+        ("sin_theta_o", offset_of!(GpuLightNode, sin_theta_o)),
     ]
     .into_iter()
     .map(|(n, o)| (n.to_string(), o))

@@ -27,8 +27,8 @@ struct GpuLightNode {
     float cos_theta_e;    // 4 bytes: emission within θe of a normal
     uint child_or_light;  // 4 bytes: interior: second child (first = this + 1); leaf: light index
     uint flags;           // 4 bytes: LIGHT_NODE_LEAF | LIGHT_NODE_TWO_SIDED
-    uint pad0;
-    uint pad1;
+    float radius;         // 4 bytes: half the box's diagonal (its bounding sphere's radius)
+    float sin_theta_o;    // 4 bytes: sqrt(max(0, 1 - cos_theta_o^2))
 };
 
 #define LIGHT_NODE_LEAF 1u
@@ -64,8 +64,8 @@ float light_bvh_safe_sqrt(float x) { return sqrt(max(x, 0.0)); }
 // src/light_bvh.rs for the terms.
 float light_bounds_importance(GpuLightNode node, vec3 p, vec3 n) {
     vec3 pc = (node.bounds_min + node.bounds_max) * 0.5;
-    vec3 diagonal = node.bounds_max - node.bounds_min;
-    float radius = sqrt(dot(diagonal, diagonal)) * 0.5;
+    // The node's constants (radius, sin θo) come with it from the build (src/light_bvh.rs).
+    float radius = node.radius;
     float radius_squared = radius * radius;
     vec3 to_p = p - pc;
     float distance_squared = dot(to_p, to_p);
@@ -82,7 +82,7 @@ float light_bounds_importance(GpuLightNode node, vec3 p, vec3 n) {
     float sin_theta_b = light_bvh_safe_sqrt(1.0 - cos_theta_b * cos_theta_b);
 
     float cos_theta_o = node.cos_theta_o;
-    float sin_theta_o = light_bvh_safe_sqrt(1.0 - cos_theta_o * cos_theta_o);
+    float sin_theta_o = node.sin_theta_o;
     float cos_theta_x = cos_sub_clamped(sin_theta_w, cos_theta_w, sin_theta_o, cos_theta_o);
     float sin_theta_x = sin_sub_clamped(sin_theta_w, cos_theta_w, sin_theta_o, cos_theta_o);
     float cos_theta_p = cos_sub_clamped(sin_theta_x, cos_theta_x, sin_theta_b, cos_theta_b);

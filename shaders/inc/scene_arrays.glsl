@@ -74,8 +74,8 @@ GpuLightNode light_node_image_at(uint i) {
     node.cos_theta_e = uintBitsToFloat(c.w);
     node.child_or_light = d.x;
     node.flags = d.y;
-    node.pad0 = d.z;
-    node.pad1 = d.w;
+    node.radius = uintBitsToFloat(d.z);
+    node.sin_theta_o = uintBitsToFloat(d.w);
     return node;
 }
 
