@@ -543,3 +543,27 @@ fn light_bvh_build_statistics() {
         dead / points as f64
     );
 }
+
+/// Every node's stored constants are its own bounds' (the importance reads them instead of
+/// computing them): the bounding sphere's radius, half the box's diagonal, and sin θo, bit for
+/// bit, on random trees and on the single-leaf tree.
+#[test]
+fn node_constants_are_their_bounds() {
+    for (count, seed) in [(1, 0), (2, 1), (40, 2), (300, 3)] {
+        let (_, lights) = random_scene(count, seed);
+        for (k, node) in LightBvh::build(&lights).nodes.iter().enumerate() {
+            let diagonal = Vec3::from(node.bounds_max) - Vec3::from(node.bounds_min);
+            let sin_theta_o = (1.0 - node.cos_theta_o * node.cos_theta_o).max(0.0).sqrt();
+            assert_eq!(
+                node.radius.to_bits(),
+                (diagonal.length() * 0.5).to_bits(),
+                "node {k} of {count}: radius"
+            );
+            assert_eq!(
+                node.sin_theta_o.to_bits(),
+                sin_theta_o.to_bits(),
+                "node {k} of {count}: sin θo"
+            );
+        }
+    }
+}
