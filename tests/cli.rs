@@ -330,3 +330,42 @@ fn bench_cpu_only_needs_no_vulkan() {
     assert_eq!(rows[0]["device"], "cpu");
     assert!(rows[0]["samples_per_second"].as_f64().unwrap() > 0.0);
 }
+
+/// `tools/ab_bench.py` runs two builds' benches in pairs of alternating order and tables the
+/// pair ratios; a build against itself gives one CPU row per scene (skipped without python3).
+#[test]
+fn ab_bench_tables_a_build_against_itself() {
+    let bin = env!("CARGO_BIN_EXE_wavetrace");
+    let o = Command::new("python3")
+        .args(["tools/ab_bench.py", bin, bin, "--pairs", "2", "--cpu-only"])
+        .args([
+            "scenes/leaf.gltf",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "2",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output();
+    let Ok(o) = o else {
+        eprintln!("skipping: python3 is not installed");
+        return;
+    };
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("2 pairs in ABBA order"), "{out}");
+    let rows: Vec<&str> = out.lines().filter(|l| l.starts_with("| leaf |")).collect();
+    assert_eq!(rows.len(), 1, "{out}");
+    assert!(rows[0].starts_with("| leaf | cpu | "), "{out}");
+    // A scene that does not load is the bench's error, passed on with a non-zero exit.
+    let o = Command::new("python3")
+        .args(["tools/ab_bench.py", bin, bin, "--pairs", "1", "--cpu-only"])
+        .arg("scenes/no-such-scene.gltf")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no-such-scene.gltf"), "{}", stderr(&o));
+}
