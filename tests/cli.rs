@@ -298,24 +298,26 @@ fn compare_tells_agreeing_renders_from_different_ones() {
     assert!(stderr(&error).contains("x.png"), "{}", stderr(&error));
 }
 
+/// A bench of the smallest committed scene at a size that takes milliseconds.
+const TINY_LEAF_BENCH: [&str; 7] = [
+    "scenes/leaf.gltf",
+    "--width",
+    "16",
+    "--height",
+    "16",
+    "--spp",
+    "2",
+];
+
 /// `bench --cpu-only` opens no Vulkan device (it runs where there is no driver at all) and
 /// writes CPU rows only, with the JSON fields a later `--baseline` reads.
 #[test]
 fn bench_cpu_only_needs_no_vulkan() {
     let json = temp("bench-cpu.json");
     let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-        .args([
-            "bench",
-            "--cpu-only",
-            "scenes/leaf.gltf",
-            "--width",
-            "16",
-            "--height",
-            "16",
-            "--spp",
-            "2",
-            "--json",
-        ])
+        .args(["bench", "--cpu-only"])
+        .args(TINY_LEAF_BENCH)
+        .arg("--json")
         .arg(&json)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
@@ -338,15 +340,7 @@ fn ab_bench_tables_a_build_against_itself() {
     let bin = env!("CARGO_BIN_EXE_wavetrace");
     let o = Command::new("python3")
         .args(["tools/ab_bench.py", bin, bin, "--pairs", "2", "--cpu-only"])
-        .args([
-            "scenes/leaf.gltf",
-            "--width",
-            "16",
-            "--height",
-            "16",
-            "--spp",
-            "2",
-        ])
+        .args(TINY_LEAF_BENCH)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output();
     let Ok(o) = o else {

@@ -23,6 +23,10 @@ import sys
 import tempfile
 
 
+# The kernels tabled, extend first: the others are shown against it as well.
+KERNELS = ("extend", "shade", "connect")
+
+
 def bench(binary, bench_args, out):
     cmd = [binary, "bench", "--json", out, *bench_args]
     done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -60,8 +64,9 @@ def main():
                     row_b["samples_per_second"] / row_a["samples_per_second"])
                 for name, row in (("a", row_a), ("b", row_b)):
                     kernel_ms = row.get("kernel_ms") or {}
-                    for kernel, ms in kernel_ms.items():
-                        kernels.setdefault((key, name, kernel), []).append(ms)
+                    for kernel in KERNELS:
+                        if kernel in kernel_ms:
+                            kernels.setdefault((key, name, kernel), []).append(kernel_ms[kernel])
             print(f"pair {p + 1} of {args.pairs} done", file=sys.stderr)
 
     print(f"B = {args.b} against A = {args.a}: {args.pairs} pairs in ABBA order\n")
@@ -69,7 +74,7 @@ def main():
     print("|---|---|---|---|")
     for (scene, device), r in sorted(ratios.items()):
         parts = []
-        names = [k for k in ("extend", "shade", "connect")
+        names = [k for k in KERNELS
                  if ((scene, device), "a", k) in kernels and ((scene, device), "b", k) in kernels]
         extend = {n: statistics.median(kernels.get(((scene, device), n, "extend"), [0]))
                   for n in ("a", "b")}
