@@ -545,9 +545,11 @@ pub fn gpu_triangles(
 }
 
 mod build;
+pub mod quantized;
 pub mod wide;
 
 pub use build::sah_cost;
+pub use quantized::QuantNode;
 pub use wide::{WideBvh, WideNode};
 
 #[cfg(test)]

@@ -1021,11 +1021,11 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
     use wavetrace::bvh::{closest_triangle, gpu_triangles, Bvh, Ray, WideBvh};
     const RAYS: u32 = 1 << 20;
     println!(
-        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's walk) and its 4-wide collapse (the CPU's); cpu = {} threads",
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's walk), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane; cpu = {} threads",
         rayon::current_num_threads()
     );
     println!(
-        "{:<32} {:>10} {:>9} {:>8} {:>9} {:>10} {:>9} {:>6} {:>9} {:>10} {:>10} {:>10} {:>10} {:>11} {:>12}",
+        "{:<32} {:>10} {:>9} {:>8} {:>9} {:>10} {:>9} {:>6} {:>9} {:>10} {:>10} {:>10} {:>10} {:>11} {:>12} {:>11} {:>12}",
         "scene",
         "triangles",
         "build ms",
@@ -1040,7 +1040,9 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         "M rays/s",
         "wide ms",
         "wide boxes",
-        "wide M rays/s"
+        "wide M rays/s",
+        "quant boxes",
+        "quant M rays/s"
     );
     let mut rows = Vec::new();
     for path in scenes {
@@ -1093,6 +1095,18 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             .sum::<u64>() as f64
             / RAYS as f64;
         let wide_rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
+        let quant = wide.quantized();
+        let started = std::time::Instant::now();
+        let quant_boxes = (0..RAYS)
+            .into_par_iter()
+            .map(|i| {
+                let accept = |_, _, _| true;
+                let ray = ray(i);
+                closest_triangle(&quant, 0, &triangles, &ray, 0.0, f32::INFINITY, accept).1 as u64
+            })
+            .sum::<u64>() as f64
+            / RAYS as f64;
+        let quant_rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
         let name = path
             .file_name()
             .and_then(|s| s.to_str())
@@ -1102,14 +1116,15 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         let (boxes, tested) = (boxes as f64 / RAYS as f64, tested as f64 / RAYS as f64);
         let per_million = build_ms * 1e6 / positions.len().max(1) as f64;
         println!(
-            "{name:<32} {:>10} {build_ms:>9.1} {:>8.1} {first_ms:>9.1} {per_million:>10.1} {:>9} {:>6} {:>9.2} {boxes:>10.1} {tested:>10.1} {:>10.2} {collapse_ms:>10.1} {wide_boxes:>11.1} {:>12.2}",
+            "{name:<32} {:>10} {build_ms:>9.1} {:>8.1} {first_ms:>9.1} {per_million:>10.1} {:>9} {:>6} {:>9.2} {boxes:>10.1} {tested:>10.1} {:>10.2} {collapse_ms:>10.1} {wide_boxes:>11.1} {:>12.2} {quant_boxes:>11.1} {:>12.2}",
             positions.len(),
             times[0],
             s.nodes,
             s.max_depth,
             s.sah_cost,
             rays_per_second * 1e-6,
-            wide_rays_per_second * 1e-6
+            wide_rays_per_second * 1e-6,
+            quant_rays_per_second * 1e-6
         );
         rows.push(serde_json::json!({
             "scene": name,
@@ -1129,6 +1144,8 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             "wide_nodes": wide.nodes.len(),
             "wide_boxes_per_ray": wide_boxes,
             "wide_rays_per_second": wide_rays_per_second,
+            "quantized_boxes_per_ray": quant_boxes,
+            "quantized_rays_per_second": quant_rays_per_second,
         }));
     }
     if let Some(file) = json {

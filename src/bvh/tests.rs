@@ -248,6 +248,7 @@ fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
     validate(&bvh, tris);
     let wide = WideBvh::collapse(&bvh.nodes, &[0]);
     validate_wide(&bvh, &wide);
+    let quant = wide.quantized();
     let gpu = gpu_triangles(tris, &[], &bvh.order);
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for p in tris.iter().flatten() {
@@ -270,6 +271,12 @@ fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
         match (wide_hit, got) {
             (Some(w), Some(g)) if w.triangle != g.triangle => assert_eq!(w.t, g.t),
             _ => assert_eq!(wide_hit, got, "wide: {ray:?} ({t_min}, {t_max})"),
+        }
+        // So does the walk of its quantised boxes, which contain the binary tree's.
+        let (quant_hit, ..) = closest_triangle(&quant, 0, &gpu, &ray, t_min, t_max, |_, _, _| true);
+        match (quant_hit, got) {
+            (Some(q), Some(g)) if q.triangle != g.triangle => assert_eq!(q.t, g.t),
+            _ => assert_eq!(quant_hit, got, "quantised: {ray:?} ({t_min}, {t_max})"),
         }
         match (got, want) {
             (None, None) => {}
@@ -296,6 +303,11 @@ fn check(tris: &[[Vec3; 3]], rays: usize, seed: u64) -> (Bvh, usize) {
             any_triangle(&wide, 0, &gpu, &ray, t_min, t_max, |_, _, _| true),
             brute_any(&gpu, &ray, t_min, t_max),
             "wide: {ray:?} ({t_min}, {t_max})"
+        );
+        assert_eq!(
+            any_triangle(&quant, 0, &gpu, &ray, t_min, t_max, |_, _, _| true),
+            brute_any(&gpu, &ray, t_min, t_max),
+            "quantised: {ray:?} ({t_min}, {t_max})"
         );
     }
     (bvh, hits)

@@ -45,6 +45,32 @@ pub struct WideNode {
     valid: u32,
 }
 
+/// What the wide walk reads of a node: its slots' boxes per axis as four lanes (`[0]` the
+/// minima, `[1]` the maxima), which slots are in use, and what each names. [`WideNode`] keeps
+/// the binary tree's boxes; [`super::quantized::QuantNode`] keeps them in a byte per plane.
+pub trait WideSlots: Copy + Send + Sync {
+    fn bounds(&self) -> [[Vec4; 3]; 2];
+    fn valid(&self) -> u32;
+    fn entry(&self, s: usize) -> Entry;
+}
+
+impl WideSlots for WideNode {
+    #[inline(always)]
+    fn bounds(&self) -> [[Vec4; 3]; 2] {
+        self.bounds
+    }
+
+    #[inline(always)]
+    fn valid(&self) -> u32 {
+        self.valid
+    }
+
+    #[inline(always)]
+    fn entry(&self, s: usize) -> Entry {
+        WideNode::entry(self, s)
+    }
+}
+
 impl WideNode {
     const EMPTY: WideNode = WideNode {
         bounds: [[Vec4::splat(f32::MAX); 3], [Vec4::splat(-f32::MAX); 3]],
@@ -62,15 +88,42 @@ impl WideNode {
         }
     }
 
-    /// Slot s's box (min, max), as the binary node had it.
-    #[cfg(test)]
-    fn slot_bounds(&self, s: usize) -> ([f32; 3], [f32; 3]) {
-        let [lo, hi] = &self.bounds;
-        (
-            [lo[0][s], lo[1][s], lo[2][s]],
-            [hi[0][s], hi[1][s], hi[2][s]],
-        )
+    /// The slots' boxes, what they name and which are in use (for the quantised form).
+    pub(super) fn parts(&self) -> (&[[Vec4; 3]; 2], [u32; WIDTH], [u8; WIDTH], u32) {
+        (&self.bounds, self.child, self.count, self.valid)
     }
+}
+
+#[cfg(test)]
+impl WideNode {
+    /// A node of `slots` one-triangle leaves with the boxes `bounds(s)` gives (for tests).
+    pub(crate) fn test_node(
+        slots: usize,
+        bounds: impl Fn(usize) -> ([f32; 3], [f32; 3]),
+    ) -> WideNode {
+        let mut node = WideNode::EMPTY;
+        for s in 0..slots {
+            let (lo, hi) = bounds(s);
+            for a in 0..3 {
+                node.bounds[0][a][s] = lo[a];
+                node.bounds[1][a][s] = hi[a];
+            }
+            node.child[s] = s as u32 | LEAF;
+            node.count[s] = 1;
+            node.valid |= 1 << s;
+        }
+        node
+    }
+}
+
+/// Slot s's box (min, max) of `bounds` as [`WideSlots::bounds`] gives them.
+#[cfg(test)]
+fn slot_bounds(bounds: &[[Vec4; 3]; 2], s: usize) -> ([f32; 3], [f32; 3]) {
+    let [lo, hi] = bounds;
+    (
+        [lo[0][s], lo[1][s], lo[2][s]],
+        [hi[0][s], hi[1][s], hi[2][s]],
+    )
 }
 
 /// A wide node's slot: its box (min, max) and, for a leaf, its (first triangle, count).
@@ -79,25 +132,46 @@ pub(crate) type SlotBox = ([f32; 3], [f32; 3], Option<(u32, u32)>);
 
 /// A subtree to visit: a wide node, or a leaf's triangles.
 #[derive(Clone, Copy, Debug)]
-struct Entry {
+pub struct Entry {
     child: u32,
     count: u32,
+}
+
+impl Entry {
+    pub(super) fn new(child: u32, count: u32) -> Entry {
+        Entry { child, count }
+    }
 }
 
 /// Entries deferred on the traversal stack: at most three per wide node on the path from the
 /// root, and no path is longer than the binary tree's (`MAX_DEPTH`).
 const STACK: usize = (WIDTH - 1) * super::MAX_DEPTH;
 
-/// The binary tree collapsed to [`WideNode`]s, and the wide root of each binary root it was
-/// given.
+/// The binary tree collapsed to [`WideNode`]s (or their quantised form), and the wide root of
+/// each binary root it was given.
 #[derive(Clone, Debug, Default)]
-pub struct WideBvh {
-    pub nodes: Vec<WideNode>,
+pub struct WideBvh<N = WideNode> {
+    pub nodes: Vec<N>,
     /// (binary root, wide root), sorted by binary root.
     roots: Vec<(u32, u32)>,
 }
 
-impl WideBvh {
+impl<N> WideBvh<N> {
+    /// The same tree with every node mapped by `f` (node indices and roots unchanged).
+    pub(super) fn map<M>(&self, f: impl Fn(&N) -> M + Sync + Send) -> WideBvh<M>
+    where
+        N: Sync,
+        M: Send,
+    {
+        use rayon::prelude::*;
+        WideBvh {
+            nodes: self.nodes.par_iter().map(f).collect(),
+            roots: self.roots.clone(),
+        }
+    }
+}
+
+impl WideBvh<WideNode> {
     /// The wide form of the trees rooted at `roots` in `nodes` (the depth-first binary layout of
     /// `bvh.rs`: an interior node's left child follows it, `offset` is its right child).
     pub fn collapse(nodes: &[BvhNode], roots: &[u32]) -> WideBvh {
@@ -178,12 +252,14 @@ impl WideBvh {
         }
         node.valid |= 1 << s;
     }
+}
 
+impl<N: WideSlots> WideBvh<N> {
     /// Prefetches what the slots in `mask` of `node` name: wide nodes here, leaves through
     /// `prefetch_leaf` (which knows their primitives), so that the misses of the children a
     /// ray enters overlap.
     #[inline(always)]
-    fn prefetch(&self, node: &WideNode, mut mask: u32, prefetch_leaf: &impl Fn(u32, u32)) {
+    fn prefetch(&self, node: &N, mut mask: u32, prefetch_leaf: &impl Fn(u32, u32)) {
         while mask != 0 {
             let e = node.entry(mask.trailing_zeros() as usize);
             if e.child & LEAF != 0 {
@@ -214,8 +290,8 @@ impl WideBvh {
         let mut todo: Vec<u32> = self.root(root).into_iter().collect();
         while let Some(w) = todo.pop() {
             let node = &self.nodes[w as usize];
-            for s in (0..WIDTH).filter(|&s| node.valid & (1 << s) != 0) {
-                let (lo, hi) = node.slot_bounds(s);
+            for s in (0..WIDTH).filter(|&s| node.valid() & (1 << s) != 0) {
+                let (lo, hi) = slot_bounds(&node.bounds(), s);
                 let e = node.entry(s);
                 if e.child & LEAF != 0 {
                     out.push((lo, hi, Some((e.child & !LEAF, e.count))));
@@ -256,12 +332,13 @@ impl WideRay {
 /// same order (`Vec4::max`/`min` are the SSE compare-and-select that its `max`/`min` are), so
 /// the same floats and the same answers.
 #[inline(always)]
-pub(super) fn slab4(node: &WideNode, ray: &WideRay, t_min: f32, t_max: f32) -> (Vec4, u32) {
+pub(super) fn slab4(node: &impl WideSlots, ray: &WideRay, t_min: f32, t_max: f32) -> (Vec4, u32) {
+    let bounds = node.bounds();
     let (o, inv) = (&ray.origin, &ray.inv_dir);
     let (near, far) = if ray.moving {
         let n = ray.negative;
-        let near = |a: usize| (node.bounds[n[a]][a] - o[a]) * inv[a];
-        let far = |a: usize| (node.bounds[1 - n[a]][a] - o[a]) * inv[a];
+        let near = |a: usize| (bounds[n[a]][a] - o[a]) * inv[a];
+        let far = |a: usize| (bounds[1 - n[a]][a] - o[a]) * inv[a];
         (
             near(0).max(near(1)).max(near(2)),
             far(0).min(far(1)).min(far(2)),
@@ -270,7 +347,7 @@ pub(super) fn slab4(node: &WideNode, ray: &WideRay, t_min: f32, t_max: f32) -> (
         // super::bvh_slab_min_max: a still axis admits every t if the origin lies within the
         // slab, none otherwise.
         let axis = |a: usize| {
-            let (lo, hi) = (node.bounds[0][a] - o[a], node.bounds[1][a] - o[a]);
+            let (lo, hi) = (bounds[0][a] - o[a], bounds[1][a] - o[a]);
             let (t0, t1) = (lo * inv[a], hi * inv[a]);
             if ray.still.test(a) {
                 let outside = lo.max(-hi).cmpgt(Vec4::ZERO);
@@ -286,7 +363,7 @@ pub(super) fn slab4(node: &WideNode, ray: &WideRay, t_min: f32, t_max: f32) -> (
     let t_enter = near.max(Vec4::splat(t_min));
     let t_exit = far.min(Vec4::splat(t_max));
     let hit = (t_enter - t_enter.abs() * SLAB_SLACK).cmple(t_exit);
-    (t_enter, hit.bitmask() & node.valid)
+    (t_enter, hit.bitmask() & node.valid())
 }
 
 /// Asks the memory system for the bytes of `items[first..first + count]` (at most 8 cache
@@ -330,7 +407,7 @@ fn by_distance(mut mask: u32, t: &[f32; 4]) -> ArrayVec<usize, WIDTH> {
     order
 }
 
-impl Hierarchy for WideBvh {
+impl<N: WideSlots> Hierarchy for WideBvh<N> {
     /// Front to back: of a node's children the ray enters, the nearest is visited next and the
     /// others deferred with their entry distances, nearest on top.
     fn traverse_closest(
@@ -360,7 +437,7 @@ impl Hierarchy for WideBvh {
                 }
             } else {
                 let node = &self.nodes[at.child as usize];
-                boxes += node.valid.count_ones();
+                boxes += node.valid().count_ones();
                 let (t_enter, mask) = slab4(node, &ray, t_min, t_far);
                 if mask != 0 {
                     if mask & (mask - 1) == 0 {
