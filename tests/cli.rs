@@ -333,6 +333,39 @@ fn bench_cpu_only_needs_no_vulkan() {
     assert!(rows[0]["samples_per_second"].as_f64().unwrap() > 0.0);
 }
 
+/// `bench --bvh` measures the three walks on the same seeded rays and writes them to JSON: the
+/// quantised nodes' boxes contain the full-precision ones, so on average a ray tests at least
+/// as many of them, and, the quantisation being tight, not many more (the figures are the same
+/// on every run of a build: the rays are seeded and the walks deterministic).
+#[test]
+fn bench_bvh_reports_the_quantised_walk() {
+    let json = temp("bench-bvh.json");
+    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args([
+            "bench",
+            "--bvh",
+            "scenes/cornell-box.gltf",
+            "--builds",
+            "1",
+            "--json",
+        ])
+        .arg(&json)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let row = &doc["rows"][0];
+    let field = |k: &str| row[k].as_f64().unwrap_or_else(|| panic!("{k} in {row}"));
+    let (wide, quant) = (
+        field("wide_boxes_per_ray"),
+        field("quantized_boxes_per_ray"),
+    );
+    assert!(wide > 1.0 && quant >= wide && quant <= 1.1 * wide, "{row}");
+    assert!(field("quantized_rays_per_second") > 0.0, "{row}");
+}
+
 /// `tools/ab_bench.py` runs two builds' benches in pairs of alternating order and tables the
 /// pair ratios; a build against itself gives one CPU row per scene (skipped without python3).
 #[test]
