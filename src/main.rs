@@ -1016,10 +1016,40 @@ fn bench(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// Boxes tested per ray and rays per second of `RAYS` closest-hit rays `ray(i)` through `tree`.
+fn walk_cost(
+    tree: &(impl wavetrace::bvh::Hierarchy + Sync),
+    triangles: &[wavetrace::layout::GpuTriangle],
+    ray: &(impl Fn(u32) -> wavetrace::bvh::Ray + Sync),
+) -> (f64, f64) {
+    let started = std::time::Instant::now();
+    let boxes = (0..RAYS)
+        .into_par_iter()
+        .map(|i| {
+            let accept = |_, _, _| true;
+            let ray = ray(i);
+            let (_, boxes, _) = wavetrace::bvh::closest_triangle(
+                tree,
+                0,
+                triangles,
+                &ray,
+                0.0,
+                f32::INFINITY,
+                accept,
+            );
+            boxes as u64
+        })
+        .sum::<u64>();
+    let seconds = started.elapsed().as_secs_f64();
+    (boxes as f64 / RAYS as f64, RAYS as f64 / seconds)
+}
+
+/// Rays `bench --bvh` traces through each tree.
+const RAYS: u32 = 1 << 20;
+
 /// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
 fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
-    use wavetrace::bvh::{closest_triangle, gpu_triangles, Bvh, Ray, WideBvh};
-    const RAYS: u32 = 1 << 20;
+    use wavetrace::bvh::{gpu_triangles, Bvh, Ray, WideBvh};
     println!(
         "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's walk), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane; cpu = {} threads",
         rayon::current_num_threads()
@@ -1084,29 +1114,9 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         let started = std::time::Instant::now();
         let wide = WideBvh::collapse(&bvh.nodes, &[0]);
         let collapse_ms = started.elapsed().as_secs_f64() * 1e3;
-        let started = std::time::Instant::now();
-        let wide_boxes = (0..RAYS)
-            .into_par_iter()
-            .map(|i| {
-                let accept = |_, _, _| true;
-                let ray = ray(i);
-                closest_triangle(&wide, 0, &triangles, &ray, 0.0, f32::INFINITY, accept).1 as u64
-            })
-            .sum::<u64>() as f64
-            / RAYS as f64;
-        let wide_rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
+        let (wide_boxes, wide_rays_per_second) = walk_cost(&wide, &triangles, &ray);
         let quant = wide.quantized();
-        let started = std::time::Instant::now();
-        let quant_boxes = (0..RAYS)
-            .into_par_iter()
-            .map(|i| {
-                let accept = |_, _, _| true;
-                let ray = ray(i);
-                closest_triangle(&quant, 0, &triangles, &ray, 0.0, f32::INFINITY, accept).1 as u64
-            })
-            .sum::<u64>() as f64
-            / RAYS as f64;
-        let quant_rays_per_second = RAYS as f64 / started.elapsed().as_secs_f64();
+        let (quant_boxes, quant_rays_per_second) = walk_cost(&quant, &triangles, &ray);
         let name = path
             .file_name()
             .and_then(|s| s.to_str())
