@@ -598,8 +598,11 @@ pub struct GpuInstance {
     pub world_to_object: [[f32; 4]; 3], // 48 bytes
     pub blas_root: u32, // 4 bytes: BVH node of the bottom level's root
     pub flags: u32,     // 4 bytes: INSTANCE_* bits
-    pub pad0: u32,      // 4 bytes
-    pub pad1: u32,      // 4 bytes
+    /// 4 bytes: the GPU's node index of the bottom level's quantised 4-wide root
+    /// (`PreparedScene::gpu_bvh`; `NO_WIDE_ROOT` for a level of no triangles), which the GPU
+    /// walks; the CPU leaves it unset and looks the root up itself.
+    pub wide_root: u32,
+    pub pad1: u32, // 4 bytes
 }
 
 /// `GpuInstance::flags`: the transform is the identity (the baked world-space geometry).
@@ -608,6 +611,8 @@ pub const INSTANCE_IDENTITY: u32 = 1;
 pub const INSTANCE_MIRRORED: u32 = 2;
 
 pub const NO_HIT: u32 = u32::MAX;
+/// `GpuInstance::wide_root` of a bottom level with no nodes to walk.
+pub const NO_WIDE_ROOT: u32 = u32::MAX;
 
 /// A shadow ray with the contribution its path gains if it is unoccluded. Total: 48 bytes.
 #[repr(C)]
@@ -896,7 +901,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         world_to_object,
         blas_root,
         flags,
-        pad0,
+        wide_root,
         pad1
     }),
     struct_layout!(ShadowRay {

@@ -5,6 +5,7 @@ use crate::bvh::{gpu_triangles, Bvh, WideBvh};
 use crate::bvh::{Hit, Ray};
 use crate::environment::EnvironmentMap;
 use crate::film::Film;
+use crate::layout::BvhNode;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
     GpuTriangle, GpuVertex, LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK,
@@ -130,6 +131,12 @@ impl RenderSettings {
     }
 }
 
+/// The BVH node and instance arrays a GPU renderer uploads ([`PreparedScene::gpu_bvh`]).
+pub struct GpuBvh {
+    pub nodes: Vec<BvhNode>,
+    pub instances: Vec<GpuInstance>,
+}
+
 /// The scene in the form both integrators trace: the two-level BVH (`tlas.rs`) and triangles
 /// in BVH order, with their shading data (`surface.rs`).
 pub struct PreparedScene {
@@ -141,6 +148,9 @@ pub struct PreparedScene {
     /// `bvh.nodes` collapsed to 4-wide nodes for the CPU integrators, made when one first
     /// traces a ray ([`PreparedScene::wide_bvh`]), so that a GPU render does not pay for it.
     pub wide: std::sync::OnceLock<WideBvh>,
+    /// The node and instance arrays the GPU reads (`bvh::quantized::gpu_nodes`), made when a
+    /// GPU renderer first uploads the scene ([`PreparedScene::gpu_bvh`]).
+    pub gpu: std::sync::OnceLock<GpuBvh>,
     /// The top level's leaves, in its order.
     pub instances: Vec<GpuInstance>,
     /// KHR_lights_punctual lights (emitter entries with `LIGHT_ENTRY_PUNCTUAL` index them).
@@ -499,6 +509,7 @@ impl PreparedScene {
             },
             tlas_root,
             wide: std::sync::OnceLock::new(),
+            gpu: std::sync::OnceLock::new(),
             instances,
             triangles,
             materials,
@@ -566,6 +577,30 @@ impl PreparedScene {
                 .chain(self.instances.iter().map(|i| i.blas_root))
                 .collect();
             WideBvh::collapse(&self.bvh.nodes, &roots)
+        })
+    }
+
+    /// The GPU's node and instance arrays: the binary nodes (the top level's walk, `tlas.glsl`)
+    /// followed by every level collapsed to quantised 4-wide nodes (the bottom levels' walk,
+    /// `qbvh.glsl`), and the instances with their bottom level's quantised root.
+    pub fn gpu_bvh(&self) -> &GpuBvh {
+        self.gpu.get_or_init(|| {
+            let roots: Vec<u32> = self.instances.iter().map(|i| i.blas_root).collect();
+            let quant = WideBvh::collapse(&self.bvh.nodes, &roots).quantized();
+            let (nodes, base) = crate::bvh::quantized::gpu_nodes(&self.bvh.nodes, &quant);
+            let instances = self
+                .instances
+                .iter()
+                .map(|inst| GpuInstance {
+                    wide_root: quant
+                        .root(inst.blas_root)
+                        .map_or(crate::layout::NO_WIDE_ROOT, |w| {
+                            crate::bvh::quantized::gpu_node_index(base, w)
+                        }),
+                    ..*inst
+                })
+                .collect();
+            GpuBvh { nodes, instances }
         })
     }
 

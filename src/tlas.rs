@@ -61,7 +61,7 @@ pub fn gpu_instance(transform: &Mat4, blas_root: u32) -> GpuInstance {
         world_to_object: rows(&transform.inverse()),
         blas_root,
         flags,
-        pad0: 0,
+        wide_root: crate::layout::NO_WIDE_ROOT,
         pad1: 0,
     }
 }

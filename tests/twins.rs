@@ -14,7 +14,7 @@ use wavetrace::bsdf::microfacet::*;
 use wavetrace::bsdf::{
     bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, BsdfFrame, TransportMode,
 };
-use wavetrace::bvh::Ray;
+use wavetrace::bvh::{any_triangle, closest_triangle, Ray, WideBvh};
 use wavetrace::layout::{FrameParams, GpuMaterial, MATERIAL_UNLIT};
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
@@ -24,7 +24,7 @@ use wavetrace::spectrum::*;
 
 const CASES: u32 = 4096;
 const INPUTS_PER_CASE: usize = 4;
-const OUTPUTS_PER_CASE: usize = 26;
+const OUTPUTS_PER_CASE: usize = 28;
 /// 2⁻¹⁰: twice the absolute error Vulkan allows sin and cos.
 const ANGLE_TOL: f32 = 1.0 / 1024.0;
 const ULP_TOL: f32 = 1e-5;
@@ -171,6 +171,16 @@ fn glsl_functions_equal_their_rust_twins() {
         );
         inputs.extend([c.u, c.n.extend(0.0), c.wo.extend(0.0), key]);
     }
+    // After the cases: the GPU node index of the scene's quantised 4-wide root (qbvh.glsl), in
+    // the node array the renderer uploads (the binary nodes, then the quantised ones).
+    let gpu_bvh = scene.gpu_bvh();
+    inputs.push(Vec4::new(
+        f32::from_bits(gpu_bvh.instances[0].wide_root),
+        0.0,
+        0.0,
+        0.0,
+    ));
+    let quant = WideBvh::collapse(&scene.bvh.nodes, &[0]).quantized();
     let outputs = vec![Vec4::ZERO; cases.len() * OUTPUTS_PER_CASE];
     let frames = twin_frames();
     let Some(gpu) = common::gpu() else { return };
@@ -181,7 +191,7 @@ fn glsl_functions_equal_their_rust_twins() {
             &[
                 bytemuck::cast_slice(&inputs).to_vec(),
                 bytemuck::cast_slice(&outputs).to_vec(),
-                bytemuck::cast_slice(&scene.bvh.nodes).to_vec(),
+                bytemuck::cast_slice(&gpu_bvh.nodes).to_vec(),
                 bytemuck::cast_slice(&scene.triangles).to_vec(),
                 bytemuck::cast_slice(&frames).to_vec(),
             ],
@@ -368,6 +378,42 @@ fn glsl_functions_equal_their_rust_twins() {
             11,
             "bvh_intersect_any",
             Vec4::new(any as u32 as f32, t_max, 0.0, 0.0),
+            &|a, b| a == b,
+        );
+        // The quantised walk, against the CPU's walk of the same nodes.
+        let (wide_hit, ..) = closest_triangle(
+            &quant,
+            0,
+            &scene.triangles,
+            &ray,
+            0.0,
+            f32::MAX,
+            |_, _, _| true,
+        );
+        let cpu_wide_hit = match wide_hit {
+            Some(h) => Vec4::new(h.t, f32::from_bits(h.triangle), h.u, h.v),
+            None => Vec4::new(f32::MAX, f32::from_bits(u32::MAX), 0.0, 0.0),
+        };
+        check(
+            26,
+            "qbvh_closest_from (t, triangle, u, v)",
+            cpu_wide_hit,
+            &|a, b| {
+                a.y.to_bits() == b.y.to_bits()
+                    && close(
+                        Vec4::new(a.x, 0.0, a.z, a.w),
+                        Vec4::new(b.x, 0.0, b.z, b.w),
+                        ULP_TOL,
+                    )
+            },
+        );
+        let wide_any = any_triangle(&quant, 0, &scene.triangles, &ray, 0.0, t_max, |_, _, _| {
+            true
+        });
+        check(
+            27,
+            "qbvh_any_from",
+            Vec4::new(wide_any as u32 as f32, t_max, 0.0, 0.0),
             &|a, b| a == b,
         );
         let n_perm = 1 + i as u32 % 300;

@@ -288,12 +288,24 @@ struct GpuInstance {
     vec4 world_to_object[3];  // 48 bytes: rows of its inverse
     uint blas_root;           // 4 bytes
     uint flags;               // 4 bytes: INSTANCE_*
-    uint pad0;                // 4 bytes
+    uint wide_root;           // 4 bytes: node of the quantised 4-wide root (qbvh.glsl), or NO_WIDE_ROOT
     uint pad1;                // 4 bytes
 };
 #define INSTANCE_IDENTITY 1u
 #define INSTANCE_MIRRORED 2u
 #define NO_HIT 0xffffffffu
+#define NO_WIDE_ROOT 0xffffffffu
+
+// A quantised 4-wide BVH node (src/bvh/quantized.rs, QuantNode), read from two consecutive
+// BvhNode records of the node array (scene_arrays.glsl, quant_node_at). Total: 64 bytes.
+struct QuantNode {
+    vec3 origin;           // 12 bytes: the planes' origin per axis
+    uint exponents_valid;  // 4 bytes: bytes 0-2 the scale's biased exponent per axis, byte 3 the slots in use
+    uvec4 child;           // 16 bytes: per slot a node index, or a leaf's first triangle | QBVH_LEAF
+    uint q[6];             // 24 bytes: minima on x, y, z, then maxima; slot s in byte s of each
+    uint count;            // 4 bytes: a leaf slot's triangle count in byte s
+    uint pad;              // 4 bytes
+};
 
 // Shadow ray and the contribution it carries. Total: 48 bytes.
 struct ShadowRay {

@@ -7,6 +7,14 @@
 #ifndef SCENE_ARRAYS_GLSL
 #define SCENE_ARRAYS_GLSL
 
+// A quantised node from its two node records as a storage buffer holds them (their floats' bits
+// are the node's words).
+QuantNode quant_node_from_records(BvhNode a, BvhNode b) {
+    uvec3 c = floatBitsToUint(b.bounds_min), d = floatBitsToUint(b.bounds_max);
+    return QuantNode(a.bounds_min, a.offset, uvec4(floatBitsToUint(a.bounds_max), a.count),
+                     uint[6](c.x, c.y, c.z, b.offset, d.x, d.y), d.z, b.count);
+}
+
 #ifdef SCENE_SPLIT_BINDINGS
 layout(constant_id = 0) const uint BVH_NODE_SHIFT = 32u;
 layout(constant_id = 1) const uint TRIANGLE_SHIFT = 32u;
@@ -49,6 +57,16 @@ BvhNode bvh_node_image_at(uint i) {
     return node;
 }
 
+// The quantised 4-wide node (QuantNode, layout.glsl) at node index i: node records i and i + 1,
+// four texels read as they are stored.
+QuantNode quant_node_image_at(uint i) {
+    uvec4 a = SCENE_TEXEL(bvh_node_image, 2u * i);
+    uvec4 b = SCENE_TEXEL(bvh_node_image, 2u * i + 1u);
+    uvec4 c = SCENE_TEXEL(bvh_node_image, 2u * i + 2u);
+    uvec4 d = SCENE_TEXEL(bvh_node_image, 2u * i + 3u);
+    return QuantNode(uintBitsToFloat(a.xyz), a.w, b, uint[6](c.x, c.y, c.z, c.w, d.x, d.y), d.z, d.w);
+}
+
 GpuVertex vertex_image_at(uint i) {
     GpuVertex v;
     v.tangent = uintBitsToFloat(SCENE_TEXEL(vertex_image, 4u * i));
@@ -87,7 +105,7 @@ GpuInstance instance_image_read(uint i, bool forward) {
     uvec4 t = SCENE_TEXEL(instance_image, 7u * i + 6u);
     inst.blas_root = t.x;
     inst.flags = t.y;
-    inst.pad0 = t.z;
+    inst.wide_root = t.z;
     inst.pad1 = t.w;
     for (uint r = 0u; r < 3u; ++r) {
         vec4 row = vec4(0.0);
@@ -280,6 +298,8 @@ SPLIT_READ(uint, texel_buffer_at, texel_split, TEXEL_SHIFT, texels, texels1, tex
     T name_read(uint i, uint images) { return images != 0u ? IMAGE_READ : BUFFER_READ; } \
     T name(uint i) { return name_read(i, SCENE_IMAGES); }
 IMAGE_OR_BUFFER(BvhNode, bvh_node_at, bvh_node_read, bvh_node_image_at(i), bvh_node_buffer_at(i))
+IMAGE_OR_BUFFER(QuantNode, quant_node_at, quant_node_read, quant_node_image_at(i),
+                quant_node_from_records(bvh_node_buffer_at(i), bvh_node_buffer_at(i + 1u)))
 IMAGE_OR_BUFFER(GpuTriangle, triangle_at, triangle_read, triangle_image_at(i), triangle_buffer_at(i))
 IMAGE_OR_BUFFER(uvec4, triangle_vertices_at, triangle_vertices_read,
                 SCENE_TEXEL(triangle_vertex_image, i), triangle_vertices_buffer_at(i))
@@ -301,6 +321,7 @@ IMAGE_OR_BUFFER(GpuLightNode, light_node_image_or_buffer_at, light_node_read,
 #undef IMAGE_OR_BUFFER
 #else
 #define bvh_node_at(i) bvh_nodes[i]
+#define quant_node_at(i) quant_node_from_records(bvh_nodes[i], bvh_nodes[(i) + 1u])
 #define triangle_at(i) triangles[i]
 #define triangle_vertices_at(i) triangle_vertices[i]
 #define vertex_at(i) vertices[i]

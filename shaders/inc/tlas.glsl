@@ -1,9 +1,12 @@
 // The two-level structure: a top-level BVH over instances (GpuInstance), each placing a
 // bottom-level BVH in the world. Twin of src/tlas.rs. Needs bvh.glsl, the instances buffer and
-// frame.tlas_root. A scene with one identity instance (no instancing) skips the top level.
+// frame.tlas_root. A scene with one identity instance (no instancing) skips the top level. The
+// top level is walked in its binary nodes, the bottom levels in their quantised 4-wide nodes
+// (qbvh.glsl, from GpuInstance.wide_root).
 #ifndef TLAS_GLSL
 #define TLAS_GLSL
 #include "scene_arrays.glsl"
+#include "qbvh.glsl"
 #include "transform.glsl"
 
 // The alpha key of a ray inside instance k (the same triangle in two instances decides apart).
@@ -29,7 +32,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
     if (instances.length() == 0u) return false;
     if (single_identity_instance()) {
-        return bvh_closest_from(instances[0].blas_root, origin, dir, t_min, key, hit);
+        return qbvh_closest_from(instances[0].wide_root, origin, dir, t_min, key, hit);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
@@ -64,7 +67,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
                 GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
-                if (bvh_closest_from(inst.blas_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
+                if (qbvh_closest_from(inst.wide_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
             }
         }
         bool popped = false;
@@ -85,7 +88,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
 bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (instances.length() == 0u) return false;
     if (single_identity_instance()) {
-        return bvh_any_from(instances[0].blas_root, origin, dir, t_min, t_max, key);
+        return qbvh_any_from(instances[0].wide_root, origin, dir, t_min, t_max, key);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
@@ -115,7 +118,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
                 GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
-                if (bvh_any_from(inst.blas_root, o, d, t_min, t_max, instance_key(key, k))) return true;
+                if (qbvh_any_from(inst.wide_root, o, d, t_min, t_max, instance_key(key, k))) return true;
             }
         }
         if (sp == 0u) return false;

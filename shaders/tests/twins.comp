@@ -21,11 +21,12 @@ layout(push_constant) uniform Push { uint case_count; };
 #include "bsdf.glsl"
 #include "mis.glsl"
 #include "bvh.glsl"
+#include "qbvh.glsl"
 #include "camera.glsl"
 #include "spectrum.glsl"
 
 #define INPUTS_PER_CASE 4u
-#define OUTPUTS_PER_CASE 26u
+#define OUTPUTS_PER_CASE 28u
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
@@ -119,6 +120,13 @@ void main() {
     outputs[o + 10u] = vec4(hit.t, uintBitsToFloat(hit.triangle), hit.u, hit.v);
     float t_max = u.z * 4.0;
     outputs[o + 11u] = vec4(bvh_intersect_any(origin, -wo, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
+    // The same rays through the quantised 4-wide nodes (qbvh.glsl), whose root the input after
+    // the cases names.
+    uint wide_root = floatBitsToUint(inputs[case_count * INPUTS_PER_CASE].x);
+    HitRecord wide_hit = HitRecord(3.402823466e38, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
+    qbvh_closest_from(wide_root, origin, -wo, 0.0, uvec4(0u), wide_hit);
+    outputs[o + 26u] = vec4(wide_hit.t, uintBitsToFloat(wide_hit.triangle), wide_hit.u, wide_hit.v);
+    outputs[o + 27u] = vec4(qbvh_any_from(wide_root, origin, -wo, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
 
     uint n_perm = 1u + i % 300u;
     uint p = permute(i % n_perm, n_perm, key.x);

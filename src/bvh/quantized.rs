@@ -12,12 +12,15 @@
 //! dequantised box contains the binary tree's box: a ray tests the same leaves it would have
 //! tested there, and a few more, and finds the same closest hit.
 
-use super::wide::{Entry, WideBvh, WideNode, WideSlots, WIDTH};
+use super::wide::{Entry, WideBvh, WideNode, WideSlots, LEAF, WIDTH};
+use crate::layout::BvhNode;
 use glam::Vec4;
 
-/// A wide node with quantised boxes: 64 bytes, four 16-byte texels.
+/// A wide node with quantised boxes: 64 bytes, four 16-byte texels. The GPU reads it as two
+/// consecutive [`BvhNode`] records (`QuantNode` in `layout.glsl`, `quant_node_at` in
+/// `scene_arrays.glsl`), so it shares their array, images and bindings ([`gpu_nodes`]).
 #[repr(C, align(64))]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct QuantNode {
     /// The planes' origin per axis.
     origin: [f32; 3],
@@ -129,6 +132,32 @@ impl WideBvh<WideNode> {
     pub fn quantized(&self) -> WideBvh<QuantNode> {
         self.map(QuantNode::quantize)
     }
+}
+
+/// The node array the GPU reads: the binary nodes (padded to an even count, `base`), then each
+/// quantised node as two [`BvhNode`] records, its interior children renumbered to where they
+/// are in this array ([`gpu_node_index`]). Returns the array and `base`.
+pub fn gpu_nodes(binary: &[BvhNode], quant: &WideBvh<QuantNode>) -> (Vec<BvhNode>, u32) {
+    let base = binary.len().next_multiple_of(2);
+    let mut nodes = Vec::with_capacity(base + 2 * quant.nodes.len());
+    nodes.extend_from_slice(binary);
+    nodes.resize(base, BvhNode::default());
+    let base = base as u32;
+    for node in &quant.nodes {
+        let mut node = *node;
+        for s in 0..WIDTH {
+            if node.valid() & (1 << s) != 0 && node.child[s] & LEAF == 0 {
+                node.child[s] = gpu_node_index(base, node.child[s]);
+            }
+        }
+        nodes.extend_from_slice(bytemuck::cast_slice(&[node]));
+    }
+    (nodes, base)
+}
+
+/// The GPU's node index of wide node `w` in an array whose quantised nodes start at `base`.
+pub fn gpu_node_index(base: u32, w: u32) -> u32 {
+    base + 2 * w
 }
 
 #[cfg(test)]

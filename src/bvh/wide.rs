@@ -26,7 +26,7 @@ use glam::{BVec3, Vec4};
 pub const WIDTH: usize = 4;
 
 /// A child reference that names a leaf: `first triangle | LEAF`, its count beside it.
-const LEAF: u32 = 1 << 31;
+pub(super) const LEAF: u32 = 1 << 31;
 
 // A leaf's count is kept in a byte: the build makes no leaf larger than this.
 const _: () = assert!(super::MAX_LEAF_SIZE <= u8::MAX as usize);
@@ -273,7 +273,7 @@ impl<N: WideSlots> WideBvh<N> {
 
     /// The wide root of binary root `root` (one the collapse was given).
     #[inline]
-    fn root(&self, root: u32) -> Option<u32> {
+    pub fn root(&self, root: u32) -> Option<u32> {
         match self.roots.as_slice() {
             [(r, w)] => (*r == root).then_some(*w),
             roots => roots

@@ -114,7 +114,7 @@ impl GpuRenderer {
         let in_buffers = |n: usize| if images { 0 } else { len(n) };
         let mut split = SceneSplit::plan(
             [
-                in_buffers(scene.bvh.nodes.len()),
+                in_buffers(scene.gpu_bvh().nodes.len()),
                 in_buffers(scene.triangles.len()),
                 in_buffers(scene.triangle_vertices.len()),
                 in_buffers(scene.vertices.len()),

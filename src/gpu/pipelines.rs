@@ -229,14 +229,14 @@ impl SceneImage {
     /// The scene's records of this array, as bytes.
     pub fn data(self, scene: &crate::render::PreparedScene) -> &[u8] {
         match self {
-            SceneImage::BvhNodes => bytemuck::cast_slice(&scene.bvh.nodes),
+            SceneImage::BvhNodes => bytemuck::cast_slice(&scene.gpu_bvh().nodes),
             SceneImage::Triangles => bytemuck::cast_slice(&scene.triangles),
             SceneImage::TriangleVertices => bytemuck::cast_slice(&scene.triangle_vertices),
             SceneImage::Vertices => bytemuck::cast_slice(&scene.vertices),
             SceneImage::Materials => bytemuck::cast_slice(&scene.materials),
             SceneImage::LightNodes => bytemuck::cast_slice(&scene.light_nodes),
             SceneImage::Texels => bytemuck::cast_slice(scene.texels.as_slice()),
-            SceneImage::Instances => bytemuck::cast_slice(&scene.instances),
+            SceneImage::Instances => bytemuck::cast_slice(&scene.gpu_bvh().instances),
             SceneImage::Textures => bytemuck::cast_slice(&scene.textures),
             SceneImage::TextureRefs => bytemuck::cast_slice(&scene.texture_refs),
             SceneImage::Lights => bytemuck::cast_slice(&scene.lights),

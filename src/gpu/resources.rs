@@ -121,7 +121,10 @@ impl RenderBuffers {
             ("light BVH nodes", size_of_val(scene.light_nodes.as_slice())),
             ("materials", size_of_val(scene.materials.as_slice())),
             ("textures", size_of_val(scene.textures.as_slice())),
-            ("instances", size_of_val(scene.instances.as_slice())),
+            (
+                "instances",
+                size_of_val(scene.gpu_bvh().instances.as_slice()),
+            ),
             (
                 "emitting triangles' light trails",
                 size_of_val(scene.light_trails.as_slice()),
@@ -158,7 +161,7 @@ impl RenderBuffers {
         }
         let in_buffer = |data| in_buffer(split.images, data);
         let split_data: [&[u8]; 5] = [
-            in_buffer(bytemuck::cast_slice(&scene.bvh.nodes)),
+            in_buffer(bytemuck::cast_slice(&scene.gpu_bvh().nodes)),
             in_buffer(bytemuck::cast_slice(&scene.triangles)),
             in_buffer(bytemuck::cast_slice(&scene.triangle_vertices)),
             in_buffer(bytemuck::cast_slice(&scene.vertices)),
@@ -194,7 +197,10 @@ impl RenderBuffers {
         let lights = device("lights", size_of_val(scene.lights.as_slice()))?;
         let textures = device("textures", size_of_val(scene.textures.as_slice()))?;
         let texture_refs = device("texture_refs", size_of_val(scene.texture_refs.as_slice()))?;
-        let instances = device("instances", size_of_val(scene.instances.as_slice()))?;
+        let instances = device(
+            "instances",
+            size_of_val(scene.gpu_bvh().instances.as_slice()),
+        )?;
         let punctual = device("punctual_lights", size_of_val(scene.punctual.as_slice()))?;
         let env_texels = device("env_texels", size_of_val(env.texels.as_slice()))?;
         let env_conditional = device("env_conditional", size_of_val(env.conditional.as_slice()))?;
@@ -282,7 +288,7 @@ impl RenderBuffers {
             (bytemuck::cast_slice(&scene.lights), &lights),
             (bytemuck::cast_slice(&scene.textures), &textures),
             (bytemuck::cast_slice(&scene.texture_refs), &texture_refs),
-            (bytemuck::cast_slice(&scene.instances), &instances),
+            (bytemuck::cast_slice(&scene.gpu_bvh().instances), &instances),
             (bytemuck::cast_slice(&scene.punctual), &punctual),
             (bytemuck::cast_slice(&env.texels), &env_texels),
             (bytemuck::cast_slice(&env.conditional), &env_conditional),

@@ -1,0 +1,205 @@
+// The bottom levels' walk: the binary tree collapsed to 4-wide nodes with their boxes quantised
+// to a byte per plane (QuantNode, layout.glsl). Twin of the CPU's walk of the same nodes
+// (src/bvh/wide.rs, WideBvh<QuantNode> as Hierarchy; src/bvh/quantized.rs): the same
+// dequantised planes, the same slab test per slot (bvh_slab, which slab4 is lane by lane), the
+// entered slots visited nearest first and the others deferred, nearest on top. A node is four
+// texels for four children where the binary walk reads two per child, and every dequantised box
+// contains the binary tree's, so a ray finds the same closest hit (README, "Performance").
+// Needs bvh.glsl and quant_node_at (scene_arrays.glsl).
+#ifndef QBVH_GLSL
+#define QBVH_GLSL
+#include "bvh.glsl"
+
+// A slot naming a leaf: its first triangle | QBVH_LEAF (src/bvh/wide.rs, LEAF).
+#define QBVH_LEAF 0x80000000u
+// Deferred slots: at most three per node on the path from the root, and no path is longer than
+// the binary tree's (src/bvh/wide.rs, STACK).
+#define QBVH_STACK_SIZE (3u * BVH_STACK_SIZE)
+
+// Slot s of `node` as the slab test reads it: origin + q · 2^(e − 127) per plane. The product is
+// exact (q < 2^8, a power-of-two scale), so the plane is one rounding whether or not the compiler
+// fuses it: the CPU's float (src/bvh/quantized.rs, plane).
+BvhNode qbvh_slot_box(QuantNode node, uint s) {
+    vec3 scale = uintBitsToFloat(((uvec3(node.exponents_valid) >> uvec3(0u, 8u, 16u)) & 0xffu) << 23u);
+    uint shift = 8u * s;
+    uvec3 q_lo = (uvec3(node.q[0], node.q[1], node.q[2]) >> shift) & 0xffu;
+    uvec3 q_hi = (uvec3(node.q[3], node.q[4], node.q[5]) >> shift) & 0xffu;
+    return BvhNode(node.origin + vec3(q_lo) * scale, 0u, node.origin + vec3(q_hi) * scale, 0u);
+}
+
+// Slot s as the walk keeps it: (node index or first triangle | QBVH_LEAF, triangle count).
+uvec2 qbvh_entry(QuantNode node, uint s) {
+    return uvec2(node.child[s], (node.count >> (8u * s)) & 0xffu);
+}
+
+// Slot s's entry distance, +∞ where the ray does not enter it before t_far.
+float qbvh_slot_enter(QuantNode node, uint s, BvhSlabRay ray, float t_min, float t_far) {
+    float t_enter;
+    bool used = ((node.exponents_valid >> (24u + s)) & 1u) != 0u;
+    return used && bvh_slab(qbvh_slot_box(node, s), ray, t_min, t_far, t_enter) ? t_enter
+                                                                                : uintBitsToFloat(0x7f800000u);
+}
+
+// Orders slots a and b by (entry distance, slot): src/bvh/wide.rs, by_distance, which sorts by
+// distance keeping the slots' order among equals. Entries move with their slots (indexing the
+// node's arrays by a slot known only at run time would put them in per-lane memory).
+void qbvh_order(inout float ta, inout uint sa, inout uvec2 ea, inout float tb, inout uint sb, inout uvec2 eb) {
+    if (ta > tb || (ta == tb && sa > sb)) {
+        float t = ta;
+        ta = tb;
+        tb = t;
+        uint s = sa;
+        sa = sb;
+        sb = s;
+        uvec2 e = ea;
+        ea = eb;
+        eb = e;
+    }
+}
+
+// The slots of `node` the ray enters before t_far, nearest first: how many (0 to 4), their
+// entries e0..e3 and entry distances t0..t3 (a sorting network on four; slots not entered, at
+// +∞, last).
+uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
+                  out uvec2 e0, out uvec2 e1, out uvec2 e2, out uvec2 e3,
+                  out float t0, out float t1, out float t2, out float t3) {
+    t0 = qbvh_slot_enter(node, 0u, ray, t_min, t_far);
+    t1 = qbvh_slot_enter(node, 1u, ray, t_min, t_far);
+    t2 = qbvh_slot_enter(node, 2u, ray, t_min, t_far);
+    t3 = qbvh_slot_enter(node, 3u, ray, t_min, t_far);
+    float inf = uintBitsToFloat(0x7f800000u);
+    uint entered = uint(t0 != inf) + uint(t1 != inf) + uint(t2 != inf) + uint(t3 != inf);
+    e0 = qbvh_entry(node, 0u);
+    e1 = qbvh_entry(node, 1u);
+    e2 = qbvh_entry(node, 2u);
+    e3 = qbvh_entry(node, 3u);
+    uint s0 = 0u, s1 = 1u, s2 = 2u, s3 = 3u;
+    qbvh_order(t0, s0, e0, t1, s1, e1);
+    qbvh_order(t2, s2, e2, t3, s3, e3);
+    qbvh_order(t0, s0, e0, t2, s2, e2);
+    qbvh_order(t1, s1, e1, t3, s3, e3);
+    qbvh_order(t1, s1, e1, t2, s2, e2);
+    return entered;
+}
+
+// Closest hit in the bottom level whose quantised root is node `root` (NO_WIDE_ROOT: none) with t
+// in (t_min, hit.t): updates hit.t, triangle, u, v and returns true if it finds one. key: the
+// ray's alpha key (surface.glsl, alpha_key).
+bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
+    if (root == NO_WIDE_ROOT) return false;
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    uvec2 stack[QBVH_STACK_SIZE];
+    float stack_enter[QBVH_STACK_SIZE];
+    uint sp = 0u;
+    uvec2 at = uvec2(root, 0u);
+    float t_far = hit.t;
+    bool found = false;
+    for (;;) {
+        if ((at.x & QBVH_LEAF) != 0u) {
+            uint first = at.x & ~QBVH_LEAF;
+            for (uint i = first; i < first + at.y; ++i) {
+                float t, u, v;
+                GpuTriangle tri = triangle_at(i);
+                // The top two material bits say whether the hit needs an any-hit test.
+                if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
+                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) {
+                    t_far = t;
+                    hit.t = t;
+                    hit.triangle = i;
+                    hit.u = u;
+                    hit.v = v;
+                    found = true;
+                }
+            }
+        } else {
+            QuantNode node = quant_node_at(at.x);
+            uvec2 e0, e1, e2, e3;
+            float t0, t1, t2, t3;
+            uint entered = qbvh_entered(node, ray, t_min, t_far, e0, e1, e2, e3, t0, t1, t2, t3);
+            if (entered > 0u) {
+                // The farther ones deferred, farthest first, so the nearest of them is on top.
+                if (entered > 3u) {
+                    stack[sp] = e3;
+                    stack_enter[sp++] = t3;
+                }
+                if (entered > 2u) {
+                    stack[sp] = e2;
+                    stack_enter[sp++] = t2;
+                }
+                if (entered > 1u) {
+                    stack[sp] = e1;
+                    stack_enter[sp++] = t1;
+                }
+                at = e0;
+                continue;
+            }
+        }
+        // Pop the next slot the ray enters before the closest hit so far.
+        bool popped = false;
+        while (sp > 0u) {
+            --sp;
+            if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= t_far) {
+                at = stack[sp];
+                popped = true;
+                break;
+            }
+        }
+        if (!popped) break;
+    }
+    return found;
+}
+
+// True if anything of the bottom level whose quantised root is node `root` is hit with t in
+// (t_min, t_max). The entered slots in slot order (any hit needs no order): the lowest next.
+bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+    if (root == NO_WIDE_ROOT) return false;
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    uvec2 stack[QBVH_STACK_SIZE];
+    uint sp = 0u;
+    uvec2 at = uvec2(root, 0u);
+    float inf = uintBitsToFloat(0x7f800000u);
+    for (;;) {
+        if ((at.x & QBVH_LEAF) != 0u) {
+            uint first = at.x & ~QBVH_LEAF;
+            for (uint i = first; i < first + at.y; ++i) {
+                float t, u, v;
+                GpuTriangle tri = triangle_at(i);
+                if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
+                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) return true;
+            }
+        } else {
+            QuantNode node = quant_node_at(at.x);
+            bool e0 = qbvh_slot_enter(node, 0u, ray, t_min, t_max) != inf;
+            bool e1 = qbvh_slot_enter(node, 1u, ray, t_min, t_max) != inf;
+            bool e2 = qbvh_slot_enter(node, 2u, ray, t_min, t_max) != inf;
+            bool e3 = qbvh_slot_enter(node, 3u, ray, t_min, t_max) != inf;
+            // src/bvh/wide.rs: the lowest entered slot next, the others pushed lowest first.
+            bool next = false;
+            if (e0) {
+                at = qbvh_entry(node, 0u);
+                next = true;
+            }
+            if (e1) {
+                if (next) stack[sp++] = qbvh_entry(node, 1u);
+                else at = qbvh_entry(node, 1u);
+                next = true;
+            }
+            if (e2) {
+                if (next) stack[sp++] = qbvh_entry(node, 2u);
+                else at = qbvh_entry(node, 2u);
+                next = true;
+            }
+            if (e3) {
+                if (next) stack[sp++] = qbvh_entry(node, 3u);
+                else at = qbvh_entry(node, 3u);
+                next = true;
+            }
+            if (next) continue;
+        }
+        if (sp == 0u) return false;
+        at = stack[--sp];
+    }
+    return false;
+}
+
+#endif
