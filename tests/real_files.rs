@@ -264,7 +264,7 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
     let whole = render_gpu(&scene, &settings, None).unwrap();
     // Per array, the smallest power of two of elements per binding that needs at most four.
     let lengths = [
-        scene.bvh.nodes.len(),
+        scene.gpu_bvh().nodes.len(),
         scene.triangles.len(),
         scene.triangle_vertices.len(),
         scene.vertices.len(),
