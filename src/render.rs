@@ -588,16 +588,23 @@ impl PreparedScene {
             let roots: Vec<u32> = self.instances.iter().map(|i| i.blas_root).collect();
             let quant = WideBvh::collapse(&self.bvh.nodes, &roots).quantized();
             let (nodes, base) = crate::bvh::quantized::gpu_nodes(&self.bvh.nodes, &quant);
+            // A bottom level of no triangles, or whose walk could defer more slots than the GPU
+            // keeps, is walked in its binary nodes (`tlas.glsl`).
+            let mut bounds = std::collections::HashMap::new();
             let instances = self
                 .instances
                 .iter()
-                .map(|inst| GpuInstance {
-                    wide_root: quant
-                        .root(inst.blas_root)
-                        .map_or(crate::layout::NO_WIDE_ROOT, |w| {
+                .map(|inst| {
+                    let wide = quant.root(inst.blas_root).filter(|&w| {
+                        let bound = *bounds.entry(w).or_insert_with(|| quant.deferred_bound(w));
+                        bound <= crate::bvh::quantized::GPU_DEFERRED_MAX
+                    });
+                    GpuInstance {
+                        wide_root: wide.map_or(crate::layout::NO_WIDE_ROOT, |w| {
                             crate::bvh::quantized::gpu_node_index(base, w)
                         }),
-                    ..*inst
+                        ..*inst
+                    }
                 })
                 .collect();
             GpuBvh { nodes, instances }

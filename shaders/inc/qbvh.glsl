@@ -12,9 +12,12 @@
 
 // A slot naming a leaf: its first triangle | QBVH_LEAF (src/bvh/wide.rs, LEAF).
 #define QBVH_LEAF 0x80000000u
-// Deferred slots: at most three per node on the path from the root, and no path is longer than
-// the binary tree's (src/bvh/wide.rs, STACK).
-#define QBVH_STACK_SIZE (3u * BVH_STACK_SIZE)
+// Deferred slots kept in per-lane memory, beside the two in registers: a bottom level whose walk
+// could defer more (src/bvh/quantized.rs, deferred_bound, GPU_DEFERRED_MAX = this + 2) is walked
+// in its binary nodes instead (tlas.glsl). A smaller array than the 3 × 64 a 4-wide walk can need
+// in the worst case: on lavapipe the array's size costs time (192 → 48 entries: extend 5–9 %
+// faster against shade).
+#define QBVH_STACK_SIZE 48u
 
 // Slot s of `node` as the slab test reads it: origin + q · 2^(e − 127) per plane. The product is
 // exact (q < 2^8, a power-of-two scale), so the plane is one rounding whether or not the compiler
@@ -82,6 +85,22 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
     return entered;
 }
 
+// Deferred slots with the distances at which the ray enters them: the top two in registers
+// (top, below), the rest in stack[0 .. sp - 2), which a CPU Vulkan device keeps in per-lane
+// memory (as bvh.glsl keeps its deferred nodes).
+#define QBVH_PUSH(e, t)                  \
+    {                                    \
+        if (sp >= 2u) {                  \
+            stack[sp - 2u] = below;      \
+            stack_enter[sp - 2u] = below_enter; \
+        }                                \
+        below = top;                     \
+        below_enter = top_enter;         \
+        top = (e);                       \
+        top_enter = (t);                 \
+        ++sp;                            \
+    }
+
 // Closest hit in the bottom level whose quantised root is node `root` (NO_WIDE_ROOT: none) with t
 // in (t_min, hit.t): updates hit.t, triangle, u, v and returns true if it finds one. key: the
 // ray's alpha key (surface.glsl, alpha_key).
@@ -91,11 +110,31 @@ bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key,
     uvec2 stack[QBVH_STACK_SIZE];
     float stack_enter[QBVH_STACK_SIZE];
     uint sp = 0u;
+    uvec2 top = uvec2(0u), below = uvec2(0u);
+    float top_enter = 0.0, below_enter = 0.0;
     uvec2 at = uvec2(root, 0u);
     float t_far = hit.t;
     bool found = false;
     for (;;) {
-        if ((at.x & QBVH_LEAF) != 0u) {
+        // While-while (Aila & Laine 2009), as in bvh.glsl: descend through nodes until every
+        // lane stands on a leaf or a dead end, then test the leaves together.
+        bool at_leaf = true;
+        while ((at.x & QBVH_LEAF) == 0u) {
+            QuantNode node = quant_node_at(at.x);
+            uvec2 e0, e1, e2, e3;
+            float t0, t1, t2, t3;
+            uint entered = qbvh_entered(node, ray, t_min, t_far, e0, e1, e2, e3, t0, t1, t2, t3);
+            if (entered == 0u) {
+                at_leaf = false;
+                break;
+            }
+            // The farther ones deferred, farthest first, so the nearest of them is on top.
+            if (entered > 3u) QBVH_PUSH(e3, t3)
+            if (entered > 2u) QBVH_PUSH(e2, t2)
+            if (entered > 1u) QBVH_PUSH(e1, t1)
+            at = e0;
+        }
+        if (at_leaf) {
             uint first = at.x & ~QBVH_LEAF;
             for (uint i = first; i < first + at.y; ++i) {
                 float t, u, v;
@@ -111,35 +150,21 @@ bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key,
                     found = true;
                 }
             }
-        } else {
-            QuantNode node = quant_node_at(at.x);
-            uvec2 e0, e1, e2, e3;
-            float t0, t1, t2, t3;
-            uint entered = qbvh_entered(node, ray, t_min, t_far, e0, e1, e2, e3, t0, t1, t2, t3);
-            if (entered > 0u) {
-                // The farther ones deferred, farthest first, so the nearest of them is on top.
-                if (entered > 3u) {
-                    stack[sp] = e3;
-                    stack_enter[sp++] = t3;
-                }
-                if (entered > 2u) {
-                    stack[sp] = e2;
-                    stack_enter[sp++] = t2;
-                }
-                if (entered > 1u) {
-                    stack[sp] = e1;
-                    stack_enter[sp++] = t1;
-                }
-                at = e0;
-                continue;
-            }
         }
         // Pop the next slot the ray enters before the closest hit so far.
         bool popped = false;
         while (sp > 0u) {
+            uvec2 next = top;
+            float next_enter = top_enter;
+            top = below;
+            top_enter = below_enter;
+            if (sp >= 3u) {
+                below = stack[sp - 3u];
+                below_enter = stack_enter[sp - 3u];
+            }
             --sp;
-            if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= t_far) {
-                at = stack[sp];
+            if (next_enter - abs(next_enter) * BVH_SLAB_SLACK <= t_far) {
+                at = next;
                 popped = true;
                 break;
             }
@@ -150,16 +175,49 @@ bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key,
 }
 
 // True if anything of the bottom level whose quantised root is node `root` is hit with t in
-// (t_min, t_max). The entered slots in slot order (any hit needs no order): the lowest next.
+// (t_min, t_max). The entered slots in slot order (any hit needs no order): the lowest next,
+// the others deferred with the highest on top (src/bvh/wide.rs).
 bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (root == NO_WIDE_ROOT) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[QBVH_STACK_SIZE];
     uint sp = 0u;
+    uvec2 top = uvec2(0u), below = uvec2(0u);
     uvec2 at = uvec2(root, 0u);
     float inf = uintBitsToFloat(0x7f800000u);
     for (;;) {
-        if ((at.x & QBVH_LEAF) != 0u) {
+        bool at_leaf = true;
+        while ((at.x & QBVH_LEAF) == 0u) {
+            QuantNode node = quant_node_at(at.x);
+            bool e0 = qbvh_slot_enter(node, 0u, ray, t_min, t_max) != inf;
+            bool e1 = qbvh_slot_enter(node, 1u, ray, t_min, t_max) != inf;
+            bool e2 = qbvh_slot_enter(node, 2u, ray, t_min, t_max) != inf;
+            bool e3 = qbvh_slot_enter(node, 3u, ray, t_min, t_max) != inf;
+            // The lowest entered slot next; each further one deferred over the last.
+            bool next = false;
+#define QBVH_ANY_SLOT(entered, s)                            \
+            if (entered) {                                   \
+                if (next) {                                  \
+                    if (sp >= 2u) stack[sp - 2u] = below;    \
+                    below = top;                             \
+                    top = qbvh_entry(node, s);               \
+                    ++sp;                                    \
+                } else {                                     \
+                    at = qbvh_entry(node, s);                \
+                    next = true;                             \
+                }                                            \
+            }
+            QBVH_ANY_SLOT(e0, 0u)
+            QBVH_ANY_SLOT(e1, 1u)
+            QBVH_ANY_SLOT(e2, 2u)
+            QBVH_ANY_SLOT(e3, 3u)
+#undef QBVH_ANY_SLOT
+            if (!next) {
+                at_leaf = false;
+                break;
+            }
+        }
+        if (at_leaf) {
             uint first = at.x & ~QBVH_LEAF;
             for (uint i = first; i < first + at.y; ++i) {
                 float t, u, v;
@@ -167,37 +225,12 @@ bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, u
                 if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
                     && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) return true;
             }
-        } else {
-            QuantNode node = quant_node_at(at.x);
-            bool e0 = qbvh_slot_enter(node, 0u, ray, t_min, t_max) != inf;
-            bool e1 = qbvh_slot_enter(node, 1u, ray, t_min, t_max) != inf;
-            bool e2 = qbvh_slot_enter(node, 2u, ray, t_min, t_max) != inf;
-            bool e3 = qbvh_slot_enter(node, 3u, ray, t_min, t_max) != inf;
-            // src/bvh/wide.rs: the lowest entered slot next, the others pushed lowest first.
-            bool next = false;
-            if (e0) {
-                at = qbvh_entry(node, 0u);
-                next = true;
-            }
-            if (e1) {
-                if (next) stack[sp++] = qbvh_entry(node, 1u);
-                else at = qbvh_entry(node, 1u);
-                next = true;
-            }
-            if (e2) {
-                if (next) stack[sp++] = qbvh_entry(node, 2u);
-                else at = qbvh_entry(node, 2u);
-                next = true;
-            }
-            if (e3) {
-                if (next) stack[sp++] = qbvh_entry(node, 3u);
-                else at = qbvh_entry(node, 3u);
-                next = true;
-            }
-            if (next) continue;
         }
         if (sp == 0u) return false;
-        at = stack[--sp];
+        at = top;
+        top = below;
+        if (sp >= 3u) below = stack[sp - 3u];
+        --sp;
     }
     return false;
 }

@@ -21,6 +21,19 @@ void instance_ray(GpuInstance inst, vec3 origin, vec3 dir, out vec3 o, out vec3 
     d = identity ? dir : transform_vector(inst.world_to_object, dir);
 }
 
+// The bottom level of instance `inst` (in its space): in its quantised 4-wide nodes, or in its
+// binary ones where it has none (no triangles, or a walk that could defer more slots than
+// qbvh.glsl keeps; src/render.rs, gpu_bvh).
+bool blas_closest(GpuInstance inst, vec3 o, vec3 d, float t_min, uvec4 key, inout HitRecord hit) {
+    return inst.wide_root != NO_WIDE_ROOT ? qbvh_closest_from(inst.wide_root, o, d, t_min, key, hit)
+                                          : bvh_closest_from(inst.blas_root, o, d, t_min, key, hit);
+}
+
+bool blas_any(GpuInstance inst, vec3 o, vec3 d, float t_min, float t_max, uvec4 key) {
+    return inst.wide_root != NO_WIDE_ROOT ? qbvh_any_from(inst.wide_root, o, d, t_min, t_max, key)
+                                          : bvh_any_from(inst.blas_root, o, d, t_min, t_max, key);
+}
+
 // One identity instance (a scene without instancing): the top level is skipped.
 bool single_identity_instance() {
     return instances.length() == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u;
@@ -32,7 +45,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
     if (instances.length() == 0u) return false;
     if (single_identity_instance()) {
-        return qbvh_closest_from(instances[0].wide_root, origin, dir, t_min, key, hit);
+        return blas_closest(instances[0], origin, dir, t_min, key, hit);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
@@ -67,7 +80,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
                 GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
-                if (qbvh_closest_from(inst.wide_root, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
+                if (blas_closest(inst, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
             }
         }
         bool popped = false;
@@ -88,7 +101,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
 bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (instances.length() == 0u) return false;
     if (single_identity_instance()) {
-        return qbvh_any_from(instances[0].wide_root, origin, dir, t_min, t_max, key);
+        return blas_any(instances[0], origin, dir, t_min, t_max, key);
     }
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
@@ -118,7 +131,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
                 GpuInstance inst = instance_inverse_at(k);
                 vec3 o, d;
                 instance_ray(inst, origin, dir, o, d);
-                if (qbvh_any_from(inst.wide_root, o, d, t_min, t_max, instance_key(key, k))) return true;
+                if (blas_any(inst, o, d, t_min, t_max, instance_key(key, k))) return true;
             }
         }
         if (sp == 0u) return false;

@@ -134,6 +134,26 @@ impl WideBvh<WideNode> {
     }
 }
 
+/// The most slots the GPU's walk (`qbvh.glsl`) keeps deferred: its per-lane array
+/// (`QBVH_STACK_SIZE`) and the two it holds in registers. A bottom level whose
+/// [`WideBvh::deferred_bound`] exceeds it is walked in its binary nodes on the GPU.
+pub const GPU_DEFERRED_MAX: u32 = 48 + 2;
+
+impl WideBvh<QuantNode> {
+    /// The most slots a walk from wide node `w` can have deferred at once: over every path from
+    /// it to a leaf, the sum over the path's nodes of their slots in use less one (a walk defers
+    /// every entered slot but the one it visits, and keeps only those of the path it is on).
+    pub fn deferred_bound(&self, w: u32) -> u32 {
+        let node = &self.nodes[w as usize];
+        let below = (0..WIDTH)
+            .filter(|&s| node.valid() & (1 << s) != 0 && node.child[s] & LEAF == 0)
+            .map(|s| self.deferred_bound(node.child[s]))
+            .max()
+            .unwrap_or(0);
+        node.valid().count_ones().saturating_sub(1) + below
+    }
+}
+
 /// The node array the GPU reads: the binary nodes (padded to an even count, `base`), then each
 /// quantised node as two [`BvhNode`] records, its interior children renumbered to where they
 /// are in this array ([`gpu_node_index`]). Returns the array and `base`.
@@ -163,6 +183,81 @@ pub fn gpu_node_index(base: u32, w: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::Bvh;
+    use glam::Vec3;
+
+    /// The GPU's bound is its walk's array and the two registers (`qbvh.glsl`).
+    #[test]
+    fn gpu_deferred_max_is_the_shaders_array_and_two_registers() {
+        let glsl = include_str!("../../shaders/inc/qbvh.glsl");
+        let size: u32 = glsl
+            .lines()
+            .find_map(|l| l.strip_prefix("#define QBVH_STACK_SIZE "))
+            .and_then(|v| v.trim().trim_end_matches('u').parse().ok())
+            .expect("QBVH_STACK_SIZE in qbvh.glsl");
+        assert_eq!(size + 2, GPU_DEFERRED_MAX);
+    }
+
+    /// Small triangles at x = 1.5^k: the SAH peels the farthest off at every level, a binary
+    /// vine as deep as the triangles are many (up to the depth limit).
+    fn vine(n: usize) -> Vec<[Vec3; 3]> {
+        (0..n)
+            .map(|k| {
+                let p = Vec3::new(1.5f32.powi(k as i32), 0.0, 0.0);
+                [p, p + Vec3::Y * 0.1, p + Vec3::Z * 0.1]
+            })
+            .collect()
+    }
+
+    /// `deferred_bound` is the largest sum, over the paths from the root to a leaf, of each
+    /// node's slots in use less one: checked against every path enumerated one by one, on
+    /// balanced trees and on vines (which exceed what the GPU keeps, and so are walked there in
+    /// their binary nodes).
+    #[test]
+    fn deferred_bound_is_the_largest_sum_over_paths() {
+        let mut rng = 12345u32;
+        let mut next = move || {
+            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+            (rng >> 8) as f32 / 16_777_216.0
+        };
+        let mut soups: Vec<Vec<[Vec3; 3]>> = (0..6)
+            .map(|s| {
+                (0..50 + 400 * s)
+                    .map(|_| {
+                        let p = Vec3::new(next(), next(), next()) * 10.0;
+                        [
+                            p,
+                            p + Vec3::new(next(), 0.0, 0.1),
+                            p + Vec3::new(0.0, next(), 0.1),
+                        ]
+                    })
+                    .collect()
+            })
+            .collect();
+        soups.push(vine(20));
+        soups.push(vine(200));
+        let mut over = 0;
+        for tris in &soups {
+            let bvh = Bvh::build(tris);
+            let quant = WideBvh::collapse(&bvh.nodes, &[0]).quantized();
+            let root = quant.root(0).unwrap();
+            let mut largest = 0;
+            let mut paths = vec![(root, 0u32)];
+            while let Some((w, sum)) = paths.pop() {
+                let node = &quant.nodes[w as usize];
+                let sum = sum + node.valid().count_ones() - 1;
+                largest = largest.max(sum);
+                for s in (0..WIDTH).filter(|&s| node.valid() & (1 << s) != 0) {
+                    if node.child[s] & LEAF == 0 {
+                        paths.push((node.child[s], sum));
+                    }
+                }
+            }
+            assert_eq!(quant.deferred_bound(root), largest);
+            over += usize::from(largest > GPU_DEFERRED_MAX);
+        }
+        assert_eq!(over, 1, "only the long vine needs the binary walk");
+    }
 
     /// Every dequantised box contains its slot's box, and no plane lies further out than a
     /// step and a rounding beyond it: the planes are tight where they can be.
