@@ -157,7 +157,8 @@ impl Bvh {
 
 /// A tree of boxes over primitive ranges that a ray walks, its roots named by their node index
 /// in the binary layout: the binary tree itself (`[BvhNode]`, twin of `bvh.glsl`, which the GPU
-/// walks) or its 4-wide collapse ([`WideBvh`], which the CPU integrators walk). Leaves are
+/// walks over instances) or its 4-wide collapse ([`WideBvh`], which the CPU integrators walk;
+/// with quantised boxes, [`QuantNode`], the GPU's bottom levels: `qbvh.glsl`). Leaves are
 /// (first, count) ranges of triangles, or of instances in the top level (`tlas.rs`).
 pub trait Hierarchy {
     /// Front-to-back walk for the closest hit: `leaf(first, count, t_far)` tests a leaf's

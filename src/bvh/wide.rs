@@ -1,6 +1,6 @@
-//! The CPU integrators' form of the BVH: the binary tree the GPU traverses (`bvh.glsl`),
-//! collapsed into nodes of up to four children whose boxes one ray tests together, four lanes
-//! of one SIMD register per plane.
+//! The CPU integrators' form of the BVH: the binary tree (`bvh.glsl`) collapsed into nodes of up
+//! to four children whose boxes one ray tests together, four lanes of one SIMD register per
+//! plane. Its nodes with quantised boxes (`quantized.rs`) are the GPU's bottom levels.
 //!
 //! The collapse keeps every leaf of the binary tree and the box of every node it does not open:
 //! a wide node's children are the binary nodes found by opening, from a binary interior node,
