@@ -355,22 +355,25 @@ fn glsl_functions_equal_their_rust_twins() {
         let hit = scene
             .bvh
             .intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);
-        let cpu_hit = match hit {
+        // A hit as the kernel writes it (t, triangle's bits, u, v), and the same triangle with t,
+        // u and v within ULP_TOL.
+        let as_vec4 = |hit: Option<wavetrace::bvh::Hit>| match hit {
             Some(h) => Vec4::new(h.t, f32::from_bits(h.triangle), h.u, h.v),
             None => Vec4::new(f32::MAX, f32::from_bits(u32::MAX), 0.0, 0.0),
+        };
+        let same_hit = |a: Vec4, b: Vec4| {
+            a.y.to_bits() == b.y.to_bits()
+                && close(
+                    Vec4::new(a.x, 0.0, a.z, a.w),
+                    Vec4::new(b.x, 0.0, b.z, b.w),
+                    ULP_TOL,
+                )
         };
         check(
             10,
             "bvh_intersect_closest (t, triangle, u, v)",
-            cpu_hit,
-            &|a, b| {
-                a.y.to_bits() == b.y.to_bits()
-                    && close(
-                        Vec4::new(a.x, 0.0, a.z, a.w),
-                        Vec4::new(b.x, 0.0, b.z, b.w),
-                        ULP_TOL,
-                    )
-            },
+            as_vec4(hit),
+            &same_hit,
         );
         let t_max = c.u.z * 4.0;
         let any = scene.bvh.intersect_any(&scene.triangles, &ray, 0.0, t_max);
@@ -390,22 +393,11 @@ fn glsl_functions_equal_their_rust_twins() {
             f32::MAX,
             |_, _, _| true,
         );
-        let cpu_wide_hit = match wide_hit {
-            Some(h) => Vec4::new(h.t, f32::from_bits(h.triangle), h.u, h.v),
-            None => Vec4::new(f32::MAX, f32::from_bits(u32::MAX), 0.0, 0.0),
-        };
         check(
             26,
             "qbvh_closest_from (t, triangle, u, v)",
-            cpu_wide_hit,
-            &|a, b| {
-                a.y.to_bits() == b.y.to_bits()
-                    && close(
-                        Vec4::new(a.x, 0.0, a.z, a.w),
-                        Vec4::new(b.x, 0.0, b.z, b.w),
-                        ULP_TOL,
-                    )
-            },
+            as_vec4(wide_hit),
+            &same_hit,
         );
         let wide_any = any_triangle(&quant, 0, &scene.triangles, &ray, 0.0, t_max, |_, _, _| {
             true

@@ -117,6 +117,92 @@ bool bvh_is_empty() {
     return bvh_node_at(0).bounds_min.x > bvh_node_at(0).bounds_max.x;
 }
 
+// The deferred entries of a walk (this file's and qbvh.glsl's): the top two in registers (top,
+// below, with the distances at which the ray enters them for the closest hit), the rest in
+// stack[0 .. sp - 2), which a CPU Vulkan device keeps in per-lane memory. Macros over those
+// names: an array passed to a function would be copied.
+#define BVH_DEFER(e, t_enter)                       \
+    {                                               \
+        if (sp >= 2u) {                             \
+            stack[sp - 2u] = below;                 \
+            stack_enter[sp - 2u] = below_enter;     \
+        }                                           \
+        below = top;                                \
+        below_enter = top_enter;                    \
+        top = (e);                                  \
+        top_enter = (t_enter);                      \
+        ++sp;                                       \
+    }
+// Pops entries until one the ray enters before t_far: into `to`, `popped` says whether any.
+#define BVH_POP_ENTERED(to, popped)                                           \
+    {                                                                         \
+        popped = false;                                                       \
+        while (sp > 0u) {                                                     \
+            uvec2 next = top;                                                 \
+            float next_enter = top_enter;                                     \
+            top = below;                                                      \
+            top_enter = below_enter;                                          \
+            if (sp >= 3u) {                                                   \
+                below = stack[sp - 3u];                                       \
+                below_enter = stack_enter[sp - 3u];                           \
+            }                                                                 \
+            --sp;                                                             \
+            if (next_enter - abs(next_enter) * BVH_SLAB_SLACK <= t_far) {     \
+                to = next;                                                    \
+                popped = true;                                                \
+                break;                                                        \
+            }                                                                 \
+        }                                                                     \
+    }
+// The same without distances, for any hit.
+#define BVH_DEFER_ANY(e)                       \
+    {                                          \
+        if (sp >= 2u) stack[sp - 2u] = below;  \
+        below = top;                           \
+        top = (e);                             \
+        ++sp;                                  \
+    }
+#define BVH_POP_ANY(to)                            \
+    {                                              \
+        to = top;                                  \
+        top = below;                               \
+        if (sp >= 3u) below = stack[sp - 3u];      \
+        --sp;                                      \
+    }
+
+// A leaf's triangles [first, first + count) against hits closer than t_far: updates t_far and
+// hit (t, triangle, u, v) and returns true if one is closer. The top two material bits say
+// whether a hit needs an any-hit test.
+bool bvh_leaf_closest(uint first, uint count, vec3 origin, vec3 dir, float t_min, uvec4 key,
+                      inout float t_far, inout HitRecord hit) {
+    bool found = false;
+    for (uint i = first; i < first + count; ++i) {
+        float t, u, v;
+        GpuTriangle tri = triangle_at(i);
+        if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
+            && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) {
+            t_far = t;
+            hit.t = t;
+            hit.triangle = i;
+            hit.u = u;
+            hit.v = v;
+            found = true;
+        }
+    }
+    return found;
+}
+
+// Whether any of a leaf's triangles [first, first + count) is hit with t in (t_min, t_max).
+bool bvh_leaf_any(uint first, uint count, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+    for (uint i = first; i < first + count; ++i) {
+        float t, u, v;
+        GpuTriangle tri = triangle_at(i);
+        if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
+            && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) return true;
+    }
+    return false;
+}
+
 // Closest hit with t in (t_min, t_max). On a miss returns false with hit.triangle = NO_HIT.
 // Closest hit in the subtree rooted at node `root` (node and triangle indices absolute) with t in
 // (t_min, hit.t): updates hit.t, triangle, u, v and returns true if it finds one. key: the ray's
@@ -149,54 +235,16 @@ bool bvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, 
                 at_leaf = false;
                 break;
             }
-            if (entered == 2u) {
-                if (sp >= 2u) {
-                    stack[sp - 2u] = below;
-                    stack_enter[sp - 2u] = below_enter;
-                }
-                below = top;
-                below_enter = top_enter;
-                top = far;
-                top_enter = far_enter;
-                ++sp;
-            }
+            if (entered == 2u) BVH_DEFER(far, far_enter)
             cursor = near;
         }
-        if (at_leaf) {
-            uint first = cursor.x;
-            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
-                float t, u, v;
-                GpuTriangle tri = triangle_at(i);
-                // The top two material bits say whether the hit needs an any-hit test.
-                if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) {
-                    t_far = t;
-                    hit.t = t;
-                    hit.triangle = i;
-                    hit.u = u;
-                    hit.v = v;
-                    found = true;
-                }
-            }
+        if (at_leaf && bvh_leaf_closest(cursor.x, bvh_cursor_count(cursor), origin, dir, t_min, key,
+                                        t_far, hit)) {
+            found = true;
         }
         // Pop the next node the ray enters before the closest hit so far.
-        bool popped = false;
-        while (sp > 0u) {
-            uvec2 next = top;
-            float next_enter = top_enter;
-            top = below;
-            top_enter = below_enter;
-            if (sp >= 3u) {
-                below = stack[sp - 3u];
-                below_enter = stack_enter[sp - 3u];
-            }
-            --sp;
-            if (next_enter - abs(next_enter) * BVH_SLAB_SLACK <= t_far) {
-                cursor = next;
-                popped = true;
-                break;
-            }
-        }
+        bool popped;
+        BVH_POP_ENTERED(cursor, popped)
         if (!popped) break;
     }
     return found;
@@ -234,28 +282,14 @@ bool bvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uv
                 at_leaf = false;
                 break;
             }
-            if (entered == 2u) {
-                if (sp >= 2u) stack[sp - 2u] = below;
-                below = top;
-                top = far;
-                ++sp;
-            }
+            if (entered == 2u) BVH_DEFER_ANY(far)
             cursor = near;
         }
-        if (at_leaf) {
-            uint first = cursor.x;
-            for (uint i = first; i < first + bvh_cursor_count(cursor); ++i) {
-                float t, u, v;
-                GpuTriangle tri = triangle_at(i);
-                if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) return true;
-            }
+        if (at_leaf && bvh_leaf_any(cursor.x, bvh_cursor_count(cursor), origin, dir, t_min, t_max, key)) {
+            return true;
         }
         if (sp == 0u) return false;
-        cursor = top;
-        top = below;
-        if (sp >= 3u) below = stack[sp - 3u];
-        --sp;
+        BVH_POP_ANY(cursor)
     }
     return false;
 }

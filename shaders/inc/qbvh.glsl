@@ -85,25 +85,9 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
     return entered;
 }
 
-// Deferred slots with the distances at which the ray enters them: the top two in registers
-// (top, below), the rest in stack[0 .. sp - 2), which a CPU Vulkan device keeps in per-lane
-// memory (as bvh.glsl keeps its deferred nodes).
-#define QBVH_PUSH(e, t)                  \
-    {                                    \
-        if (sp >= 2u) {                  \
-            stack[sp - 2u] = below;      \
-            stack_enter[sp - 2u] = below_enter; \
-        }                                \
-        below = top;                     \
-        below_enter = top_enter;         \
-        top = (e);                       \
-        top_enter = (t);                 \
-        ++sp;                            \
-    }
-
 // Closest hit in the bottom level whose quantised root is node `root` (NO_WIDE_ROOT: none) with t
 // in (t_min, hit.t): updates hit.t, triangle, u, v and returns true if it finds one. key: the
-// ray's alpha key (surface.glsl, alpha_key).
+// ray's alpha key (surface.glsl, alpha_key). Deferred slots as bvh.glsl keeps them (BVH_DEFER).
 bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     if (root == NO_WIDE_ROOT) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
@@ -129,46 +113,17 @@ bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key,
                 break;
             }
             // The farther ones deferred, farthest first, so the nearest of them is on top.
-            if (entered > 3u) QBVH_PUSH(e3, t3)
-            if (entered > 2u) QBVH_PUSH(e2, t2)
-            if (entered > 1u) QBVH_PUSH(e1, t1)
+            if (entered > 3u) BVH_DEFER(e3, t3)
+            if (entered > 2u) BVH_DEFER(e2, t2)
+            if (entered > 1u) BVH_DEFER(e1, t1)
             at = e0;
         }
-        if (at_leaf) {
-            uint first = at.x & ~QBVH_LEAF;
-            for (uint i = first; i < first + at.y; ++i) {
-                float t, u, v;
-                GpuTriangle tri = triangle_at(i);
-                // The top two material bits say whether the hit needs an any-hit test.
-                if (intersect_triangle(tri, origin, dir, t_min, t_far, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) {
-                    t_far = t;
-                    hit.t = t;
-                    hit.triangle = i;
-                    hit.u = u;
-                    hit.v = v;
-                    found = true;
-                }
-            }
+        if (at_leaf && bvh_leaf_closest(at.x & ~QBVH_LEAF, at.y, origin, dir, t_min, key, t_far, hit)) {
+            found = true;
         }
         // Pop the next slot the ray enters before the closest hit so far.
-        bool popped = false;
-        while (sp > 0u) {
-            uvec2 next = top;
-            float next_enter = top_enter;
-            top = below;
-            top_enter = below_enter;
-            if (sp >= 3u) {
-                below = stack[sp - 3u];
-                below_enter = stack_enter[sp - 3u];
-            }
-            --sp;
-            if (next_enter - abs(next_enter) * BVH_SLAB_SLACK <= t_far) {
-                at = next;
-                popped = true;
-                break;
-            }
-        }
+        bool popped;
+        BVH_POP_ENTERED(at, popped)
         if (!popped) break;
     }
     return found;
@@ -198,10 +153,7 @@ bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, u
 #define QBVH_ANY_SLOT(entered, s)                            \
             if (entered) {                                   \
                 if (next) {                                  \
-                    if (sp >= 2u) stack[sp - 2u] = below;    \
-                    below = top;                             \
-                    top = qbvh_entry(node, s);               \
-                    ++sp;                                    \
+                    BVH_DEFER_ANY(qbvh_entry(node, s))       \
                 } else {                                     \
                     at = qbvh_entry(node, s);                \
                     next = true;                             \
@@ -217,20 +169,9 @@ bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, u
                 break;
             }
         }
-        if (at_leaf) {
-            uint first = at.x & ~QBVH_LEAF;
-            for (uint i = first; i < first + at.y; ++i) {
-                float t, u, v;
-                GpuTriangle tri = triangle_at(i);
-                if (intersect_triangle(tri, origin, dir, t_min, t_max, t, u, v)
-                    && ((tri.material >> 30u) == 0u || bvh_accept(tri, i, u, v, key, dir))) return true;
-            }
-        }
+        if (at_leaf && bvh_leaf_any(at.x & ~QBVH_LEAF, at.y, origin, dir, t_min, t_max, key)) return true;
         if (sp == 0u) return false;
-        at = top;
-        top = below;
-        if (sp >= 3u) below = stack[sp - 3u];
-        --sp;
+        BVH_POP_ANY(at)
     }
     return false;
 }
