@@ -35,12 +35,12 @@ uvec2 qbvh_entry(QuantNode node, uint s) {
     return uvec2(node.child[s], (node.count >> (8u * s)) & 0xffu);
 }
 
-// Slot s's entry distance, +∞ where the ray does not enter it before t_far.
-float qbvh_slot_enter(QuantNode node, uint s, BvhSlabRay ray, float t_min, float t_far) {
-    float t_enter;
+// Whether the ray enters slot s of `node` before t_far, and where (t_enter; BVH_FLT_MAX if not).
+bool qbvh_slot_entered(QuantNode node, uint s, BvhSlabRay ray, float t_min, float t_far, out float t_enter) {
     bool used = ((node.exponents_valid >> (24u + s)) & 1u) != 0u;
-    return used && bvh_slab(qbvh_slot_box(node, s), ray, t_min, t_far, t_enter) ? t_enter
-                                                                                : uintBitsToFloat(0x7f800000u);
+    bool entered = used && bvh_slab(qbvh_slot_box(node, s), ray, t_min, t_far, t_enter);
+    if (!entered) t_enter = BVH_FLT_MAX;
+    return entered;
 }
 
 // Orders slots a and b by (entry distance, slot): src/bvh/wide.rs, by_distance, which sorts by
@@ -61,22 +61,21 @@ void qbvh_order(inout float ta, inout uint sa, inout uvec2 ea, inout float tb, i
 }
 
 // The slots of `node` the ray enters before t_far, nearest first: how many (0 to 4), their
-// entries e0..e3 and entry distances t0..t3 (a sorting network on four; slots not entered, at
-// +∞, last).
+// entries e0..e3 and entry distances t0..t3 (a sorting network on four; slots not entered last:
+// at BVH_FLT_MAX, and after any entered there, their slot numbers raised by 4).
 uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
                   out uvec2 e0, out uvec2 e1, out uvec2 e2, out uvec2 e3,
                   out float t0, out float t1, out float t2, out float t3) {
-    t0 = qbvh_slot_enter(node, 0u, ray, t_min, t_far);
-    t1 = qbvh_slot_enter(node, 1u, ray, t_min, t_far);
-    t2 = qbvh_slot_enter(node, 2u, ray, t_min, t_far);
-    t3 = qbvh_slot_enter(node, 3u, ray, t_min, t_far);
-    float inf = uintBitsToFloat(0x7f800000u);
-    uint entered = uint(t0 != inf) + uint(t1 != inf) + uint(t2 != inf) + uint(t3 != inf);
+    bool h0 = qbvh_slot_entered(node, 0u, ray, t_min, t_far, t0);
+    bool h1 = qbvh_slot_entered(node, 1u, ray, t_min, t_far, t1);
+    bool h2 = qbvh_slot_entered(node, 2u, ray, t_min, t_far, t2);
+    bool h3 = qbvh_slot_entered(node, 3u, ray, t_min, t_far, t3);
+    uint entered = uint(h0) + uint(h1) + uint(h2) + uint(h3);
     e0 = qbvh_entry(node, 0u);
     e1 = qbvh_entry(node, 1u);
     e2 = qbvh_entry(node, 2u);
     e3 = qbvh_entry(node, 3u);
-    uint s0 = 0u, s1 = 1u, s2 = 2u, s3 = 3u;
+    uint s0 = h0 ? 0u : 4u, s1 = h1 ? 1u : 5u, s2 = h2 ? 2u : 6u, s3 = h3 ? 3u : 7u;
     qbvh_order(t0, s0, e0, t1, s1, e1);
     qbvh_order(t2, s2, e2, t3, s3, e3);
     qbvh_order(t0, s0, e0, t2, s2, e2);
@@ -139,15 +138,15 @@ bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, u
     uint sp = 0u;
     uvec2 top = uvec2(0u), below = uvec2(0u);
     uvec2 at = uvec2(root, 0u);
-    float inf = uintBitsToFloat(0x7f800000u);
     for (;;) {
         bool at_leaf = true;
         while ((at.x & QBVH_LEAF) == 0u) {
             QuantNode node = quant_node_at(at.x);
-            bool e0 = qbvh_slot_enter(node, 0u, ray, t_min, t_max) != inf;
-            bool e1 = qbvh_slot_enter(node, 1u, ray, t_min, t_max) != inf;
-            bool e2 = qbvh_slot_enter(node, 2u, ray, t_min, t_max) != inf;
-            bool e3 = qbvh_slot_enter(node, 3u, ray, t_min, t_max) != inf;
+            float t_enter;
+            bool e0 = qbvh_slot_entered(node, 0u, ray, t_min, t_max, t_enter);
+            bool e1 = qbvh_slot_entered(node, 1u, ray, t_min, t_max, t_enter);
+            bool e2 = qbvh_slot_entered(node, 2u, ray, t_min, t_max, t_enter);
+            bool e3 = qbvh_slot_entered(node, 3u, ray, t_min, t_max, t_enter);
             // The lowest entered slot next; each further one deferred over the last.
             bool next = false;
 #define QBVH_ANY_SLOT(entered, s)                            \
