@@ -223,6 +223,20 @@ fn a_requeued_shard_resumes_and_the_merge_waits_for_it() {
         );
         std::thread::sleep(Duration::from_millis(200));
     }
+    // Slurm may report the task pending while its first run is still writing the partial shard;
+    // start the second run only once that is written (`stopped early` ends the first run's log),
+    // as Slurm's own delay before a requeued job is eligible again would ensure.
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !std::fs::read_to_string(&log).is_ok_and(|l| l.contains("stopped early")) {
+        assert!(
+            Instant::now() < deadline,
+            "shard 1's first run did not write its partial shard\n{}",
+            logs(&out_dir)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // (and a moment for its process to end after that last line).
+    std::thread::sleep(Duration::from_secs(1));
     let o = Command::new("scontrol")
         .args(["update", &format!("JobId={task}"), "StartTime=now"])
         .output()
