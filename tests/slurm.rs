@@ -88,6 +88,16 @@ fn logs(out_dir: &Path) -> String {
         .join("\n")
 }
 
+/// Waits until `log` contains `text` (`seconds` at most: a guard against a hang, not a
+/// measurement), else fails with `what` and the run's logs.
+fn wait_for_log(out_dir: &Path, log: &Path, text: &str, seconds: u64, what: &str) {
+    let deadline = Instant::now() + Duration::from_secs(seconds);
+    while !std::fs::read_to_string(log).is_ok_and(|l| l.contains(text)) {
+        assert!(Instant::now() < deadline, "{what}\n{}", logs(out_dir));
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
 /// Waits for the merge job to complete (15 minutes at most: a guard against a hang, not a
 /// measurement) and checks that every array task completed.
 fn wait_for(out_dir: &Path, array: &str, merge: &str, shards: usize) {
@@ -192,15 +202,7 @@ fn a_requeued_shard_resumes_and_the_merge_waits_for_it() {
     let (array, merge) = submit(&out_dir, spp, shards, options);
     let task = format!("{array}_1");
     let log = out_dir.join("shard-1.log");
-    let deadline = Instant::now() + Duration::from_secs(300);
-    while !std::fs::read_to_string(&log).is_ok_and(|l| l.contains("rendering")) {
-        assert!(
-            Instant::now() < deadline,
-            "shard 1 did not start\n{}",
-            logs(&out_dir)
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    wait_for_log(&out_dir, &log, "rendering", 300, "shard 1 did not start");
     std::thread::sleep(Duration::from_millis(300));
     let o = Command::new("scontrol")
         .args(["requeue", &task])
@@ -226,15 +228,13 @@ fn a_requeued_shard_resumes_and_the_merge_waits_for_it() {
     // Slurm may report the task pending while its first run is still writing the partial shard;
     // start the second run only once that is written (`stopped early` ends the first run's log),
     // as Slurm's own delay before a requeued job is eligible again would ensure.
-    let deadline = Instant::now() + Duration::from_secs(120);
-    while !std::fs::read_to_string(&log).is_ok_and(|l| l.contains("stopped early")) {
-        assert!(
-            Instant::now() < deadline,
-            "shard 1's first run did not write its partial shard\n{}",
-            logs(&out_dir)
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    wait_for_log(
+        &out_dir,
+        &log,
+        "stopped early",
+        120,
+        "shard 1's first run did not write its partial shard",
+    );
     // (and a moment for its process to end after that last line).
     std::thread::sleep(Duration::from_secs(1));
     let o = Command::new("scontrol")

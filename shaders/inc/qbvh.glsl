@@ -19,11 +19,16 @@
 // faster against shade).
 #define QBVH_STACK_SIZE 48u
 
-// Slot s of `node` as the slab test reads it: origin + q · 2^(e − 127) per plane. The product is
-// exact (q < 2^8, a power-of-two scale), so the plane is one rounding whether or not the compiler
-// fuses it: the CPU's float (src/bvh/quantized.rs, plane).
-BvhNode qbvh_slot_box(QuantNode node, uint s) {
-    vec3 scale = uintBitsToFloat(((uvec3(node.exponents_valid) >> uvec3(0u, 8u, 16u)) & 0xffu) << 23u);
+// The node's scale per axis, 2^(e − 127) from its biased exponent e (src/bvh/quantized.rs,
+// scale): made once per node, for all four slots.
+vec3 qbvh_scale(QuantNode node) {
+    return uintBitsToFloat(((uvec3(node.exponents_valid) >> uvec3(0u, 8u, 16u)) & 0xffu) << 23u);
+}
+
+// Slot s of `node` as the slab test reads it: origin + q · scale per plane. The product is exact
+// (q < 2^8, a power-of-two scale), so the plane is one rounding whether or not the compiler fuses
+// it: the CPU's float (src/bvh/quantized.rs, plane).
+BvhNode qbvh_slot_box(QuantNode node, vec3 scale, uint s) {
     uint shift = 8u * s;
     uvec3 q_lo = (uvec3(node.q[0], node.q[1], node.q[2]) >> shift) & 0xffu;
     uvec3 q_hi = (uvec3(node.q[3], node.q[4], node.q[5]) >> shift) & 0xffu;
@@ -36,9 +41,10 @@ uvec2 qbvh_entry(QuantNode node, uint s) {
 }
 
 // Whether the ray enters slot s of `node` before t_far, and where (t_enter; BVH_FLT_MAX if not).
-bool qbvh_slot_entered(QuantNode node, uint s, BvhSlabRay ray, float t_min, float t_far, out float t_enter) {
+bool qbvh_slot_entered(QuantNode node, vec3 scale, uint s, BvhSlabRay ray, float t_min, float t_far,
+                       out float t_enter) {
     bool used = ((node.exponents_valid >> (24u + s)) & 1u) != 0u;
-    bool entered = used && bvh_slab(qbvh_slot_box(node, s), ray, t_min, t_far, t_enter);
+    bool entered = used && bvh_slab(qbvh_slot_box(node, scale, s), ray, t_min, t_far, t_enter);
     if (!entered) t_enter = BVH_FLT_MAX;
     return entered;
 }
@@ -66,10 +72,11 @@ void qbvh_order(inout float ta, inout uint sa, inout uvec2 ea, inout float tb, i
 uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
                   out uvec2 e0, out uvec2 e1, out uvec2 e2, out uvec2 e3,
                   out float t0, out float t1, out float t2, out float t3) {
-    bool h0 = qbvh_slot_entered(node, 0u, ray, t_min, t_far, t0);
-    bool h1 = qbvh_slot_entered(node, 1u, ray, t_min, t_far, t1);
-    bool h2 = qbvh_slot_entered(node, 2u, ray, t_min, t_far, t2);
-    bool h3 = qbvh_slot_entered(node, 3u, ray, t_min, t_far, t3);
+    vec3 scale = qbvh_scale(node);
+    bool h0 = qbvh_slot_entered(node, scale, 0u, ray, t_min, t_far, t0);
+    bool h1 = qbvh_slot_entered(node, scale, 1u, ray, t_min, t_far, t1);
+    bool h2 = qbvh_slot_entered(node, scale, 2u, ray, t_min, t_far, t2);
+    bool h3 = qbvh_slot_entered(node, scale, 3u, ray, t_min, t_far, t3);
     uint entered = uint(h0) + uint(h1) + uint(h2) + uint(h3);
     e0 = qbvh_entry(node, 0u);
     e1 = qbvh_entry(node, 1u);
@@ -142,11 +149,12 @@ bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, u
         bool at_leaf = true;
         while ((at.x & QBVH_LEAF) == 0u) {
             QuantNode node = quant_node_at(at.x);
+            vec3 scale = qbvh_scale(node);
             float t_enter;
-            bool e0 = qbvh_slot_entered(node, 0u, ray, t_min, t_max, t_enter);
-            bool e1 = qbvh_slot_entered(node, 1u, ray, t_min, t_max, t_enter);
-            bool e2 = qbvh_slot_entered(node, 2u, ray, t_min, t_max, t_enter);
-            bool e3 = qbvh_slot_entered(node, 3u, ray, t_min, t_max, t_enter);
+            bool e0 = qbvh_slot_entered(node, scale, 0u, ray, t_min, t_max, t_enter);
+            bool e1 = qbvh_slot_entered(node, scale, 1u, ray, t_min, t_max, t_enter);
+            bool e2 = qbvh_slot_entered(node, scale, 2u, ray, t_min, t_max, t_enter);
+            bool e3 = qbvh_slot_entered(node, scale, 3u, ray, t_min, t_max, t_enter);
             // The lowest entered slot next; each further one deferred over the last.
             bool next = false;
 #define QBVH_ANY_SLOT(entered, s)                            \

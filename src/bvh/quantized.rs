@@ -12,7 +12,7 @@
 //! dequantised box contains the binary tree's box: a ray tests the same leaves it would have
 //! tested there, and a few more, and finds the same closest hit.
 
-use super::wide::{Entry, WideBvh, WideNode, WideSlots, LEAF, WIDTH};
+use super::wide::{Entry, WideBvh, WideNode, WideSlots, WIDTH};
 use crate::layout::BvhNode;
 use glam::Vec4;
 
@@ -145,8 +145,8 @@ impl WideBvh<QuantNode> {
     /// every entered slot but the one it visits, and keeps only those of the path it is on).
     pub fn deferred_bound(&self, w: u32) -> u32 {
         let node = &self.nodes[w as usize];
-        let below = (0..WIDTH)
-            .filter(|&s| node.valid() & (1 << s) != 0 && node.child[s] & LEAF == 0)
+        let below = node
+            .interior_slots()
             .map(|s| self.deferred_bound(node.child[s]))
             .max()
             .unwrap_or(0);
@@ -164,13 +164,11 @@ pub fn gpu_nodes(binary: &[BvhNode], quant: &WideBvh<QuantNode>) -> (Vec<BvhNode
     nodes.resize(base, BvhNode::default());
     let base = base as u32;
     for node in &quant.nodes {
-        let mut node = *node;
-        for s in 0..WIDTH {
-            if node.valid() & (1 << s) != 0 && node.child[s] & LEAF == 0 {
-                node.child[s] = gpu_node_index(base, node.child[s]);
-            }
+        let mut gpu = *node;
+        for s in node.interior_slots() {
+            gpu.child[s] = gpu_node_index(base, node.child[s]);
         }
-        nodes.extend_from_slice(bytemuck::cast_slice(&[node]));
+        nodes.extend_from_slice(bytemuck::cast_slice(&[gpu]));
     }
     (nodes, base)
 }
@@ -247,10 +245,8 @@ mod tests {
                 let node = &quant.nodes[w as usize];
                 let sum = sum + node.valid().count_ones() - 1;
                 largest = largest.max(sum);
-                for s in (0..WIDTH).filter(|&s| node.valid() & (1 << s) != 0) {
-                    if node.child[s] & LEAF == 0 {
-                        paths.push((node.child[s], sum));
-                    }
+                for s in node.interior_slots() {
+                    paths.push((node.child[s], sum));
                 }
             }
             assert_eq!(quant.deferred_bound(root), largest);

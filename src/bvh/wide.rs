@@ -52,6 +52,11 @@ pub trait WideSlots: Copy + Send + Sync {
     fn bounds(&self) -> [[Vec4; 3]; 2];
     fn valid(&self) -> u32;
     fn entry(&self, s: usize) -> Entry;
+
+    /// The slots in use that name a wide node (not a leaf).
+    fn interior_slots(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..WIDTH).filter(move |&s| self.valid() & (1 << s) != 0 && self.entry(s).child & LEAF == 0)
+    }
 }
 
 impl WideSlots for WideNode {
