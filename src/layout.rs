@@ -448,7 +448,10 @@ pub struct FrameParams {
     /// 1: every kernel adds the scene-image texels it fetched to `counter::FETCHES`
     /// (`GpuOptions::count_fetches`, `render --stats`).
     pub count_fetches: u32, // 4 bytes
-    pub pad2: u32,              // 4 bytes
+    /// Index in the GPU's node array of the top level's quantised 4-wide root (`tlas.glsl`,
+    /// `PreparedScene::gpu_bvh`), or `NO_WIDE_ROOT`: the top level is walked in its binary
+    /// nodes from `tlas_root`.
+    pub tlas_wide_root: u32, // 4 bytes
     /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
     /// four entries per vec4): a uniform the shaders index, where a constant array of that size
     /// costs lavapipe minutes of shader compilation. Every `FrameParams::default()` holds it.
@@ -456,9 +459,11 @@ pub struct FrameParams {
 }
 
 impl Default for FrameParams {
-    /// Every field 0, and the sheen albedo table.
+    /// Every field 0 but the quantised top level's root (`NO_WIDE_ROOT`: none), and the sheen
+    /// albedo table.
     fn default() -> Self {
         FrameParams {
+            tlas_wide_root: NO_WIDE_ROOT,
             sheen_albedo: crate::bsdf::sheen::sheen_albedo_vec4s(),
             ..Zeroable::zeroed()
         }
@@ -855,7 +860,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         integrator,
         spectral,
         count_fetches,
-        pad2,
+        tlas_wide_root,
         sheen_albedo
     }),
     struct_layout!(DispatchParams {

@@ -135,6 +135,9 @@ impl RenderSettings {
 pub struct GpuBvh {
     pub nodes: Vec<BvhNode>,
     pub instances: Vec<GpuInstance>,
+    /// The top level's quantised root in `nodes` (`FrameParams::tlas_wide_root`), or
+    /// `NO_WIDE_ROOT` where it is walked in its binary nodes.
+    pub tlas_wide_root: u32,
 }
 
 /// The scene in the form both integrators trace: the two-level BVH (`tlas.rs`) and triangles
@@ -580,34 +583,44 @@ impl PreparedScene {
         })
     }
 
-    /// The GPU's node and instance arrays: the binary nodes (the top level's walk, `tlas.glsl`)
-    /// followed by every level collapsed to quantised 4-wide nodes (the bottom levels' walk,
-    /// `qbvh.glsl`), and the instances with their bottom level's quantised root.
+    /// The GPU's node and instance arrays: the binary nodes followed by every level collapsed
+    /// to quantised 4-wide nodes (`qbvh.glsl`), the instances with their bottom level's
+    /// quantised root, and the top level's.
     pub fn gpu_bvh(&self) -> &GpuBvh {
         self.gpu.get_or_init(|| {
-            let roots: Vec<u32> = self.instances.iter().map(|i| i.blas_root).collect();
+            let roots: Vec<u32> = std::iter::once(self.tlas_root)
+                .chain(self.instances.iter().map(|i| i.blas_root))
+                .collect();
             let quant = WideBvh::collapse(&self.bvh.nodes, &roots).quantized();
             let (nodes, base) = crate::bvh::quantized::gpu_nodes(&self.bvh.nodes, &quant);
-            // A bottom level of no triangles, or whose walk could defer more slots than the GPU
+            // A level of no primitives, or whose walk could defer more slots than the GPU
             // keeps, is walked in its binary nodes (`tlas.glsl`).
             let mut bounds = std::collections::HashMap::new();
+            let mut wide_root = |binary: u32| {
+                quant
+                    .root(binary)
+                    .filter(|&w| {
+                        let bound = *bounds.entry(w).or_insert_with(|| quant.deferred_bound(w));
+                        bound <= crate::bvh::quantized::GPU_DEFERRED_MAX
+                    })
+                    .map_or(crate::layout::NO_WIDE_ROOT, |w| {
+                        crate::bvh::quantized::gpu_node_index(base, w)
+                    })
+            };
             let instances = self
                 .instances
                 .iter()
-                .map(|inst| {
-                    let wide = quant.root(inst.blas_root).filter(|&w| {
-                        let bound = *bounds.entry(w).or_insert_with(|| quant.deferred_bound(w));
-                        bound <= crate::bvh::quantized::GPU_DEFERRED_MAX
-                    });
-                    GpuInstance {
-                        wide_root: wide.map_or(crate::layout::NO_WIDE_ROOT, |w| {
-                            crate::bvh::quantized::gpu_node_index(base, w)
-                        }),
-                        ..*inst
-                    }
+                .map(|inst| GpuInstance {
+                    wide_root: wide_root(inst.blas_root),
+                    ..*inst
                 })
                 .collect();
-            GpuBvh { nodes, instances }
+            let tlas_wide_root = wide_root(self.tlas_root);
+            GpuBvh {
+                nodes,
+                instances,
+                tlas_wide_root,
+            }
         })
     }
 
@@ -698,6 +711,8 @@ impl PreparedScene {
             debug_flags: settings.debug_flags,
             aov: settings.aov,
             tlas_root: self.tlas_root,
+            // The GPU renderer names the quantised top level (`gpu_bvh`); the CPU walks its own.
+            tlas_wide_root: crate::layout::NO_WIDE_ROOT,
             band_first_pixel: 0,
             band_pixel_count: settings.width * settings.height,
             mis_heuristic: settings.mis.code_and_beta().0,

@@ -85,10 +85,12 @@ fn gpu_agrees_with_cpu_on_instances() {
     gpu_agrees_with_cpu(&scene, &settings(3), &settings(4), "instances.gltf");
 }
 
-/// The CPU integrators' 4-wide walk of both levels (`bvh::wide`) finds the hits of the binary
-/// walk the GPU runs (`bvh.glsl`, `tlas.glsl`): the same distance, and the same triangle,
-/// instance and (u, v) unless two surfaces lie at exactly that distance. Rays from a grid of
-/// origins around the scene towards points inside it, and shadow-ray ranges around each hit.
+/// The CPU integrators' 4-wide walk of both levels (`bvh::wide`) and the GPU's walk of both
+/// levels in the same nodes quantised (`qbvh.glsl`, `tlas.glsl`; here the CPU's walk of those
+/// nodes, its twin) find the hits of the binary walk (`bvh.glsl`, the GPU's where a level has no
+/// quantised nodes): the same distance, and the same triangle, instance and (u, v) unless two
+/// surfaces lie at exactly that distance. Rays from a grid of origins around the scene towards
+/// points inside it, and shadow-ray ranges around each hit.
 #[test]
 fn wide_and_binary_walks_find_the_same_hits() {
     use wavetrace::bvh::{Hierarchy, Hit, Ray};
@@ -127,6 +129,17 @@ fn wide_and_binary_walks_find_the_same_hits() {
     let p = PreparedScene::new(&scene);
     let (lo, hi) = p.bounds();
     let (binary, wide) = (p.bvh.nodes.as_slice(), p.wide_bvh());
+    let roots: Vec<u32> = std::iter::once(p.tlas_root)
+        .chain(p.instances.iter().map(|i| i.blas_root))
+        .collect();
+    let quant = wavetrace::bvh::wide::WideBvh::collapse(binary, &roots).quantized();
+    // The GPU walks both levels of this scene in their quantised nodes.
+    let gpu = p.gpu_bvh();
+    assert_ne!(gpu.tlas_wide_root, wavetrace::layout::NO_WIDE_ROOT);
+    assert!(gpu
+        .instances
+        .iter()
+        .all(|i| i.wide_root != wavetrace::layout::NO_WIDE_ROOT));
     let (mut hits, mut ties) = (0, 0);
     let steps = 24;
     for i in 0..steps * steps * steps {
@@ -138,24 +151,35 @@ fn wide_and_binary_walks_find_the_same_hits() {
             origin,
             dir: target - origin,
         };
-        let (a, b) = (closest(binary, &p, &ray), closest(wide, &p, &ray));
-        match (a, b) {
-            (Some(x), Some(y)) if (x.0.triangle, x.1) != (y.0.triangle, y.1) => {
-                assert_eq!(x.0.t, y.0.t, "{ray:?}");
-                ties += 1;
+        let a = closest(binary, &p, &ray);
+        for (b, walk) in [
+            (closest(wide, &p, &ray), "wide"),
+            (closest(&quant, &p, &ray), "quantised"),
+        ] {
+            match (a, b) {
+                (Some(x), Some(y)) if (x.0.triangle, x.1) != (y.0.triangle, y.1) => {
+                    assert_eq!(x.0.t, y.0.t, "{walk}: {ray:?}");
+                    ties += 1;
+                }
+                _ => assert_eq!(a, b, "{walk}: {ray:?}"),
             }
-            _ => assert_eq!(a, b, "{ray:?}"),
         }
         hits += a.is_some() as u32;
         let t = a.map_or(1.0, |h| h.0.t);
         for t_max in [t * 0.999, t * 1.001] {
+            let expected = any(binary, &p, &ray, t_max);
             assert_eq!(
-                any(binary, &p, &ray, t_max),
+                expected,
                 any(wide, &p, &ray, t_max),
-                "{ray:?} t_max {t_max}"
+                "wide: {ray:?} t_max {t_max}"
+            );
+            assert_eq!(
+                expected,
+                any(&quant, &p, &ray, t_max),
+                "quantised: {ray:?} t_max {t_max}"
             );
         }
     }
     assert!(hits > 5000, "{hits} hits: the test is too weak");
-    assert!(ties < hits / 100, "{ties} ties in {hits} hits");
+    assert!(ties < hits / 50, "{ties} ties in {hits} hits of two walks");
 }

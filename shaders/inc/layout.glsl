@@ -213,7 +213,7 @@ struct FrameParams {
     uint integrator;        // 4 bytes: INTEGRATOR_*
     uint spectral;          // 4 bytes: 1 = the scene has a dispersive material (spectrum.glsl)
     uint count_fetches;     // 4 bytes: 1 = count scene-image fetches (scene_arrays.glsl)
-    uint pad2;              // 4 bytes
+    uint tlas_wide_root;    // 4 bytes: quantised 4-wide root of the top level (tlas.glsl), or NO_WIDE_ROOT
     vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
 };
 #define INTEGRATOR_PATH 0u

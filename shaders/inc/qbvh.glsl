@@ -91,39 +91,88 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
     return entered;
 }
 
+// The walks' state and descents, as macros so that the top level (tlas.glsl) and the bottom
+// levels share them with their own leaf tests (an array passed to a GLSL function is copied).
+// The deferred slots: BVH_DEFER's array and the two nearest in registers.
+#define QBVH_CLOSEST_STATE                           \
+    uvec2 stack[QBVH_STACK_SIZE];                    \
+    float stack_enter[QBVH_STACK_SIZE];              \
+    uint sp = 0u;                                    \
+    uvec2 top = uvec2(0u), below = uvec2(0u);        \
+    float top_enter = 0.0, below_enter = 0.0;
+#define QBVH_ANY_STATE                               \
+    uvec2 stack[QBVH_STACK_SIZE];                    \
+    uint sp = 0u;                                    \
+    uvec2 top = uvec2(0u), below = uvec2(0u);
+// While-while (Aila & Laine 2009), as in bvh.glsl: from `at`, descends through nodes until every
+// lane stands on a leaf (at_leaf) or a dead end (!at_leaf), then the caller tests the leaves
+// together. Closest hit: the entered slots nearest first, the farther ones deferred, farthest
+// first, so the nearest of them is on top. Reads ray, t_min and t_far.
+#define QBVH_DESCEND_CLOSEST(at, at_leaf)                                                           \
+    {                                                                                               \
+        at_leaf = true;                                                                             \
+        while ((at.x & QBVH_LEAF) == 0u) {                                                          \
+            QuantNode node = quant_node_at(at.x);                                                   \
+            uvec2 e0, e1, e2, e3;                                                                   \
+            float t0, t1, t2, t3;                                                                   \
+            uint entered = qbvh_entered(node, ray, t_min, t_far, e0, e1, e2, e3, t0, t1, t2, t3);   \
+            if (entered == 0u) {                                                                    \
+                at_leaf = false;                                                                    \
+                break;                                                                              \
+            }                                                                                       \
+            if (entered > 3u) BVH_DEFER(e3, t3)                                                     \
+            if (entered > 2u) BVH_DEFER(e2, t2)                                                     \
+            if (entered > 1u) BVH_DEFER(e1, t1)                                                     \
+            at = e0;                                                                                \
+        }                                                                                           \
+    }
+// Any hit: the entered slots in slot order (any hit needs no order), the lowest next, each
+// further one deferred over the last (src/bvh/wide.rs). Reads ray, t_min and t_max.
+#define QBVH_ANY_SLOT(entered, s)                    \
+    if (entered) {                                   \
+        if (next) {                                  \
+            BVH_DEFER_ANY(qbvh_entry(node, s))       \
+        } else {                                     \
+            at = qbvh_entry(node, s);                \
+            next = true;                             \
+        }                                            \
+    }
+#define QBVH_DESCEND_ANY(at, at_leaf)                                                       \
+    {                                                                                       \
+        at_leaf = true;                                                                     \
+        while ((at.x & QBVH_LEAF) == 0u) {                                                  \
+            QuantNode node = quant_node_at(at.x);                                           \
+            vec3 scale = qbvh_scale(node);                                                  \
+            float t_enter;                                                                  \
+            bool e0 = qbvh_slot_entered(node, scale, 0u, ray, t_min, t_max, t_enter);       \
+            bool e1 = qbvh_slot_entered(node, scale, 1u, ray, t_min, t_max, t_enter);       \
+            bool e2 = qbvh_slot_entered(node, scale, 2u, ray, t_min, t_max, t_enter);       \
+            bool e3 = qbvh_slot_entered(node, scale, 3u, ray, t_min, t_max, t_enter);       \
+            bool next = false;                                                              \
+            QBVH_ANY_SLOT(e0, 0u)                                                           \
+            QBVH_ANY_SLOT(e1, 1u)                                                           \
+            QBVH_ANY_SLOT(e2, 2u)                                                           \
+            QBVH_ANY_SLOT(e3, 3u)                                                           \
+            if (!next) {                                                                    \
+                at_leaf = false;                                                            \
+                break;                                                                      \
+            }                                                                               \
+        }                                                                                   \
+    }
+
 // Closest hit in the bottom level whose quantised root is node `root` (NO_WIDE_ROOT: none) with t
 // in (t_min, hit.t): updates hit.t, triangle, u, v and returns true if it finds one. key: the
-// ray's alpha key (surface.glsl, alpha_key). Deferred slots as bvh.glsl keeps them (BVH_DEFER).
+// ray's alpha key (surface.glsl, alpha_key).
 bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     if (root == NO_WIDE_ROOT) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    uvec2 stack[QBVH_STACK_SIZE];
-    float stack_enter[QBVH_STACK_SIZE];
-    uint sp = 0u;
-    uvec2 top = uvec2(0u), below = uvec2(0u);
-    float top_enter = 0.0, below_enter = 0.0;
+    QBVH_CLOSEST_STATE
     uvec2 at = uvec2(root, 0u);
     float t_far = hit.t;
     bool found = false;
     for (;;) {
-        // While-while (Aila & Laine 2009), as in bvh.glsl: descend through nodes until every
-        // lane stands on a leaf or a dead end, then test the leaves together.
-        bool at_leaf = true;
-        while ((at.x & QBVH_LEAF) == 0u) {
-            QuantNode node = quant_node_at(at.x);
-            uvec2 e0, e1, e2, e3;
-            float t0, t1, t2, t3;
-            uint entered = qbvh_entered(node, ray, t_min, t_far, e0, e1, e2, e3, t0, t1, t2, t3);
-            if (entered == 0u) {
-                at_leaf = false;
-                break;
-            }
-            // The farther ones deferred, farthest first, so the nearest of them is on top.
-            if (entered > 3u) BVH_DEFER(e3, t3)
-            if (entered > 2u) BVH_DEFER(e2, t2)
-            if (entered > 1u) BVH_DEFER(e1, t1)
-            at = e0;
-        }
+        bool at_leaf;
+        QBVH_DESCEND_CLOSEST(at, at_leaf)
         if (at_leaf && bvh_leaf_closest(at.x & ~QBVH_LEAF, at.y, origin, dir, t_min, key, t_far, hit)) {
             found = true;
         }
@@ -136,46 +185,15 @@ bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key,
 }
 
 // True if anything of the bottom level whose quantised root is node `root` is hit with t in
-// (t_min, t_max). The entered slots in slot order (any hit needs no order): the lowest next,
-// the others deferred with the highest on top (src/bvh/wide.rs).
+// (t_min, t_max).
 bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (root == NO_WIDE_ROOT) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    uvec2 stack[QBVH_STACK_SIZE];
-    uint sp = 0u;
-    uvec2 top = uvec2(0u), below = uvec2(0u);
+    QBVH_ANY_STATE
     uvec2 at = uvec2(root, 0u);
     for (;;) {
-        bool at_leaf = true;
-        while ((at.x & QBVH_LEAF) == 0u) {
-            QuantNode node = quant_node_at(at.x);
-            vec3 scale = qbvh_scale(node);
-            float t_enter;
-            bool e0 = qbvh_slot_entered(node, scale, 0u, ray, t_min, t_max, t_enter);
-            bool e1 = qbvh_slot_entered(node, scale, 1u, ray, t_min, t_max, t_enter);
-            bool e2 = qbvh_slot_entered(node, scale, 2u, ray, t_min, t_max, t_enter);
-            bool e3 = qbvh_slot_entered(node, scale, 3u, ray, t_min, t_max, t_enter);
-            // The lowest entered slot next; each further one deferred over the last.
-            bool next = false;
-#define QBVH_ANY_SLOT(entered, s)                            \
-            if (entered) {                                   \
-                if (next) {                                  \
-                    BVH_DEFER_ANY(qbvh_entry(node, s))       \
-                } else {                                     \
-                    at = qbvh_entry(node, s);                \
-                    next = true;                             \
-                }                                            \
-            }
-            QBVH_ANY_SLOT(e0, 0u)
-            QBVH_ANY_SLOT(e1, 1u)
-            QBVH_ANY_SLOT(e2, 2u)
-            QBVH_ANY_SLOT(e3, 3u)
-#undef QBVH_ANY_SLOT
-            if (!next) {
-                at_leaf = false;
-                break;
-            }
-        }
+        bool at_leaf;
+        QBVH_DESCEND_ANY(at, at_leaf)
         if (at_leaf && bvh_leaf_any(at.x & ~QBVH_LEAF, at.y, origin, dir, t_min, t_max, key)) return true;
         if (sp == 0u) return false;
         BVH_POP_ANY(at)

@@ -1,8 +1,9 @@
 // The two-level structure: a top-level BVH over instances (GpuInstance), each placing a
 // bottom-level BVH in the world. Twin of src/tlas.rs. Needs bvh.glsl, the instances buffer and
-// frame.tlas_root. A scene with one identity instance (no instancing) skips the top level. The
-// top level is walked in its binary nodes, the bottom levels in their quantised 4-wide nodes
-// (qbvh.glsl, from GpuInstance.wide_root).
+// frame.tlas_root. A scene with one identity instance (no instancing) skips the top level. Every
+// level is walked in its quantised 4-wide nodes (qbvh.glsl: the top level from
+// frame.tlas_wide_root, the bottom levels from GpuInstance.wide_root), or in its binary nodes
+// where it has none (src/render.rs, gpu_bvh).
 #ifndef TLAS_GLSL
 #define TLAS_GLSL
 #include "scene_arrays.glsl"
@@ -39,14 +40,77 @@ bool single_identity_instance() {
     return instances.length() == 1u && (instances[0].flags & INSTANCE_IDENTITY) != 0u;
 }
 
+// A top-level leaf's instances [first, first + count) against hits closer than hit.t: updates
+// hit (hit.instance names the instance) and returns true if one is closer. Directions are not
+// normalised in object space, so t is the same in both spaces.
+bool tlas_leaf_closest(uint first, uint count, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
+    bool found = false;
+    for (uint k = first; k < first + count; ++k) {
+        GpuInstance inst = instance_inverse_at(k);
+        vec3 o, d;
+        instance_ray(inst, origin, dir, o, d);
+        if (blas_closest(inst, o, d, t_min, instance_key(key, k), hit)) {
+            hit.instance = k;
+            found = true;
+        }
+    }
+    return found;
+}
+
+bool tlas_leaf_any(uint first, uint count, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+    for (uint k = first; k < first + count; ++k) {
+        GpuInstance inst = instance_inverse_at(k);
+        vec3 o, d;
+        instance_ray(inst, origin, dir, o, d);
+        if (blas_any(inst, o, d, t_min, t_max, instance_key(key, k))) return true;
+    }
+    return false;
+}
+
+// The top level in its quantised nodes from frame.tlas_wide_root (qbvh.glsl's walks with the
+// instances as leaves): the CPU's walk of the same nodes (src/tlas.rs, scene_intersect_closest
+// over WideBvh<QuantNode>).
+bool tlas_closest_quantised(vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    QBVH_CLOSEST_STATE
+    uvec2 at = uvec2(frame.tlas_wide_root, 0u);
+    float t_far = hit.t;
+    for (;;) {
+        bool at_leaf;
+        QBVH_DESCEND_CLOSEST(at, at_leaf)
+        if (at_leaf && tlas_leaf_closest(at.x & ~QBVH_LEAF, at.y, origin, dir, t_min, key, hit)) {
+            t_far = hit.t;
+        }
+        bool popped;
+        BVH_POP_ENTERED(at, popped)
+        if (!popped) break;
+    }
+    return hit.triangle != NO_HIT;
+}
+
+bool tlas_any_quantised(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
+    BvhSlabRay ray = bvh_slab_ray(origin, dir);
+    QBVH_ANY_STATE
+    uvec2 at = uvec2(frame.tlas_wide_root, 0u);
+    for (;;) {
+        bool at_leaf;
+        QBVH_DESCEND_ANY(at, at_leaf)
+        if (at_leaf && tlas_leaf_any(at.x & ~QBVH_LEAF, at.y, origin, dir, t_min, t_max, key)) return true;
+        if (sp == 0u) return false;
+        BVH_POP_ANY(at)
+    }
+    return false;
+}
+
 // Closest hit with t in (t_min, t_max) over every instance; hit.instance names the instance.
-// Directions are not normalised in object space, so t is the same in both spaces.
 bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
     if (instances.length() == 0u) return false;
     if (single_identity_instance()) {
         return blas_closest(instances[0], origin, dir, t_min, key, hit);
     }
+    if (frame.tlas_wide_root != NO_WIDE_ROOT) return tlas_closest_quantised(origin, dir, t_min, key, hit);
+    // The top level in its binary nodes (bvh.glsl's walk with the instances as leaves).
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
     float stack_enter[BVH_STACK_SIZE];
@@ -74,15 +138,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
             }
             cursor = near;
         }
-        if (at_leaf) {
-            uint first = cursor.x;
-            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
-                GpuInstance inst = instance_inverse_at(k);
-                vec3 o, d;
-                instance_ray(inst, origin, dir, o, d);
-                if (blas_closest(inst, o, d, t_min, instance_key(key, k), hit)) hit.instance = k;
-            }
-        }
+        if (at_leaf) tlas_leaf_closest(cursor.x, bvh_cursor_count(cursor), origin, dir, t_min, key, hit);
         bool popped = false;
         while (sp > 0u) {
             --sp;
@@ -103,6 +159,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
     if (single_identity_instance()) {
         return blas_any(instances[0], origin, dir, t_min, t_max, key);
     }
+    if (frame.tlas_wide_root != NO_WIDE_ROOT) return tlas_any_quantised(origin, dir, t_min, t_max, key);
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
     uint sp = 0u;
@@ -125,15 +182,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
             if (entered == 2u) stack[sp++] = far;
             cursor = near;
         }
-        if (at_leaf) {
-            uint first = cursor.x;
-            for (uint k = first; k < first + bvh_cursor_count(cursor); ++k) {
-                GpuInstance inst = instance_inverse_at(k);
-                vec3 o, d;
-                instance_ray(inst, origin, dir, o, d);
-                if (blas_any(inst, o, d, t_min, t_max, instance_key(key, k))) return true;
-            }
-        }
+        if (at_leaf && tlas_leaf_any(cursor.x, bvh_cursor_count(cursor), origin, dir, t_min, t_max, key)) return true;
         if (sp == 0u) return false;
         cursor = stack[--sp];
     }

@@ -356,6 +356,7 @@ impl GpuRenderer {
             band_rows,
             frame: FrameParams {
                 count_fetches: self.count_fetches as u32,
+                tlas_wide_root: scene.gpu_bvh().tlas_wide_root,
                 ..scene.frame_params(settings)
             },
             split_bindings: buffers.split_bindings,
