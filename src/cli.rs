@@ -608,8 +608,9 @@ pub struct BenchArgs {
     /// Measure the BVH instead of rendering: each scene's triangles built --builds times (the
     /// median and the best time), the tree's SAH cost, nodes and depth, and what a closest-hit
     /// ray costs in it on the CPU (boxes and triangles tested per ray, M rays/s) for 2^20
-    /// random rays through its bounds, in the binary tree (the GPU's walk) and in its 4-wide
-    /// collapse (the CPU integrators' walk: collapse time, boxes per ray, M rays/s).
+    /// random rays through its bounds, in the binary tree (the GPU's fallback walk), in its
+    /// 4-wide collapse (the CPU integrators' walk: collapse time, boxes per ray, M rays/s) and
+    /// in that collapse quantised (the GPU's walk: boxes per ray, M rays/s).
     #[arg(long)]
     pub bvh: bool,
     /// How many times `--bvh` builds each scene's tree after the first (reported apart: it pays

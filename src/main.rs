@@ -1051,7 +1051,7 @@ const RAYS: u32 = 1 << 20;
 fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray, WideBvh};
     println!(
-        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's walk), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane; cpu = {} threads",
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {} threads",
         rayon::current_num_threads()
     );
     println!(
