@@ -119,6 +119,13 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
+// A path that ends at this vertex: only its radiance is read after it (connect adds its last
+// shadow ray's contribution, accumulate reads it), so only that is stored — 3 words where the
+// whole state is 20, each a store per lane on lavapipe.
+void path_end(uint path, PathState state) {
+    paths[path].radiance = state.radiance;
+}
+
 void kernel_main() {
     uint i = gl_GlobalInvocationID.x;
     uint depth = params.depth;
@@ -144,7 +151,7 @@ void kernel_main() {
             }
             state.radiance += state.throughput * w * le;
         }
-        paths[ray.path] = state;
+        path_end(ray.path, state);
         return;
     }
     GpuTriangle tri = triangle_at(hit.triangle);
@@ -168,7 +175,7 @@ void kernel_main() {
         if (frame.aov == AOV_NORMAL) value = surface_normal(raw, sp, lod) * 0.5 + 0.5;
         if (frame.aov == AOV_UV) value = vec3(sp.uv0, 0.0);
         state.radiance = value;
-        paths[ray.path] = state;
+        path_end(ray.path, state);
         return;
     }
 
@@ -197,7 +204,7 @@ void kernel_main() {
     BsdfFrame bsdf;
     if (depth >= frame.max_depth
         || !bsdf_frame_new_shading(mat, ng, surface_normal(raw, sp, lod), wo, bsdf)) {
-        paths[ray.path] = state;
+        path_end(ray.path, state);
         return;
     }
 
@@ -233,8 +240,13 @@ void kernel_main() {
                 // The shadow segment's attenuation, its medium read from either end.
                 vec3 tr = transmittance(max(volume_sigma(mat, ng, ls.wi), ls.medium), shadow.t_max);
                 shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, ls.wi) * ls.radiance * tr * (w / ls.pdf);
-                shadow.pad = 0u;
-                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+                // Stored member by member: the padding is not written.
+                uint k = atomicAdd(counters[COUNTER_SHADOW], 1u);
+                shadow_rays[k].origin = shadow.origin;
+                shadow_rays[k].path = shadow.path;
+                shadow_rays[k].dir = shadow.dir;
+                shadow_rays[k].t_max = shadow.t_max;
+                shadow_rays[k].contribution = shadow.contribution;
             }
         }
     }
@@ -247,7 +259,7 @@ void kernel_main() {
     float pdf;
     bool delta;
     if (!bsdf_frame_sample(bsdf, vec3(u_dir, u_bsdf.z), TRANSPORT_RADIANCE, wi, weight, pdf, delta)) {
-        paths[ray.path] = state;
+        path_end(ray.path, state);
         return;
     }
     state.throughput *= weight;
@@ -258,7 +270,7 @@ void kernel_main() {
     state.prev_normal = ng;
     state.medium = volume_sigma(mat, ng, wi);
     if (max_component(state.throughput) <= 0.0) {
-        paths[ray.path] = state;
+        path_end(ray.path, state);
         return;
     }
 
@@ -271,20 +283,19 @@ void kernel_main() {
             : min(max_component(state.throughput), 1.0);
         float weight;
         if (!roulette(u_light.w, survive, weight)) {
-            paths[ray.path] = state;
+            path_end(ray.path, state);
             return;
         }
         state.throughput *= weight;
     }
     paths[ray.path] = state;
 
-    QueuedRay next;
-    next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
-    next.path = ray.path;
-    next.dir = wi;
-    next.pad = 0u;
+    // The continuation ray, stored member by member (the padding is not written).
     uint next_queue = queue ^ 1u;
-    rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+    uint k = next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u);
+    rays[k].origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
+    rays[k].path = ray.path;
+    rays[k].dir = wi;
 }
 
 void main() {
