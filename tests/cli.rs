@@ -366,6 +366,44 @@ fn bench_bvh_reports_the_quantised_walk() {
     assert!(field("quantized_rays_per_second") > 0.0, "{row}");
 }
 
+/// `tools/issue_targets.py` runs two builds' benches and BVH builds in rounds of alternating order
+/// and tables each figure and ratio with its range (skipped without python3).
+#[test]
+fn issue_targets_tables_a_build_against_itself() {
+    let bin = env!("CARGO_BIN_EXE_wavetrace");
+    let o = Command::new("python3")
+        .args([
+            "tools/issue_targets.py",
+            bin,
+            bin,
+            "--rounds",
+            "2",
+            "--no-mitsuba",
+        ])
+        .args(["--terrain", "scenes/leaf.gltf", "--cpu-only"])
+        .args(TINY_LEAF_BENCH)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output();
+    let Ok(o) = o else {
+        eprintln!("skipping: python3 is not installed");
+        return;
+    };
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for row in [
+        "| cpu M samples/s, earlier | ",
+        "| cpu later / earlier | ",
+        "| BVH build earlier / later | ",
+    ] {
+        assert_eq!(
+            out.lines().filter(|l| l.starts_with(row)).count(),
+            1,
+            "{out}"
+        );
+    }
+    assert!(!out.contains("| gpu"), "{out}");
+}
+
 /// `tools/ab_bench.py` runs two builds' benches in pairs of alternating order and tables the
 /// pair ratios; a build against itself gives one CPU row per scene (skipped without python3).
 #[test]
