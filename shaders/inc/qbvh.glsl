@@ -12,8 +12,9 @@
 
 // A slot naming a leaf: its first triangle | QBVH_LEAF (src/bvh/wide.rs, LEAF).
 #define QBVH_LEAF 0x80000000u
-// Deferred slots kept in per-lane memory, beside the two in registers: a bottom level whose walk
-// could defer more (src/bvh/quantized.rs, deferred_bound, GPU_DEFERRED_MAX = this + 2) is walked
+// Deferred slots kept in per-lane memory, beside the three (closest hit) or two (any hit) in
+// registers (bvh.glsl): a level whose walk could defer more than both keep
+// (src/bvh/quantized.rs, deferred_bound, GPU_DEFERRED_MAX = this + 2) is walked
 // in its binary nodes instead (tlas.glsl). A smaller array than the 3 × 64 a 4-wide walk can need
 // in the worst case: on lavapipe the array's size costs time (192 → 48 entries: extend 5–9 %
 // faster against shade).
@@ -98,8 +99,8 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
     uvec2 stack[QBVH_STACK_SIZE];                    \
     float stack_enter[QBVH_STACK_SIZE];              \
     uint sp = 0u;                                    \
-    uvec2 top = uvec2(0u), below = uvec2(0u);        \
-    float top_enter = 0.0, below_enter = 0.0;
+    uvec2 top = uvec2(0u), mid = uvec2(0u), below = uvec2(0u);        \
+    float top_enter = 0.0, mid_enter = 0.0, below_enter = 0.0;
 #define QBVH_ANY_STATE                               \
     uvec2 stack[QBVH_STACK_SIZE];                    \
     uint sp = 0u;                                    \

@@ -134,8 +134,9 @@ impl WideBvh<WideNode> {
     }
 }
 
-/// The most slots the GPU's walk (`qbvh.glsl`) keeps deferred: its per-lane array
-/// (`QBVH_STACK_SIZE`) and the two it holds in registers. A bottom level whose
+/// The most slots the GPU's walks (`qbvh.glsl`) keep deferred: their per-lane array
+/// (`QBVH_STACK_SIZE`) and the two the any-hit walk holds in registers (the closest-hit walk
+/// holds three). A level whose
 /// [`WideBvh::deferred_bound`] exceeds it is walked in its binary nodes on the GPU.
 pub const GPU_DEFERRED_MAX: u32 = 48 + 2;
 
@@ -184,7 +185,7 @@ mod tests {
     use crate::bvh::Bvh;
     use glam::Vec3;
 
-    /// The GPU's bound is its walk's array and the two registers (`qbvh.glsl`).
+    /// The GPU's bound is its walks' array and the any-hit walk's two registers (`qbvh.glsl`).
     #[test]
     fn gpu_deferred_max_is_the_shaders_array_and_two_registers() {
         let glsl = include_str!("../../shaders/inc/qbvh.glsl");
