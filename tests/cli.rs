@@ -366,28 +366,34 @@ fn bench_bvh_reports_the_quantised_walk() {
     assert!(field("quantized_rays_per_second") > 0.0, "{row}");
 }
 
+/// Runs `python3 ARGS` in the repository; `None` (with a notice) where python3 is not installed.
+fn python(args: &[&str]) -> Option<std::process::Output> {
+    let o = Command::new("python3")
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output();
+    if o.is_err() {
+        eprintln!("skipping: python3 is not installed");
+    }
+    o.ok()
+}
+
 /// `tools/issue_targets.py` runs two builds' benches and BVH builds in rounds of alternating order
 /// and tables each figure and ratio with its range (skipped without python3).
 #[test]
 fn issue_targets_tables_a_build_against_itself() {
     let bin = env!("CARGO_BIN_EXE_wavetrace");
-    let o = Command::new("python3")
-        .args([
-            "tools/issue_targets.py",
-            bin,
-            bin,
-            "--rounds",
-            "2",
-            "--no-mitsuba",
-        ])
-        .args(["--terrain", "scenes/leaf.gltf", "--cpu-only"])
-        .args(TINY_LEAF_BENCH)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output();
-    let Ok(o) = o else {
-        eprintln!("skipping: python3 is not installed");
-        return;
-    };
+    let mut args = vec![
+        "tools/issue_targets.py",
+        bin,
+        bin,
+        "--rounds",
+        "2",
+        "--no-mitsuba",
+    ];
+    args.extend(["--terrain", "scenes/leaf.gltf", "--cpu-only"]);
+    args.extend(TINY_LEAF_BENCH);
+    let Some(o) = python(&args) else { return };
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     for row in [
@@ -395,11 +401,8 @@ fn issue_targets_tables_a_build_against_itself() {
         "| cpu later / earlier | ",
         "| BVH build earlier / later | ",
     ] {
-        assert_eq!(
-            out.lines().filter(|l| l.starts_with(row)).count(),
-            1,
-            "{out}"
-        );
+        let found = out.lines().filter(|l| l.starts_with(row)).count();
+        assert_eq!(found, 1, "{out}");
     }
     assert!(!out.contains("| gpu"), "{out}");
 }
@@ -409,15 +412,9 @@ fn issue_targets_tables_a_build_against_itself() {
 #[test]
 fn ab_bench_tables_a_build_against_itself() {
     let bin = env!("CARGO_BIN_EXE_wavetrace");
-    let o = Command::new("python3")
-        .args(["tools/ab_bench.py", bin, bin, "--pairs", "2", "--cpu-only"])
-        .args(TINY_LEAF_BENCH)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output();
-    let Ok(o) = o else {
-        eprintln!("skipping: python3 is not installed");
-        return;
-    };
+    let mut args = vec!["tools/ab_bench.py", bin, bin, "--pairs", "2", "--cpu-only"];
+    args.extend(TINY_LEAF_BENCH);
+    let Some(o) = python(&args) else { return };
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("2 pairs in ABBA order"), "{out}");
@@ -425,12 +422,8 @@ fn ab_bench_tables_a_build_against_itself() {
     assert_eq!(rows.len(), 1, "{out}");
     assert!(rows[0].starts_with("| leaf | cpu | "), "{out}");
     // A scene that does not load is the bench's error, passed on with a non-zero exit.
-    let o = Command::new("python3")
-        .args(["tools/ab_bench.py", bin, bin, "--pairs", "1", "--cpu-only"])
-        .arg("scenes/no-such-scene.gltf")
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
+    let missing = ["tools/ab_bench.py", bin, bin, "--pairs", "1", "--cpu-only"];
+    let o = python(&[&missing[..], &["scenes/no-such-scene.gltf"]].concat()).unwrap();
     assert!(!o.status.success());
     assert!(stderr(&o).contains("no-such-scene.gltf"), "{}", stderr(&o));
 }
