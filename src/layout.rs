@@ -604,8 +604,8 @@ pub struct GpuInstance {
     pub blas_root: u32, // 4 bytes: BVH node of the bottom level's root
     pub flags: u32,     // 4 bytes: INSTANCE_* bits
     /// 4 bytes: the GPU's node index of the bottom level's quantised 4-wide root
-    /// (`PreparedScene::gpu_bvh`; `NO_WIDE_ROOT` for a level of no triangles), which the GPU
-    /// walks; the CPU leaves it unset and looks the root up itself.
+    /// (`PreparedScene::gpu_bvh`), which the GPU walks, or `NO_WIDE_ROOT` where it walks the
+    /// binary nodes; the CPU leaves it unset and looks the root up itself.
     pub wide_root: u32,
     pub pad1: u32, // 4 bytes
 }
@@ -616,7 +616,8 @@ pub const INSTANCE_IDENTITY: u32 = 1;
 pub const INSTANCE_MIRRORED: u32 = 2;
 
 pub const NO_HIT: u32 = u32::MAX;
-/// `GpuInstance::wide_root` of a bottom level with no nodes to walk.
+/// `GpuInstance::wide_root` and `FrameParams::tlas_wide_root` of a level the GPU walks in its
+/// binary nodes (no primitives, or more deferred slots than its quantised walk keeps).
 pub const NO_WIDE_ROOT: u32 = u32::MAX;
 
 /// A shadow ray with the contribution its path gains if it is unoccluded. Total: 48 bytes.

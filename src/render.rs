@@ -575,12 +575,15 @@ impl PreparedScene {
 
     /// The CPU's 4-wide BVH over every level (`bvh::wide`), collapsed on first use.
     pub fn wide_bvh(&self) -> &WideBvh {
-        self.wide.get_or_init(|| {
-            let roots: Vec<u32> = std::iter::once(self.tlas_root)
-                .chain(self.instances.iter().map(|i| i.blas_root))
-                .collect();
-            WideBvh::collapse(&self.bvh.nodes, &roots)
-        })
+        self.wide
+            .get_or_init(|| WideBvh::collapse(&self.bvh.nodes, &self.level_roots()))
+    }
+
+    /// The binary root of every level: the top level's, then each instance's bottom level.
+    pub fn level_roots(&self) -> Vec<u32> {
+        std::iter::once(self.tlas_root)
+            .chain(self.instances.iter().map(|i| i.blas_root))
+            .collect()
     }
 
     /// The GPU's node and instance arrays: the binary nodes followed by every level collapsed
@@ -588,10 +591,7 @@ impl PreparedScene {
     /// quantised root, and the top level's.
     pub fn gpu_bvh(&self) -> &GpuBvh {
         self.gpu.get_or_init(|| {
-            let roots: Vec<u32> = std::iter::once(self.tlas_root)
-                .chain(self.instances.iter().map(|i| i.blas_root))
-                .collect();
-            let quant = WideBvh::collapse(&self.bvh.nodes, &roots).quantized();
+            let quant = WideBvh::collapse(&self.bvh.nodes, &self.level_roots()).quantized();
             let (nodes, base) = crate::bvh::quantized::gpu_nodes(&self.bvh.nodes, &quant);
             // A level of no primitives, or whose walk could defer more slots than the GPU
             // keeps, is walked in its binary nodes (`tlas.glsl`).

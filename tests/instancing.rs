@@ -129,10 +129,7 @@ fn wide_and_binary_walks_find_the_same_hits() {
     let p = PreparedScene::new(&scene);
     let (lo, hi) = p.bounds();
     let (binary, wide) = (p.bvh.nodes.as_slice(), p.wide_bvh());
-    let roots: Vec<u32> = std::iter::once(p.tlas_root)
-        .chain(p.instances.iter().map(|i| i.blas_root))
-        .collect();
-    let quant = wavetrace::bvh::wide::WideBvh::collapse(binary, &roots).quantized();
+    let quant = wavetrace::bvh::wide::WideBvh::collapse(binary, &p.level_roots()).quantized();
     // The GPU walks both levels of this scene in their quantised nodes.
     let gpu = p.gpu_bvh();
     assert_ne!(gpu.tlas_wide_root, wavetrace::layout::NO_WIDE_ROOT);

@@ -240,13 +240,8 @@ void kernel_main() {
                 // The shadow segment's attenuation, its medium read from either end.
                 vec3 tr = transmittance(max(volume_sigma(mat, ng, ls.wi), ls.medium), shadow.t_max);
                 shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, ls.wi) * ls.radiance * tr * (w / ls.pdf);
-                // Stored member by member: the padding is not written.
-                uint k = atomicAdd(counters[COUNTER_SHADOW], 1u);
-                shadow_rays[k].origin = shadow.origin;
-                shadow_rays[k].path = shadow.path;
-                shadow_rays[k].dir = shadow.dir;
-                shadow_rays[k].t_max = shadow.t_max;
-                shadow_rays[k].contribution = shadow.contribution;
+                shadow.pad = 0u;
+                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
             }
         }
     }
@@ -290,12 +285,13 @@ void kernel_main() {
     }
     paths[ray.path] = state;
 
-    // The continuation ray, stored member by member (the padding is not written).
+    QueuedRay next;
+    next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
+    next.path = ray.path;
+    next.dir = wi;
+    next.pad = 0u;
     uint next_queue = queue ^ 1u;
-    uint k = next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u);
-    rays[k].origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
-    rays[k].path = ray.path;
-    rays[k].dir = wi;
+    rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
 }
 
 void main() {
