@@ -43,6 +43,20 @@ fn unit_vector(u: Vec4) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// The direction of case `i`'s ray through the scene (twins.comp): -wo, with x still in one case
+/// of 64 and y and z in another (z subnormal), so that some subgroups walk the quantised nodes
+/// in the min/max slab form (qbvh.glsl, qbvh_slabs) and the others in the sign-selected form.
+fn scene_ray_dir(i: u32, wo: Vec3) -> Vec3 {
+    let mut dir = -wo;
+    if i % 64 == 3 {
+        dir.x = 0.0;
+    }
+    if i % 64 == 35 {
+        (dir.y, dir.z) = (0.0, 1e-40);
+    }
+    dir
+}
+
 fn cases() -> Vec<Case> {
     (0..CASES)
         .map(|i| {
@@ -351,7 +365,10 @@ fn glsl_functions_equal_their_rust_twins() {
             f32::from_bits(c.key.y),
             f32::from_bits(c.key.z),
         );
-        let ray = Ray { origin, dir: -c.wo };
+        let ray = Ray {
+            origin,
+            dir: scene_ray_dir(i as u32, c.wo),
+        };
         let hit = scene
             .bvh
             .intersect_closest(&scene.triangles, &ray, 0.0, f32::MAX);

@@ -6,6 +6,7 @@
 // scene is one node with inverted bounds (min > max), which every ray misses.
 #ifndef BVH_GLSL
 #define BVH_GLSL
+#extension GL_KHR_shader_subgroup_vote : require
 #include "scene_arrays.glsl"
 
 // Traversal stack entries; the build bounds leaf depth by it (bvh::MAX_DEPTH).
@@ -52,6 +53,8 @@ struct BvhSlabRay {
     vec3 origin;
     vec3 inv_dir;  // 0 on still axes
     bvec3 still;
+    bvec3 negative;  // per axis, whether the ray enters through the max plane
+    bool sign_form;  // no lane of the subgroup has a still axis (qbvh_slabs)
 };
 
 BvhSlabRay bvh_slab_ray(vec3 origin, vec3 dir) {
@@ -59,6 +62,8 @@ BvhSlabRay bvh_slab_ray(vec3 origin, vec3 dir) {
     ray.origin = origin;
     ray.still = lessThan(abs(dir), vec3(BVH_FLT_MIN));
     ray.inv_dir = mix(1.0 / mix(dir, vec3(1.0), ray.still), vec3(0.0), ray.still);
+    ray.negative = lessThan(dir, vec3(0.0));
+    ray.sign_form = subgroupAll(!any(ray.still));
     return ray;
 }
 

@@ -113,20 +113,25 @@ void main() {
     vec3 wi_test = normalize(u.xyz - vec3(0.5));
     uint mode = (i & 64u) != 0u ? TRANSPORT_IMPORTANCE : TRANSPORT_RADIANCE;
     outputs[o + 9u] = vec4(bsdf_eval(m, n, wo_side, wi_test, mode), bsdf_pdf(m, n, wo_side, wi_test));
-    // A ray through the scene: origin from the key's bits, direction -wo.
+    // A ray through the scene: origin from the key's bits, direction -wo, with one or two axes
+    // still in one case of 64 (twins.rs, scene_ray_dir): a subgroup with such a lane takes the
+    // quantised walk's min/max slab form, the others its sign-selected form.
     vec3 origin = uintBitsToFloat(key.xyz);
+    vec3 dir = -wo;
+    if (i % 64u == 3u) dir.x = 0.0;
+    if (i % 64u == 35u) dir.yz = vec2(0.0, 1e-40);
     HitRecord hit;
-    bvh_intersect_closest(origin, -wo, 0.0, 3.402823466e38, uvec4(0u), hit);
+    bvh_intersect_closest(origin, dir, 0.0, 3.402823466e38, uvec4(0u), hit);
     outputs[o + 10u] = vec4(hit.t, uintBitsToFloat(hit.triangle), hit.u, hit.v);
     float t_max = u.z * 4.0;
-    outputs[o + 11u] = vec4(bvh_intersect_any(origin, -wo, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
+    outputs[o + 11u] = vec4(bvh_intersect_any(origin, dir, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
     // The same rays through the quantised 4-wide nodes (qbvh.glsl), whose root the input after
     // the cases names.
     uint wide_root = floatBitsToUint(inputs[case_count * INPUTS_PER_CASE].x);
     HitRecord wide_hit = HitRecord(3.402823466e38, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
-    qbvh_closest_from(wide_root, origin, -wo, 0.0, uvec4(0u), wide_hit);
+    qbvh_closest_from(wide_root, origin, dir, 0.0, uvec4(0u), wide_hit);
     outputs[o + 26u] = vec4(wide_hit.t, uintBitsToFloat(wide_hit.triangle), wide_hit.u, wide_hit.v);
-    outputs[o + 27u] = vec4(qbvh_any_from(wide_root, origin, -wo, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
+    outputs[o + 27u] = vec4(qbvh_any_from(wide_root, origin, dir, 0.0, t_max, uvec4(0u)) ? 1.0 : 0.0, t_max, 0.0, 0.0);
 
     uint n_perm = 1u + i % 300u;
     uint p = permute(i % n_perm, n_perm, key.x);

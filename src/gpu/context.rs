@@ -23,7 +23,7 @@ pub struct DeviceInfo {
     pub kind: String,
     pub api_version: String,
     pub driver: String,
-    /// Vulkan 1.2+ with a compute queue.
+    /// Vulkan 1.2+ with a compute queue and subgroup votes in compute shaders.
     pub usable: bool,
 }
 
@@ -112,7 +112,10 @@ fn create_instance(entry: &ash::Entry, validation: bool) -> Result<(ash::Instanc
 
 fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice) -> DeviceInfo {
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
-    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default()
+        .push_next(&mut driver)
+        .push_next(&mut subgroup);
     unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
     let p = props2.properties;
     let queues = unsafe { instance.get_physical_device_queue_family_properties(physical) };
@@ -148,7 +151,16 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         )
         .trim()
         .to_owned(),
-        usable: v >= vk::API_VERSION_1_2 && has_compute,
+        // The kernels' BVH walks vote across a subgroup (subgroupAll, qbvh.glsl): Vulkan 1.1
+        // makes subgroups core, and every GPU driver and lavapipe offer votes in compute.
+        usable: v >= vk::API_VERSION_1_2
+            && has_compute
+            && subgroup
+                .supported_stages
+                .contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup
+                .supported_operations
+                .contains(vk::SubgroupFeatureFlags::VOTE),
     }
 }
 
@@ -218,7 +230,7 @@ impl Context {
                 };
                 if !info.usable {
                     bail!(
-                        "Vulkan device {i} ({}) lacks Vulkan 1.2 or a compute queue",
+                        "Vulkan device {i} ({}) lacks Vulkan 1.2, a compute queue or subgroup votes in compute shaders",
                         info.name
                     );
                 }
@@ -239,7 +251,7 @@ impl Context {
                         bail!("no Vulkan device was found: {INSTALL_HINT}")
                     }
                     None => bail!(
-                        "no Vulkan device supports Vulkan 1.2 with a compute queue: {INSTALL_HINT}"
+                        "no Vulkan device supports Vulkan 1.2 with a compute queue and subgroup votes: {INSTALL_HINT}"
                     ),
                 }
             }
