@@ -23,13 +23,19 @@ const SOBOL_TAG: u32 = 0x534f_424c;
 /// (bitwise), so the mirrored dimension 1 is the superset-XOR transform of the index's bits: five
 /// shift-and-mask steps, one per bit of a bit position, instead of a loop over 32 bits.
 pub fn sobol2(index: u32) -> UVec2 {
-    let mut x = index;
+    UVec2::new(index.reverse_bits(), superset_xor(index).reverse_bits())
+}
+
+/// Bit j of the result is the XOR of the bits k ⊇ j of `x`: [`sobol2`]'s dimension 1 before
+/// its mirroring.
+pub fn superset_xor(x: u32) -> u32 {
+    let mut x = x;
     x ^= (x >> 1) & 0x5555_5555;
     x ^= (x >> 2) & 0x3333_3333;
     x ^= (x >> 4) & 0x0f0f_0f0f;
     x ^= (x >> 8) & 0x00ff_00ff;
     x ^= (x >> 16) & 0x0000_ffff;
-    UVec2::new(index.reverse_bits(), x.reverse_bits())
+    x
 }
 
 /// Laine and Karras's hash ("Stratified Sampling for Stochastic Transparency", EGSR 2011) with
@@ -62,11 +68,16 @@ pub fn sobol_keys(seed: u32, pixel: u32, dimension: u32) -> UVec4 {
 /// the shuffled index depends on bits 0..=j of the index, so every aligned block of 2^k indices
 /// maps onto one representative of each residue mod 2^k, and the top k bits of both Sobol
 /// coordinates depend only on those residues — then each coordinate is Owen-scrambled.
+///
+/// Written as `nested_uniform_scramble` of `sobol2(nested_uniform_scramble(index, keys.x))`'s
+/// coordinates, but `sobol2` mirrors both coordinates and the scramble mirrors its input
+/// first, so those two mirrors cancel: four bit reversals per pair instead of eight, the same
+/// bits (test `shuffled_scrambled_sobol2_is_the_written_out_composition`).
 pub fn shuffled_scrambled_sobol2(index: u32, keys: UVec4) -> UVec2 {
-    let p = sobol2(nested_uniform_scramble(index, keys.x));
+    let shuffled = nested_uniform_scramble(index, keys.x);
     UVec2::new(
-        nested_uniform_scramble(p.x, keys.y),
-        nested_uniform_scramble(p.y, keys.z),
+        laine_karras_permutation(shuffled, keys.y).reverse_bits(),
+        laine_karras_permutation(superset_xor(shuffled), keys.z).reverse_bits(),
     )
 }
 

@@ -7,18 +7,22 @@
 // Tag mixed into the keys ("SOBL").
 #define SOBOL_TAG 0x534f424cu
 
-// The first two Sobol dimensions at index, as 32-bit binary fractions: van der Corput, and the
-// direction numbers of x + 1, v_0 = 2^31, v_(k+1) = v_k ^ (v_k >> 1) (Joe & Kuo 2008), summed
-// in closed form.
-uvec2 sobol2(uint index) {
-    // The superset-XOR transform of the index's bits (src/sobol.rs says why), then mirrored.
-    uint x = index;
+// The superset-XOR transform of x's bits (src/sobol.rs says why): sobol2's dimension 1 before
+// its mirroring.
+uint superset_xor(uint x) {
     x ^= (x >> 1u) & 0x55555555u;
     x ^= (x >> 2u) & 0x33333333u;
     x ^= (x >> 4u) & 0x0f0f0f0fu;
     x ^= (x >> 8u) & 0x00ff00ffu;
     x ^= (x >> 16u) & 0x0000ffffu;
-    return uvec2(bitfieldReverse(index), bitfieldReverse(x));
+    return x;
+}
+
+// The first two Sobol dimensions at index, as 32-bit binary fractions: van der Corput, and the
+// direction numbers of x + 1, v_0 = 2^31, v_(k+1) = v_k ^ (v_k >> 1) (Joe & Kuo 2008), summed
+// in closed form.
+uvec2 sobol2(uint index) {
+    return uvec2(bitfieldReverse(index), bitfieldReverse(superset_xor(index)));
 }
 
 // Laine-Karras hash with Burley's constants (Burley 2020, Listing 2): bit j of the result
@@ -42,10 +46,13 @@ uvec4 sobol_keys(uint seed, uint pixel, uint dimension) {
     return pcg4d(uvec4(pixel, dimension, seed, SOBOL_TAG));
 }
 
-// Point index of the shuffled, scrambled Sobol (0,2)-sequence keyed by keys (Burley 2020, §4).
+// Point index of the shuffled, scrambled Sobol (0,2)-sequence keyed by keys (Burley 2020, §4):
+// the scrambles of sobol2's coordinates with sobol2's mirror and the scramble's own cancelled
+// (src/sobol.rs).
 uvec2 shuffled_scrambled_sobol2(uint index, uvec4 keys) {
-    uvec2 p = sobol2(nested_uniform_scramble(index, keys.x));
-    return uvec2(nested_uniform_scramble(p.x, keys.y), nested_uniform_scramble(p.y, keys.z));
+    uint shuffled = nested_uniform_scramble(index, keys.x);
+    return uvec2(bitfieldReverse(laine_karras_permutation(shuffled, keys.y)),
+                 bitfieldReverse(laine_karras_permutation(superset_xor(shuffled), keys.z)));
 }
 
 // The Sobol sampler's pair of dimension `dimension` of sample sample_index of pixel, in [0, 1)^2.

@@ -77,6 +77,27 @@ fn sobol2_equals_the_direction_number_loop() {
     }
 }
 
+/// The shortened form gives the bits of Burley's Listing 4 as written: scramble the index, take
+/// both Sobol coordinates, scramble each.
+#[test]
+fn shuffled_scrambled_sobol2_is_the_written_out_composition() {
+    for keys in some_keys() {
+        for i in 0..4096u32 {
+            let index = i.wrapping_mul(0x9e37_79b9) ^ i;
+            let p = sobol2(nested_uniform_scramble(index, keys.x));
+            let written_out = UVec2::new(
+                nested_uniform_scramble(p.x, keys.y),
+                nested_uniform_scramble(p.y, keys.z),
+            );
+            assert_eq!(
+                shuffled_scrambled_sobol2(index, keys),
+                written_out,
+                "{index} {keys}"
+            );
+        }
+    }
+}
+
 #[test]
 fn shuffled_index_is_a_bijection_on_every_power_of_two() {
     // Bit j of the shuffled index depends only on bits 0..=j, so the first 2^k indices map one to
