@@ -816,7 +816,7 @@ fn devices() -> Result<()> {
             if d.usable {
                 ""
             } else {
-                " — not usable: needs Vulkan 1.2 with a compute queue"
+                " — not usable: needs Vulkan 1.2 with a compute queue and subgroup votes in compute shaders"
             }
         );
     }
