@@ -124,7 +124,7 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
     t2 = t.z;
     t3 = t.w;
     bool h0 = (mask & 1u) != 0u, h1 = (mask & 2u) != 0u, h2 = (mask & 4u) != 0u, h3 = (mask & 8u) != 0u;
-    uint entered = uint(h0) + uint(h1) + uint(h2) + uint(h3);
+    uint entered = uint(bitCount(mask));
     e0 = qbvh_entry(node, 0u);
     e1 = qbvh_entry(node, 1u);
     e2 = qbvh_entry(node, 2u);
@@ -140,7 +140,8 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
 
 // The walks' state and descents, as macros so that the top level (tlas.glsl) and the bottom
 // levels share them with their own leaf tests (an array passed to a GLSL function is copied).
-// The deferred slots: BVH_DEFER's array and the two nearest in registers.
+// The deferred slots: BVH_DEFER's array and the nearest in registers (three for a closest hit,
+// two for an any hit: bvh.glsl).
 #define QBVH_CLOSEST_STATE                           \
     uvec2 stack[QBVH_STACK_SIZE];                    \
     float stack_enter[QBVH_STACK_SIZE];              \
