@@ -620,6 +620,14 @@ pub struct BenchArgs {
     /// The estimator to measure.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
     pub integrator: IntegratorArg,
+    /// The sampler, as `render --sampler` (independent: the samples Mitsuba's `independent`
+    /// sampler draws, for a comparison on the same render).
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    pub sampler: SamplerArg,
+    /// How next event estimation picks an emitter, as `render --light-sampler` (power: by
+    /// emitted power alone; on a scene with one emitting shape, as Mitsuba's path tracer picks).
+    #[arg(long, value_enum, default_value_t = LightSamplerArg::Bvh)]
+    pub light_sampler: LightSamplerArg,
     /// Radiance of rays that leave the scene (for scenes lit by their surroundings).
     #[arg(long, value_parser = parse_radiance, default_value = "0")]
     pub environment: glam::Vec3,

@@ -823,6 +823,12 @@ fn devices() -> Result<()> {
     Ok(())
 }
 
+/// An option's value as the command line spells it.
+fn value_name(v: &impl clap::ValueEnum) -> String {
+    v.to_possible_value()
+        .map_or(String::new(), |p| p.get_name().to_owned())
+}
+
 fn bench(args: &BenchArgs) -> Result<()> {
     let scenes = if args.scenes.is_empty() {
         let dir = scenes_dir();
@@ -853,8 +859,13 @@ fn bench(args: &BenchArgs) -> Result<()> {
             None => None,
         },
         integrator: args.integrator.integrator(),
+        sampler: args.sampler.code(),
+        light_sampler: args.light_sampler.code(),
         ..RenderSettings::default()
     };
+    // How the rows sample, as `--sampler` and `--light-sampler` name it: part of a row's key
+    // against a baseline (rows written before these options existed used the defaults).
+    let (sampler, light_sampler) = (value_name(&args.sampler), value_name(&args.light_sampler));
     let gpu = if args.cpu_only {
         Err(anyhow::anyhow!("not opened (--cpu-only)"))
     } else {
@@ -886,7 +897,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
         Err(e) => format!("unavailable: {e:#}"),
     };
     println!(
-        "wavetrace bench ({:?} integrator): {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
+        "wavetrace bench ({:?} integrator, {sampler} sampler, {light_sampler} light sampler): {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
         settings.integrator,
         args.width,
         args.height,
@@ -894,7 +905,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
         args.max_depth,
         rayon::current_num_threads()
     );
-    // Rows of an earlier `bench --json`, by (scene, device): samples/s.
+    // Rows of an earlier `bench --json` sampled as these are, by (scene, device): samples/s.
     let baseline: std::collections::HashMap<(String, String), f64> = match &args.baseline {
         Some(file) => {
             let text = std::fs::read_to_string(file)
@@ -910,6 +921,10 @@ fn bench(args: &BenchArgs) -> Result<()> {
                     )
                 })?
                 .iter()
+                .filter(|r| {
+                    r["sampler"].as_str().unwrap_or("sobol") == sampler
+                        && r["light_sampler"].as_str().unwrap_or("bvh") == light_sampler
+                })
                 .filter_map(|r| {
                     Some((
                         (
@@ -974,6 +989,8 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "scene": name,
                 "device": device,
                 "integrator": format!("{:?}", settings.integrator).to_lowercase(),
+                "sampler": sampler,
+                "light_sampler": light_sampler,
                 "device_name": if device == "gpu" { gpu_name.clone() } else { format!("CPU reference, {} threads", rayon::current_num_threads()) },
                 "seconds": s.seconds,
                 "samples_per_second": s.samples_per_second(),

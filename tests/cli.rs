@@ -331,6 +331,50 @@ fn bench_cpu_only_needs_no_vulkan() {
     assert_eq!(rows.len(), 1, "{doc}");
     assert_eq!(rows[0]["device"], "cpu");
     assert!(rows[0]["samples_per_second"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        (&rows[0]["sampler"], &rows[0]["light_sampler"]),
+        (&"sobol".into(), &"bvh".into())
+    );
+}
+
+/// `bench --sampler --light-sampler` measures that sampling, records it in its JSON rows, and
+/// prints a `--baseline` ratio only against rows sampled alike.
+#[test]
+fn bench_baseline_ratios_compare_rows_sampled_alike() {
+    let json = temp("bench-independent.json");
+    let bench = |extra: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+            .args(["bench", "--cpu-only"])
+            .args(TINY_LEAF_BENCH)
+            .args(["--sampler", "independent", "--light-sampler", "power"])
+            .args(extra)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        // The leaf's row: scene, device and five figures, then the ratio where there is one.
+        let row = out
+            .lines()
+            .find(|l| l.starts_with("leaf "))
+            .unwrap()
+            .to_owned();
+        (out, row.split_whitespace().count())
+    };
+    let (out, _) = bench(&["--json", json.to_str().unwrap()]);
+    assert!(
+        out.contains("independent sampler, power light sampler"),
+        "{out}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(doc["rows"][0]["sampler"], "independent", "{doc}");
+    assert_eq!(doc["rows"][0]["light_sampler"], "power", "{doc}");
+    let (_, alike) = bench(&["--baseline", json.to_str().unwrap()]);
+    assert_eq!(alike, 7);
+    // The committed baseline was sampled with the defaults: no ratio.
+    let (_, unlike) = bench(&["--baseline", "tools/bench-baseline.json"]);
+    assert_eq!(unlike, 6);
 }
 
 /// `bench --bvh` measures the three walks on the same seeded rays and writes them to JSON: the

@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
 """The speed targets' ratios side by side: an earlier wavetrace build against a later one on the
 Cornell box (the GPU and CPU rows of `wavetrace bench`), Mitsuba 3's scalar_rgb on the same
-render (`tools/mitsuba_bench.py`, where the mitsuba wheel is installed), and the BVH build of a
-large scene as a render's one build pays for it (`render`'s "built in", a fresh process each).
+render (`tools/mitsuba_bench.py`, where the mitsuba wheel is installed) with the later build's CPU
+reference sampling as Mitsuba does (`bench --cpu-only --sampler independent --light-sampler
+power`: independent samples, the one emitting quad picked with probability 1 and sampled by area,
+so the two run the same estimator), and the BVH build of a large scene as a render's one build
+pays for it (`render`'s "built in", a fresh process each).
 
 This machine's speed drifts by more than most changes make, so the programs run in rounds whose
 order alternates (earlier, later, Mitsuba, builds; then the reverse), and each ratio is taken
@@ -91,6 +94,8 @@ def main():
     ]
     if not args.no_mitsuba:
         steps.append(("mitsuba", lambda: mitsuba(scenes[0])))
+        as_mitsuba = ["--cpu-only", "--sampler", "independent", "--light-sampler", "power"]
+        steps.append(("later as mitsuba", lambda: bench(args.later, bench_args + as_mitsuba)))
     if args.terrain:
         steps.append(("earlier build", lambda: build_ms(args.earlier, args.terrain, out)))
         steps.append(("later build", lambda: build_ms(args.later, args.terrain, out)))
@@ -116,6 +121,10 @@ def main():
     if not args.no_mitsuba and "cpu" in devices and all(x["mitsuba"] for x in rounds):
         print(f"| Mitsuba scalar_rgb M samples/s | {column(lambda x: x['mitsuba'])} |")
         print(f"| later cpu / Mitsuba | {column(lambda x: x['later']['cpu'] / x['mitsuba'])} |")
+        print(f"| later cpu sampling as Mitsuba, M samples/s | "
+              f"{column(lambda x: x['later as mitsuba']['cpu'])} |")
+        print(f"| later cpu sampling as Mitsuba / Mitsuba | "
+              f"{column(lambda x: x['later as mitsuba']['cpu'] / x['mitsuba'])} |")
     if args.terrain:
         print(f"| BVH build ms, earlier | {column(lambda x: x['earlier build'])} |")
         print(f"| BVH build ms, later | {column(lambda x: x['later build'])} |")
