@@ -452,6 +452,14 @@ pub struct FrameParams {
     /// `PreparedScene::gpu_bvh`), or `NO_WIDE_ROOT`: the top level is walked in its binary
     /// nodes from `tlas_root`.
     pub tlas_wide_root: u32, // 4 bytes
+    /// 1 when every material of the scene is plain diffuse (`bsdf::material_is_plain`): the
+    /// kernels then take the plain frames' path through the BSDF (`bsdf.glsl`,
+    /// `BSDF_PLAIN_PATH`), the same floats as the general path, in a branch uniform across
+    /// every subgroup.
+    pub plain_bsdf: u32, // 4 bytes
+    pub pad0: u32,              // 4 bytes
+    pub pad1: u32,              // 4 bytes
+    pub pad2: u32,              // 4 bytes
     /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
     /// four entries per vec4): a uniform the shaders index, where a constant array of that size
     /// costs lavapipe minutes of shader compilation. Every `FrameParams::default()` holds it.
@@ -862,6 +870,10 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         spectral,
         count_fetches,
         tlas_wide_root,
+        plain_bsdf,
+        pad0,
+        pad1,
+        pad2,
         sheen_albedo
     }),
     struct_layout!(DispatchParams {

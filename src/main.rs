@@ -384,12 +384,17 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let b = &prepared.bvh.stats;
     println!(
-        "{}: {} triangles stored, {} placements, {} emitting, {} materials, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
+        "{}: {} triangles stored, {} placements, {} emitting, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
         path.display(),
         prepared.triangles.len(),
         prepared.instances.len(),
         prepared.lights.len(),
         prepared.materials.len(),
+        if prepared.materials.iter().all(wavetrace::bsdf::material_is_plain) {
+            " (all plain diffuse)"
+        } else {
+            ""
+        },
         prepared.textures.len(),
         (prepared.texels.len() * 4) as f64 / (1 << 20) as f64,
         b.nodes,

@@ -733,6 +733,7 @@ impl PreparedScene {
             },
             // KHR_materials_dispersion: light tracing and BDPT carry a wavelength per sample.
             spectral: u32::from(self.materials.iter().any(crate::spectrum::is_dispersive)),
+            plain_bsdf: u32::from(self.materials.iter().all(crate::bsdf::material_is_plain)),
             // The camera's fields: written below.
             ..FrameParams::default()
         };

@@ -71,10 +71,12 @@ fn cases() -> Vec<Case> {
         .collect()
 }
 
-/// The material of case `i` (twins.comp, twin_material): the last 512 cases are unlit.
+/// The material of case `i` (twins.comp, twin_material): one block of 64 cases in 512 plain
+/// diffuse (`BsdfFrame`'s plain path, which the twins shader takes per lane); the last 512
+/// unlit.
 fn twin_material(i: u32) -> GpuMaterial {
     let k = (i / 4) % 4;
-    GpuMaterial {
+    let m = GpuMaterial {
         base_color: [0.2, 0.5, 0.9],
         roughness: [0.0, 0.05, 0.3, 0.8][(i % 4) as usize],
         metallic: [0.0, 1.0, 0.0, 0.5][k as usize],
@@ -104,7 +106,19 @@ fn twin_material(i: u32) -> GpuMaterial {
         diffuse_transmission_color: [0.3, 0.9, 0.5],
         dispersion: if (i / 8) % 2 == 1 { 1.5 } else { 0.0 },
         ..Default::default()
+    };
+    if (i / 64) % 8 == 5 && i / 512 != 7 {
+        return GpuMaterial {
+            metallic: 0.0,
+            transmission: 0.0,
+            specular: 0.0,
+            clearcoat: 0.0,
+            iridescence: 0.0,
+            diffuse_transmission: 0.0,
+            ..m
+        };
     }
+    m
 }
 
 /// The camera set-ups of the camera-ray cases (twins.comp reads them as `frames[i % 3]`): a

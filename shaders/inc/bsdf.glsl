@@ -56,6 +56,7 @@ struct BsdfFrame {
     float sheen_alpha;
     float sheen_roughness;
     float sheen_scale_o;
+    bool plain;        // Lambert's lobe alone (BsdfFrame::plain): eval, pdf and sample take its terms
 };
 
 // The clearcoat's Fresnel weight, F0 = 0.04 (ior 1.5) (KHR_materials_clearcoat, fresnel_coat).
@@ -137,6 +138,29 @@ float max3(vec3 v) {
     return max(max(v.x, v.y), v.z);
 }
 
+// No specular layer (BsdfFrame::specular_free): a dielectric with KHR_materials_specular's
+// factor 0 (F0 = F90 = 0), no metal, no thin film and no total internal reflection has fd = 0 at
+// every angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 - max(fd) = 1; eval
+// skips the Fresnel and the reflection term (the same value bit for bit: x + 0 = x).
+bool bsdf_specular_free(BsdfFrame f) {
+    return f.metallic == 0.0 && f.f90 == 0.0 && max3(f.f0) == 0.0 && f.film <= 0.0 && f.etap >= 1.0;
+}
+
+// Where the plain frames' path (BsdfFrame::plain: the general path's floats) is taken.
+// BSDF_PLAIN_SCENE: true only where every frame a kernel builds is plain, so that
+// bsdf_frame_new_shading skips the Fresnel, sheen and coat blocks every frame would skip.
+// BSDF_PLAIN_PATH(f): true only where f is plain. The wavefront's kernels define both as the
+// scene's FrameParams::plain_bsdf (bindings.glsl), a branch uniform across the dispatch, which
+// lavapipe runs one-sided where it runs a per-lane branch's both sides under masks; a subgroup
+// vote of f.plain measured no faster there than the general path. Elsewhere (the twins tests)
+// the choice is per lane.
+#ifndef BSDF_PLAIN_SCENE
+#define BSDF_PLAIN_SCENE false
+#endif
+#ifndef BSDF_PLAIN_PATH
+#define BSDF_PLAIN_PATH(f) (f).plain
+#endif
+
 // The frame of shading normal ns flipped with ng to wo's side and bent (BsdfFrame::new_shading):
 // evaluated in the shading frame, zero where the geometric and shading sides of wi disagree.
 // False where wo lies in the surface's plane.
@@ -152,6 +176,7 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.sheen_scale_o = 1.0;
     f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = vec2(0.0);
     f.cc_t = vec3(0.0); f.cc_b = vec3(0.0); f.cc_n = vec3(0.0); f.cc_wo = vec3(0.0);
+    f.plain = false;
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
     vec3 ng_wo = front ? ng : -ng;
@@ -176,9 +201,13 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.film = unlit ? 0.0 : m.iridescence;
     f.film_ior = m.iridescence_ior;
     f.film_thickness = m.iridescence_thickness;
-    // Lobe albedo estimates at the macro normal (Fresnel at cos theta_o).
-    vec3 fe, fm3;
-    fresnel_layers(f.wo.z, f.f0, f.f90, f.etap, f.base, f.metallic, f.film, f.film_ior, f.film_thickness, fe, fm3);
+    // Lobe albedo estimates at the macro normal (Fresnel at cos theta_o). Without a specular
+    // layer fe = 0 (bsdf_specular_free) and fm has the factor metallic = 0: both terms 0.
+    bool specular_free = bsdf_specular_free(f);
+    vec3 fe = vec3(0.0), fm3 = vec3(0.0);
+    if (!BSDF_PLAIN_SCENE && !specular_free) {
+        fresnel_layers(f.wo.z, f.f0, f.f90, f.etap, f.base, f.metallic, f.film, f.film_ior, f.film_thickness, fe, fm3);
+    }
     float fm = average3(fm3);
     float dielectric = 1.0 - f.metallic;
     f.dt = unlit ? 0.0 : m.diffuse_transmission;
@@ -195,7 +224,7 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.sheen_max = max3(f.sheen_color);
     f.sheen_alpha = sheen_alpha(m.sheen_roughness);
     f.sheen_roughness = m.sheen_roughness;
-    if (f.sheen_max > 0.0) {
+    if (!BSDF_PLAIN_SCENE && f.sheen_max > 0.0) {
         float e = sheen_albedo(f.wo.z, m.sheen_roughness);
         f.sheen_scale_o = max(1.0 - f.sheen_max * e, 0.0);
         w.xyz *= f.sheen_scale_o;
@@ -207,7 +236,7 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.clearcoat = unlit ? 0.0 : m.clearcoat;
     f.cc_alpha = vec2(m.clearcoat_roughness * m.clearcoat_roughness);
     f.cc_t = f.t; f.cc_b = f.b; f.cc_n = f.n; f.cc_wo = f.wo;
-    if (f.clearcoat > 0.0) {
+    if (!BSDF_PLAIN_SCENE && f.clearcoat > 0.0) {
         vec3 nc = m.clearcoat_normal;
         if (any(notEqual(nc, vec3(0.0)))) {
             f.cc_n = bend_shading_normal(front ? nc : -nc, ng_wo, wo);
@@ -225,6 +254,8 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.sheen_pmf = total > 0.0 ? w_sheen / total : 0.0;
     f.dt_pmf = total > 0.0 ? w_dt / total : 0.0;
     f.albedo_estimate = total;
+    f.plain = specular_free && f.transmission == 0.0 && f.dt == 0.0 && f.sheen_max <= 0.0
+           && f.clearcoat <= 0.0;
     return true;
 }
 
@@ -259,14 +290,6 @@ vec3 bsdf_to_local(BsdfFrame f, vec3 v) {
 
 vec3 bsdf_to_world(BsdfFrame f, vec3 v) {
     return f.t * v.x + f.b * v.y + f.n * v.z;
-}
-
-// No specular layer (BsdfFrame::specular_free): a dielectric with KHR_materials_specular's
-// factor 0 (F0 = F90 = 0), no metal, no thin film and no total internal reflection has fd = 0 at
-// every angle, so its reflection term is 0 and its diffuse lobe keeps all of 1 - max(fd) = 1; eval
-// skips the Fresnel and the reflection term (the same value bit for bit: x + 0 = x).
-bool bsdf_specular_free(BsdfFrame f) {
-    return f.metallic == 0.0 && f.f90 == 0.0 && max3(f.f0) == 0.0 && f.film <= 0.0 && f.etap >= 1.0;
 }
 
 bool bsdf_is_delta(BsdfFrame f) {
@@ -427,8 +450,20 @@ float bsdf_pdf_clearcoat(BsdfFrame f, vec3 wi) {
     return ggx_vndf_pdf(f.cc_wo, h, f.cc_alpha) / (4.0 * dot(f.cc_wo, h));
 }
 
+// Lambert's f at local wi of a plain frame (BsdfFrame::eval_plain): bsdf_eval_local without its
+// zero terms.
+vec3 bsdf_eval_plain(BsdfFrame f, vec3 wi) {
+    return bsdf_consistent(f, wi) && wi.z > 0.0 ? INV_PI * f.base : vec3(0.0);
+}
+
+// The cosine-weighted pdf at local wi of a plain frame (BsdfFrame::pdf_plain).
+float bsdf_pdf_plain(BsdfFrame f, vec3 wi) {
+    return bsdf_consistent(f, wi) && wi.z > 0.0 ? f.lobe_pmf.x * cosine_hemisphere_pdf(wi.z) : 0.0;
+}
+
 // f(wo, wi) of the non-delta lobes for world-space wi (BsdfFrame::eval).
 vec3 bsdf_frame_eval(BsdfFrame f, vec3 wi, uint mode) {
+    if (BSDF_PLAIN_PATH(f)) return bsdf_eval_plain(f, bsdf_to_local(f, wi));
     vec3 base = bsdf_eval_local(f, bsdf_to_local(f, wi), mode);
     if (f.clearcoat <= 0.0) return base;
     float wc = bsdf_cc_weight(f, wi, mode);
@@ -437,6 +472,7 @@ vec3 bsdf_frame_eval(BsdfFrame f, vec3 wi, uint mode) {
 
 // The mixture pdf at world-space wi (BsdfFrame::pdf).
 float bsdf_frame_pdf(BsdfFrame f, vec3 wi) {
+    if (BSDF_PLAIN_PATH(f)) return bsdf_pdf_plain(f, bsdf_to_local(f, wi));
     float base = bsdf_pdf_local(f, bsdf_to_local(f, wi));
     if (f.clearcoat <= 0.0 || f.lobe_pmf.w <= 0.0) return base;
     return base + f.lobe_pmf.w * bsdf_pdf_clearcoat(f, wi);
@@ -475,6 +511,14 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
     weight = vec3(0.0);
     pdf = 0.0;
     delta = false;
+    if (BSDF_PLAIN_PATH(f)) {
+        // The diffuse lobe if it scatters anything, chosen whatever u.z; a direction on the
+        // surface is no sample.
+        if (!(f.lobe_pmf.x > 0.0)) return false;
+        vec3 local = sample_cosine_hemisphere(u.xy);
+        if (!(local.z > 0.0)) return false;
+        return bsdf_weighed(f, bsdf_to_world(f, local), mode, wi, weight, pdf);
+    }
     // The first lobe whose cumulative probability exceeds u.z (rounding past the last sum: the
     // last lobe that can be chosen).
     uint lobe = LOBE_COUNT;

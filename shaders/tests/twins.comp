@@ -31,7 +31,8 @@ layout(push_constant) uniform Push { uint case_count; };
 layout(local_size_x = WORKGROUP_SIZE) in;
 
 // The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
-// specular factor and colour, clearcoat, sheen, anisotropy, iridescence, diffuse transmission swept by the case index; the last 512 cases are unlit.
+// specular factor and colour, clearcoat, sheen, anisotropy, iridescence, diffuse transmission swept by the case index; one block of 64 in
+// 512 plain diffuse; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
@@ -77,6 +78,15 @@ GpuMaterial twin_material(uint i) {
     m.diffuse_transmission_texture = NO_TEXTURE;
     m.diffuse_transmission_color_texture = NO_TEXTURE;
     m.dispersion = (i / 8u) % 2u == 1u ? 1.5 : 0.0;
+    // One block of 64 cases in 512 plain diffuse (BsdfFrame.plain: the plain frames' path).
+    if ((i / 64u) % 8u == 5u && i / 512u != 7u) {
+        m.metallic = 0.0;
+        m.transmission = 0.0;
+        m.specular = 0.0;
+        m.clearcoat = 0.0;
+        m.iridescence = 0.0;
+        m.diffuse_transmission = 0.0;
+    }
     return m;
 }
 

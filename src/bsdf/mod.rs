@@ -178,6 +178,15 @@ pub struct BsdfFrame {
     sheen_alpha: f32,
     sheen_roughness: f32,
     sheen_scale_o: f32,
+    /// A plain diffuse surface: no metal, specular layer, thin film, transmission, diffuse
+    /// transmission, sheen or coat, so Lambert's lobe alone (`lobe_pmf` 1 for it and 0 for the
+    /// others; all 0 where the base colour is black or the surface unlit).
+    /// [`eval`](Self::eval), [`pdf`](Self::pdf) and [`sample`](Self::sample) then take the
+    /// diffuse lobe's terms alone: the same floats as the general path, whose other terms are
+    /// each an exact 0 added or an exact 1 multiplied (test
+    /// `plain_diffuse_frames_equal_the_general_path`). A Lambertian scene (the Cornell box
+    /// Mitsuba renders with its `diffuse` BSDF) spends much of a vertex in the BSDF otherwise.
+    plain: bool,
 }
 
 /// The clearcoat's Fresnel weight F_c = F0 + (1 − F0)(1 − |cos|)⁵ with F0 = ((1.5 − 1)/(1.5 +
@@ -301,6 +310,26 @@ fn average(v: Vec3) -> f32 {
     (v.x + v.y + v.z) / 3.0
 }
 
+/// Whether every frame of material `m` is [plain](BsdfFrame) whatever its textures: unlit, or
+/// no metal, specular layer, thin film, transmission, diffuse transmission, sheen or coat by
+/// their factors (the textures multiply them, so 0 stays 0). `FrameParams::plain_bsdf`.
+pub fn material_is_plain(m: &GpuMaterial) -> bool {
+    m.flags & MATERIAL_UNLIT != 0
+        || (m.metallic == 0.0
+            && m.specular == 0.0
+            && m.iridescence == 0.0
+            && m.transmission == 0.0
+            && m.diffuse_transmission == 0.0
+            && m.sheen_color == [0.0; 3]
+            && m.clearcoat == 0.0)
+}
+
+/// No specular layer ([`BsdfFrame::specular_free`]): no metal, F0 = F90 = 0, no thin film and
+/// no total internal reflection, so the dielectric Fresnel term is 0 at every angle.
+fn no_specular_layer(metallic: f32, f0: Vec3, f90: f32, film: &ThinFilm, etap: f32) -> bool {
+    metallic == 0.0 && f90 == 0.0 && f0.max_element() == 0.0 && film.factor <= 0.0 && etap >= 1.0
+}
+
 impl BsdfFrame {
     /// The frame of the geometric normal (no shading normal). None where `wo` lies in the
     /// surface's plane (no light leaves along it).
@@ -359,8 +388,14 @@ impl BsdfFrame {
             ior: m.iridescence_ior,
             thickness: m.iridescence_thickness,
         };
-        // Lobe albedo estimates at the macro normal (Fresnel at cos θo).
-        let (fe, fm) = fresnel_layers(wo_local.z, f0, f90, etap, base, metallic, &film);
+        // Lobe albedo estimates at the macro normal (Fresnel at cos θo). Without a specular
+        // layer fe = 0 (see `specular_free`) and fm has the factor metallic = 0: both terms 0.
+        let specular_free = no_specular_layer(metallic, f0, f90, &film, etap);
+        let (fe, fm) = if specular_free {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            fresnel_layers(wo_local.z, f0, f90, etap, base, metallic, &film)
+        };
         let fm = average(fm);
         let dielectric = 1.0 - metallic;
         let dt = if unlit { 0.0 } else { m.diffuse_transmission };
@@ -414,6 +449,11 @@ impl BsdfFrame {
         } else {
             [0.0; LOBE_COUNT]
         };
+        let plain = specular_free
+            && transmission == 0.0
+            && dt == 0.0
+            && sheen_max <= 0.0
+            && clearcoat <= 0.0;
         Some(BsdfFrame {
             t,
             b,
@@ -448,7 +488,28 @@ impl BsdfFrame {
             sheen_alpha: sheen_alpha(m.sheen_roughness),
             sheen_roughness: m.sheen_roughness,
             sheen_scale_o,
+            plain,
         })
+    }
+
+    /// Lambert's f at local `wi` of a [`plain`](Self::plain) frame: [`eval_local`](Self::eval_local)
+    /// with its zero terms left out.
+    fn eval_plain(&self, wi: Vec3) -> Vec3 {
+        if self.consistent(wi) && wi.z > 0.0 {
+            FRAC_1_PI * self.base
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// The cosine-weighted pdf at local `wi` of a [`plain`](Self::plain) frame:
+    /// [`pdf_local`](Self::pdf_local) with its zero terms left out.
+    fn pdf_plain(&self, wi: Vec3) -> f32 {
+        if self.consistent(wi) && wi.z > 0.0 {
+            self.lobe_pmf[LOBE_DIFFUSE] * cosine_hemisphere_pdf(wi.z)
+        } else {
+            0.0
+        }
     }
 
     /// Whether local `wi` lies on the same side of the geometric and the shading surface.
@@ -476,11 +537,7 @@ impl BsdfFrame {
     /// [`eval_local`](Self::eval_local) skips the Fresnel and the reflection term (the same value
     /// bit for bit: x + 0 = x).
     fn specular_free(&self) -> bool {
-        self.metallic == 0.0
-            && self.f90 == 0.0
-            && self.f0.max_element() == 0.0
-            && self.film.factor <= 0.0
-            && self.etap >= 1.0
+        no_specular_layer(self.metallic, self.f0, self.f90, &self.film, self.etap)
     }
 
     fn is_delta(&self) -> bool {
@@ -732,6 +789,9 @@ impl BsdfFrame {
 
     /// f(wo, wi) of the non-delta lobes for world-space `wi` ([`bsdf_eval`] with this frame).
     pub fn eval(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
+        if self.plain {
+            return self.eval_plain(self.to_local(wi));
+        }
         let base = self.eval_local(self.to_local(wi), mode);
         if self.clearcoat <= 0.0 {
             return base;
@@ -742,6 +802,9 @@ impl BsdfFrame {
 
     /// The mixture pdf at world-space `wi` ([`bsdf_pdf`] with this frame).
     pub fn pdf(&self, wi: Vec3) -> f32 {
+        if self.plain {
+            return self.pdf_plain(self.to_local(wi));
+        }
         let base = self.pdf_local(self.to_local(wi));
         if self.clearcoat <= 0.0 || self.lobe_pmf[LOBE_CLEARCOAT] <= 0.0 {
             return base;
@@ -751,6 +814,18 @@ impl BsdfFrame {
 
     /// Samples one lobe with `u.z`, then a direction in it with `u.xy` ([`bsdf_sample`]).
     pub fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        if self.plain {
+            // The diffuse lobe if it scatters anything, chosen whatever u.z; a direction on the
+            // surface is no sample.
+            if !(self.lobe_pmf[LOBE_DIFFUSE] > 0.0) {
+                return None;
+            }
+            let wi = sample_cosine_hemisphere(Vec2::new(u.x, u.y));
+            if !(wi.z > 0.0) {
+                return None;
+            }
+            return self.weighed(self.to_world(wi), mode);
+        }
         // The first lobe whose cumulative probability exceeds u.z (rounding past the last
         // sum: the last lobe that can be chosen).
         let (mut lobe, mut cumulative) = (LOBE_COUNT, 0.0);

@@ -1341,3 +1341,130 @@ fn diffuse_transmission_is_reciprocal_and_a_white_leaf_keeps_all_the_light() {
         }
     }
 }
+
+/// A plain diffuse frame's shorter path through eval, pdf and sample gives the general path's
+/// floats bit for bit (the frame with `plain` cleared takes the general path), over random plain
+/// materials (colour, black too, roughness, anisotropy, ior, specular colour, unlit), shading
+/// normals, sides and directions; every frame of a material `material_is_plain` accepts is
+/// plain, and a material with any other lobe is neither.
+#[test]
+fn plain_diffuse_frames_equal_the_general_path() {
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    let mut plain_frames = 0;
+    for i in 0..4000u32 {
+        let r = rng_uniform4(91, i, 0, 0);
+        let q = rng_uniform4(91, i, 1, 0);
+        let base = Vec3::new(r.x, r.y, r.z) * [1.0, 1e-3, 0.0][(i % 7).min(2) as usize];
+        let m = GpuMaterial {
+            base_color: base.into(),
+            metallic: 0.0,
+            roughness: r.w,
+            ior: 0.8 + q.x,
+            specular: 0.0,
+            specular_color: [q.y * 2.0, 1.0, q.z],
+            anisotropy: if i % 3 == 0 { q.w } else { 0.0 },
+            anisotropy_direction: [0.48, 0.6, -0.64],
+            sheen_roughness: q.x,
+            clearcoat_roughness: q.y,
+            flags: if i % 11 == 5 { MATERIAL_UNLIT } else { 0 },
+            ..Default::default()
+        };
+        assert!(material_is_plain(&m));
+        let ng = unit(rng_uniform4(91, i, 2, 0));
+        // Half the cases with a shading normal of their own, tilted from ng.
+        let ns = if i % 2 == 0 {
+            ng
+        } else {
+            (ng + 0.6 * unit(rng_uniform4(91, i, 3, 0))).normalize()
+        };
+        let wo = unit(rng_uniform4(91, i, 4, 0));
+        let Some(frame) = BsdfFrame::new_shading(&m, ng, ns, wo) else {
+            continue;
+        };
+        assert!(frame.plain, "case {i}: {m:?}");
+        plain_frames += 1;
+        let general = BsdfFrame {
+            plain: false,
+            ..frame
+        };
+        for k in 0..8 {
+            let wi = unit(rng_uniform4(91, i, 5 + k, 0));
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                assert_eq!(
+                    bits(frame.eval(wi, mode)),
+                    bits(general.eval(wi, mode)),
+                    "case {i}, eval at {wi}"
+                );
+            }
+            assert_eq!(
+                frame.pdf(wi).to_bits(),
+                general.pdf(wi).to_bits(),
+                "case {i}, pdf at {wi}"
+            );
+            let u = u3(92 + k, i);
+            let (a, b) = (
+                frame.sample(u, TransportMode::Radiance),
+                general.sample(u, TransportMode::Radiance),
+            );
+            assert_eq!(a.is_some(), b.is_some(), "case {i}, sample at {u}");
+            if let (Some(a), Some(b)) = (a, b) {
+                assert_eq!(
+                    (bits(a.wi), bits(a.weight), a.pdf.to_bits(), a.delta),
+                    (bits(b.wi), bits(b.weight), b.pdf.to_bits(), b.delta),
+                    "case {i}, sample at {u}"
+                );
+            }
+        }
+    }
+    assert!(plain_frames > 3900, "{plain_frames}");
+    // Any other lobe, or no light scattered at all, takes the general path.
+    let plain = GpuMaterial {
+        base_color: [0.5; 3],
+        metallic: 0.0,
+        specular: 0.0,
+        ..Default::default()
+    };
+    let others = [
+        GpuMaterial {
+            metallic: 0.01,
+            ..plain
+        },
+        GpuMaterial {
+            specular: 0.01,
+            ..plain
+        },
+        GpuMaterial {
+            transmission: 0.5,
+            ..plain
+        },
+        GpuMaterial {
+            diffuse_transmission: 0.5,
+            ..plain
+        },
+        GpuMaterial {
+            sheen_color: [0.0, 0.1, 0.0],
+            ..plain
+        },
+        GpuMaterial {
+            clearcoat: 0.1,
+            ..plain
+        },
+        GpuMaterial {
+            iridescence: 0.5,
+            ..plain
+        },
+    ];
+    let frame = |m: &GpuMaterial| BsdfFrame::new(m, NG, direction(0.6, 0.3)).unwrap();
+    assert!(frame(&plain).plain && material_is_plain(&plain));
+    for (k, m) in others.iter().enumerate() {
+        assert!(
+            !frame(m).plain && !material_is_plain(m),
+            "material {k}: {m:?}"
+        );
+    }
+}
+
+/// A unit vector from four uniform numbers (the first three, centred).
+fn unit(u: glam::Vec4) -> Vec3 {
+    (Vec3::new(u.x, u.y, u.z) - Vec3::splat(0.5)).normalize()
+}
