@@ -452,9 +452,9 @@ pub struct FrameParams {
     /// `PreparedScene::gpu_bvh`), or `NO_WIDE_ROOT`: the top level is walked in its binary
     /// nodes from `tlas_root`.
     pub tlas_wide_root: u32, // 4 bytes
-    /// 1 when every material of the scene is plain diffuse (`bsdf::material_is_plain`): the
+    /// 1 when every material of the scene is plain diffuse (`PreparedScene::plain_diffuse`): the
     /// kernels then take the plain frames' path through the BSDF (`bsdf.glsl`,
-    /// `BSDF_PLAIN_PATH`), the same floats as the general path, in a branch uniform across
+    /// `BSDF_PLAIN_SCENE`), the same floats as the general path, in a branch uniform across
     /// every subgroup.
     pub plain_bsdf: u32, // 4 bytes
     pub pad0: u32,              // 4 bytes

@@ -390,7 +390,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         prepared.instances.len(),
         prepared.lights.len(),
         prepared.materials.len(),
-        if prepared.materials.iter().all(wavetrace::bsdf::material_is_plain) {
+        if prepared.plain_diffuse() {
             " (all plain diffuse)"
         } else {
             ""

@@ -699,6 +699,12 @@ impl PreparedScene {
     /// The constants of one render, as the GPU's uniform buffer holds them. Settings whose
     /// [`thin_lens`](PreparedScene::thin_lens) is an error render with a pinhole: check it
     /// first (the command line does).
+    /// Whether every material is plain diffuse (`bsdf::material_is_plain`): the GPU then takes
+    /// the plain frames' path through the BSDF everywhere (`FrameParams::plain_bsdf`).
+    pub fn plain_diffuse(&self) -> bool {
+        self.materials.iter().all(crate::bsdf::material_is_plain)
+    }
+
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {
         let mut frame = FrameParams {
             aspect: settings.width as f32 / settings.height as f32,
@@ -733,7 +739,7 @@ impl PreparedScene {
             },
             // KHR_materials_dispersion: light tracing and BDPT carry a wavelength per sample.
             spectral: u32::from(self.materials.iter().any(crate::spectrum::is_dispersive)),
-            plain_bsdf: u32::from(self.materials.iter().all(crate::bsdf::material_is_plain)),
+            plain_bsdf: u32::from(self.plain_diffuse()),
             // The camera's fields: written below.
             ..FrameParams::default()
         };

@@ -6,7 +6,6 @@ layout(std140, set = 0, binding = 0) uniform Frame { FrameParams frame; };
 // The plain frames' path through the BSDF wherever the scene's every material is plain
 // (bsdf.glsl): uniform across the dispatch.
 #define BSDF_PLAIN_SCENE (frame.plain_bsdf != 0u)
-#define BSDF_PLAIN_PATH(f) BSDF_PLAIN_SCENE
 layout(std430, set = 0, binding = 1) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };

@@ -146,18 +146,18 @@ bool bsdf_specular_free(BsdfFrame f) {
     return f.metallic == 0.0 && f.f90 == 0.0 && max3(f.f0) == 0.0 && f.film <= 0.0 && f.etap >= 1.0;
 }
 
-// Where the plain frames' path (BsdfFrame::plain: the general path's floats) is taken.
-// BSDF_PLAIN_SCENE: true only where every frame a kernel builds is plain, so that
+// Where the plain frames' path (BsdfFrame::plain: the general path's floats) is taken,
+// BSDF_PLAIN_PATH(f), true only where f is plain. The wavefront's kernels define
+// BSDF_PLAIN_SCENE, true only where every frame they build is plain, as the scene's
+// FrameParams::plain_bsdf (bindings.glsl): then the path is that, a branch uniform across the
+// dispatch, which lavapipe runs one-sided where it runs a per-lane branch's both sides under
+// masks (a subgroup vote of f.plain measured no faster there than the general path), and
 // bsdf_frame_new_shading skips the Fresnel, sheen and coat blocks every frame would skip.
-// BSDF_PLAIN_PATH(f): true only where f is plain. The wavefront's kernels define both as the
-// scene's FrameParams::plain_bsdf (bindings.glsl), a branch uniform across the dispatch, which
-// lavapipe runs one-sided where it runs a per-lane branch's both sides under masks; a subgroup
-// vote of f.plain measured no faster there than the general path. Elsewhere (the twins tests)
-// the choice is per lane.
-#ifndef BSDF_PLAIN_SCENE
+// Elsewhere (the twins tests) the choice is per lane.
+#ifdef BSDF_PLAIN_SCENE
+#define BSDF_PLAIN_PATH(f) BSDF_PLAIN_SCENE
+#else
 #define BSDF_PLAIN_SCENE false
-#endif
-#ifndef BSDF_PLAIN_PATH
 #define BSDF_PLAIN_PATH(f) (f).plain
 #endif
 

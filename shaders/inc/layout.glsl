@@ -214,7 +214,7 @@ struct FrameParams {
     uint spectral;          // 4 bytes: 1 = the scene has a dispersive material (spectrum.glsl)
     uint count_fetches;     // 4 bytes: 1 = count scene-image fetches (scene_arrays.glsl)
     uint tlas_wide_root;    // 4 bytes: quantised 4-wide root of the top level (tlas.glsl), or NO_WIDE_ROOT
-    uint plain_bsdf;        // 4 bytes: 1 = every material is plain diffuse (bsdf.glsl, BSDF_PLAIN_PATH)
+    uint plain_bsdf;        // 4 bytes: 1 = every material is plain diffuse (bsdf.glsl, BSDF_PLAIN_SCENE)
     uint pad0;              // 4 bytes
     uint pad1;              // 4 bytes
     uint pad2;              // 4 bytes
