@@ -275,6 +275,47 @@ pub const TRIANGLE_PLAIN: u32 = 4;
 pub const TRIANGLE_MATERIAL_MASK: u32 = 0x3fff_ffff;
 /// Alpha-tested: traversal consults the material's alpha (`surface::triangle_present`).
 pub const TRIANGLE_TEST_ALPHA: u32 = 1 << 31;
+
+/// The features of a scene a wavefront kernel can be compiled without (the specialisation
+/// constant `SCENE_FEATURES`, bindings.glsl; `PreparedScene::gpu_features`): a pipeline made
+/// for a scene that lacks one has that feature's code folded away by the driver, the same
+/// results with less code, where a runtime test would leave it in.
+/// The top level's walk: the scene is not one instance placed as it is.
+pub const FEATURE_TOP_LEVEL: u32 = 1 << 0;
+/// A level walked in its binary nodes (`NO_WIDE_ROOT`): no quantised walk for it.
+pub const FEATURE_BINARY_WALK: u32 = 1 << 1;
+/// A material that is not plain diffuse (`bsdf::material_is_plain`): the general BSDF.
+pub const FEATURE_GENERAL_BSDF: u32 = 1 << 2;
+/// An alpha-tested triangle (`TRIANGLE_TEST_ALPHA`): the any-hit test's alpha lookup.
+pub const FEATURE_ALPHA: u32 = 1 << 3;
+/// A texture (`PreparedScene::textures`): the materials' texture lookups.
+pub const FEATURE_TEXTURES: u32 = 1 << 4;
+/// An environment (`FrameParams::env_width` > 0): its lookups and sampling.
+pub const FEATURE_ENVIRONMENT: u32 = 1 << 5;
+/// A punctual light (`PreparedScene::punctual`): its emitter samples.
+pub const FEATURE_PUNCTUAL: u32 = 1 << 6;
+/// A dispersive material (`FrameParams::spectral`): the path's wavelength.
+pub const FEATURE_DISPERSION: u32 = 1 << 7;
+/// Every feature: a pipeline that serves any scene.
+pub const FEATURES_ALL: u32 = u32::MAX;
+
+/// The names of the features in `features`, in bit order (`render --stats`).
+pub fn feature_names(features: u32) -> Vec<&'static str> {
+    [
+        (FEATURE_TOP_LEVEL, "top level"),
+        (FEATURE_BINARY_WALK, "binary walk"),
+        (FEATURE_GENERAL_BSDF, "general BSDF"),
+        (FEATURE_ALPHA, "alpha"),
+        (FEATURE_TEXTURES, "textures"),
+        (FEATURE_ENVIRONMENT, "environment"),
+        (FEATURE_PUNCTUAL, "punctual lights"),
+        (FEATURE_DISPERSION, "dispersion"),
+    ]
+    .into_iter()
+    .filter(|&(f, _)| features & f != 0)
+    .map(|(_, name)| name)
+    .collect()
+}
 /// Single-sided and opaque (not transmissive): rays that reach its back face pass through
 /// (glTF `doubleSided: false`, back-face culling).
 pub const TRIANGLE_TEST_CULL: u32 = 1 << 30;
@@ -452,14 +493,6 @@ pub struct FrameParams {
     /// `PreparedScene::gpu_bvh`), or `NO_WIDE_ROOT`: the top level is walked in its binary
     /// nodes from `tlas_root`.
     pub tlas_wide_root: u32, // 4 bytes
-    /// 1 when every material of the scene is plain diffuse (`PreparedScene::plain_diffuse`): the
-    /// kernels then take the plain frames' path through the BSDF (`bsdf.glsl`,
-    /// `BSDF_PLAIN_SCENE`), the same floats as the general path, in a branch uniform across
-    /// every subgroup.
-    pub plain_bsdf: u32, // 4 bytes
-    pub pad0: u32,              // 4 bytes
-    pub pad1: u32,              // 4 bytes
-    pub pad2: u32,              // 4 bytes
     /// KHR_materials_sheen's albedo table E(cos θ, roughness) (`bsdf::sheen::SHEEN_ALBEDO`,
     /// four entries per vec4): a uniform the shaders index, where a constant array of that size
     /// costs lavapipe minutes of shader compilation. Every `FrameParams::default()` holds it.
@@ -870,10 +903,6 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         spectral,
         count_fetches,
         tlas_wide_root,
-        plain_bsdf,
-        pad0,
-        pad1,
-        pad2,
         sheen_albedo
     }),
     struct_layout!(DispatchParams {

@@ -151,6 +151,16 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
     if let Some(memory) = stats.device_memory.as_ref().filter(|_| per_kernel) {
         println!("{memory}");
     }
+    if let Some(features) = stats.kernel_features.filter(|_| per_kernel) {
+        let names = wavetrace::layout::feature_names(features);
+        println!(
+            "kernels made for: {}",
+            match names.len() {
+                0 => "no optional feature (the plain path)".to_string(),
+                _ => names.join(", "),
+            }
+        );
+    }
     if per_kernel && !stats.kernel_seconds.is_empty() {
         let total: f64 = stats.kernel_seconds.iter().map(|(_, s)| s).sum();
         for (name, s) in &stats.kernel_seconds {

@@ -700,9 +700,41 @@ impl PreparedScene {
     /// [`thin_lens`](PreparedScene::thin_lens) is an error render with a pinhole: check it
     /// first (the command line does).
     /// Whether every material is plain diffuse (`bsdf::material_is_plain`): the GPU then takes
-    /// the plain frames' path through the BSDF everywhere (`FrameParams::plain_bsdf`).
+    /// the plain frames' path through the BSDF everywhere (`layout::FEATURE_GENERAL_BSDF`).
     pub fn plain_diffuse(&self) -> bool {
         self.materials.iter().all(crate::bsdf::material_is_plain)
+    }
+
+    /// The features the GPU's kernels need for this scene rendered with `frame`
+    /// (`layout::FEATURE_*`): its pipelines are specialised for them and compile without the
+    /// others' code. Each is left out only where no ray can reach its code: one instance placed
+    /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
+    /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
+    /// no dispersive material.
+    pub fn gpu_features(&self, frame: &FrameParams) -> u32 {
+        use crate::layout::*;
+        let bvh = self.gpu_bvh();
+        let top_level =
+            !matches!(&bvh.instances[..], [only] if only.flags & INSTANCE_IDENTITY != 0);
+        let binary_walk = bvh.instances.iter().any(|i| i.wide_root == NO_WIDE_ROOT)
+            || (top_level && bvh.tlas_wide_root == NO_WIDE_ROOT);
+        let alpha = self
+            .triangles
+            .iter()
+            .any(|t| t.material & TRIANGLE_TEST_ALPHA != 0);
+        [
+            (top_level, FEATURE_TOP_LEVEL),
+            (binary_walk, FEATURE_BINARY_WALK),
+            (!self.plain_diffuse(), FEATURE_GENERAL_BSDF),
+            (alpha, FEATURE_ALPHA),
+            (!self.textures.is_empty(), FEATURE_TEXTURES),
+            (frame.env_width > 0, FEATURE_ENVIRONMENT),
+            (!self.punctual.is_empty(), FEATURE_PUNCTUAL),
+            (frame.spectral != 0, FEATURE_DISPERSION),
+        ]
+        .into_iter()
+        .filter(|&(needed, _)| needed)
+        .fold(0, |features, (_, f)| features | f)
     }
 
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {
@@ -739,7 +771,6 @@ impl PreparedScene {
             },
             // KHR_materials_dispersion: light tracing and BDPT carry a wavelength per sample.
             spectral: u32::from(self.materials.iter().any(crate::spectrum::is_dispersive)),
-            plain_bsdf: u32::from(self.plain_diffuse()),
             // The camera's fields: written below.
             ..FrameParams::default()
         };
@@ -789,6 +820,8 @@ pub struct RenderStats {
     pub fault: Option<String>,
     /// GPU only: the device memory the render held and how its scene lay over the bindings.
     pub device_memory: Option<DeviceMemory>,
+    /// GPU only: the features its kernels were made for (`PreparedScene::gpu_features`).
+    pub kernel_features: Option<u32>,
 }
 
 /// The device memory of one GPU render, once its buffers exist and the scene is uploaded.

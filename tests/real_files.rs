@@ -307,3 +307,100 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
         "buffers split across bindings vs images",
     );
 }
+
+/// Kernels made for a scene's features (`PreparedScene::gpu_features`: without the top level's
+/// walk, the binary walk, the general BSDF, the alpha lookup, textures, the environment,
+/// punctual lights or dispersion where the render has none) render the same bits as kernels
+/// made with every feature, on a scene that lacks them all (with each integrator) and on scenes
+/// that have each: specialising leaves out only code no ray of the render reaches.
+#[test]
+fn kernels_specialised_for_a_scene_render_the_same_bits() {
+    use wavetrace::cpu::Integrator;
+    use wavetrace::layout::*;
+    if common::gpu().is_none() {
+        return;
+    }
+    // (name, scene, a feature it has (0: it has none), the sky it is rendered under)
+    let mut scenes = vec![
+        ("cornell-box", common::prepared("cornell-box.gltf"), 0, 0.0),
+        (
+            "instances",
+            common::prepared("instances.gltf"),
+            FEATURE_TOP_LEVEL,
+            0.0,
+        ),
+        (
+            "cornell-materials",
+            common::prepared("cornell-materials.gltf"),
+            FEATURE_GENERAL_BSDF,
+            0.0,
+        ),
+        (
+            "prism",
+            common::prepared("prism.gltf"),
+            FEATURE_DISPERSION,
+            0.0,
+        ),
+        (
+            "cornell-box under a sky",
+            common::prepared("cornell-box.gltf"),
+            FEATURE_ENVIRONMENT,
+            0.5,
+        ),
+    ];
+    if let Some(dir) = samples() {
+        let load = |path: &str| PreparedScene::new(&Scene::load(&dir.join(path)).unwrap());
+        scenes.push((
+            "AlphaBlendModeTest",
+            load("AlphaBlendModeTest.glb"),
+            FEATURE_ALPHA,
+            0.5,
+        ));
+        scenes.push((
+            "LightsPunctualLamp",
+            load("LightsPunctualLamp/LightsPunctualLamp.gltf"),
+            FEATURE_PUNCTUAL | FEATURE_TEXTURES,
+            0.0,
+        ));
+    }
+    for (name, scene, feature, sky) in &scenes {
+        // Every integrator where every feature is left out, the path tracer elsewhere.
+        let integrators: &[Integrator] = match feature {
+            0 => &[Integrator::Path, Integrator::Light, Integrator::Bdpt],
+            _ => &[Integrator::Path],
+        };
+        for &integrator in integrators {
+            let settings = RenderSettings {
+                width: 16,
+                height: 16,
+                spp: 2,
+                max_depth: 4,
+                integrator,
+                environment: Vec3::splat(*sky),
+                ..RenderSettings::default()
+            };
+            let features = scene.gpu_features(&scene.frame_params(&settings));
+            if *feature == 0 {
+                assert_eq!(features, 0, "{name}: features {features:#x}");
+            } else {
+                assert_eq!(
+                    features & feature,
+                    *feature,
+                    "{name}: features {features:#x}"
+                );
+            }
+            let specialised = render_gpu(scene, &settings, None).unwrap();
+            let mut gpu = common::gpu().unwrap();
+            gpu.set_specialise(false);
+            let general = gpu.render(scene, &settings, None);
+            gpu.set_specialise(true);
+            drop(gpu);
+            let general = general.unwrap_or_else(|e| panic!("{name}: render failed: {e:#}"));
+            common::assert_same_bits(
+                &specialised.film,
+                &general.film,
+                &format!("{name}, {integrator:?}: kernels for its features vs every feature"),
+            );
+        }
+    }
+}

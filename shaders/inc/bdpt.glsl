@@ -83,7 +83,7 @@ bool bdpt_sample_light_vertex(uint pixel, uint sample_index, float u, vec2 u_poi
     LightEntry entry = light_at(sample_light(min(u, ONE_MINUS_EPSILON)));
     float pmf = entry.pmf * (1.0 - frame.env_pmf);
     if (!(pmf > 0.0)) return false;
-    if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
+    if (SCENE_HAS(FEATURE_PUNCTUAL) && (entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
         uint index = entry.triangle & ~LIGHT_ENTRY_PUNCTUAL;
         GpuPunctualLight l = punctual_lights[index];
         if (l.kind == LIGHT_DIRECTIONAL) return false;

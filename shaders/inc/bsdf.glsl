@@ -149,8 +149,8 @@ bool bsdf_specular_free(BsdfFrame f) {
 // Where the plain frames' path (BsdfFrame::plain: the general path's floats) is taken,
 // BSDF_PLAIN_PATH(f), true only where f is plain. The wavefront's kernels define
 // BSDF_PLAIN_SCENE, true only where every frame they build is plain, as the scene's
-// FrameParams::plain_bsdf (bindings.glsl): then the path is that, a branch uniform across the
-// dispatch, which lavapipe runs one-sided where it runs a per-lane branch's both sides under
+// features say (bindings.glsl, FEATURE_GENERAL_BSDF): then the path is that, the general path
+// compiled out of the pipeline, where lavapipe runs a per-lane branch's both sides under
 // masks (a subgroup vote of f.plain measured no faster there than the general path), and
 // bsdf_frame_new_shading skips the Fresnel, sheen and coat blocks every frame would skip.
 // Elsewhere (the twins tests) the choice is per lane.

@@ -94,7 +94,7 @@ uint env_conditional_search(uint j, float u) {
 float env_pdf(vec3 d) {
     uint w = frame.env_width;
     uint h = frame.env_height;
-    if (w == 0u) return 0.0;
+    if (!SCENE_HAS(FEATURE_ENVIRONMENT) || w == 0u) return 0.0;
     float sin_theta;
     vec2 uv = env_direction_uv(d, sin_theta);
     if (!(sin_theta > 0.0)) return 0.0;
@@ -112,7 +112,7 @@ bool env_sample(vec2 u, out vec3 wi, out float pdf) {
     uint h = frame.env_height;
     wi = vec3(0.0, 1.0, 0.0);
     pdf = 0.0;
-    if (w == 0u) return false;
+    if (!SCENE_HAS(FEATURE_ENVIRONMENT) || w == 0u) return false;
     uint j = env_marginal_search(u.y);
     float v0 = env_marginal_start(j);
     float v1 = env_marginal[j];

@@ -111,6 +111,21 @@ struct GpuVertex {
 #define TRIANGLE_MATERIAL_MASK 0x3fffffffu
 #define TRIANGLE_TEST_ALPHA 0x80000000u
 #define TRIANGLE_TEST_CULL 0x40000000u
+// A scene's features the wavefront kernels can be compiled without (src/layout.rs, FEATURE_*;
+// bindings.glsl, SCENE_FEATURES): the top level's walk, a binary walk, the general BSDF, the
+// alpha lookup of the any-hit test, texture lookups, the environment, punctual lights, dispersion.
+#define FEATURE_TOP_LEVEL 1u
+#define FEATURE_BINARY_WALK 2u
+#define FEATURE_GENERAL_BSDF 4u
+#define FEATURE_ALPHA 8u
+#define FEATURE_TEXTURES 16u
+#define FEATURE_ENVIRONMENT 32u
+#define FEATURE_PUNCTUAL 64u
+#define FEATURE_DISPERSION 128u
+// Whether `features` holds feature f. (The specialisation constant is passed in, not named: an
+// expression of specialisation constants alone compiles to OpSpecConstantOp, which naga does
+// not read; the driver folds it once inlined, scene_arrays.glsl.)
+bool scene_feature_in(uint features, uint f) { return (features & f) != 0u; }
 uint triangle_material(GpuTriangle t) { return t.material & TRIANGLE_MATERIAL_MASK; }
 
 // A mip chain of RGBA8 texels and glTF's sampler settings (src/layout.rs). Total: 32 bytes.
@@ -214,10 +229,6 @@ struct FrameParams {
     uint spectral;          // 4 bytes: 1 = the scene has a dispersive material (spectrum.glsl)
     uint count_fetches;     // 4 bytes: 1 = count scene-image fetches (scene_arrays.glsl)
     uint tlas_wide_root;    // 4 bytes: quantised 4-wide root of the top level (tlas.glsl), or NO_WIDE_ROOT
-    uint plain_bsdf;        // 4 bytes: 1 = every material is plain diffuse (bsdf.glsl, BSDF_PLAIN_SCENE)
-    uint pad0;              // 4 bytes
-    uint pad1;              // 4 bytes
-    uint pad2;              // 4 bytes
     vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
 };
 #define INTEGRATOR_PATH 0u

@@ -4,6 +4,10 @@
 #ifndef SURFACE_GLSL
 #define SURFACE_GLSL
 #include "scene_arrays.glsl"
+// Whether texture reference t is there (not NO_TEXTURE), in a scene whose features hold any
+// texture (FEATURE_TEXTURES): kernels made for a scene without textures compile without
+// their lookups.
+#define HAS_TEXTURE(t) (SCENE_HAS(FEATURE_TEXTURES) && (t) != NO_TEXTURE)
 #include "transform.glsl"
 
 struct SurfacePoint {
@@ -91,7 +95,7 @@ vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
 vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     vec3 e = m.emission;
     if ((m.flags & MATERIAL_UNLIT) != 0u) e *= sp.color.xyz;
-    if (m.emissive_texture == NO_TEXTURE) return e;
+    if (!HAS_TEXTURE(m.emissive_texture)) return e;
     return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
 
@@ -100,7 +104,7 @@ vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
 GpuMaterial surface_emitter(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     GpuMaterial o = m;
     o.emission = surface_emission(m, sp, lod);
-    if (m.clearcoat_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.clearcoat_texture)) {
         o.clearcoat *= sample_texture_ref(m.clearcoat_texture, sp.uv0, sp.uv1, lod).x;
     }
     return o;
@@ -128,7 +132,7 @@ float surface_anisotropy(GpuMaterial m, SurfacePoint sp, vec2 lod, out vec3 dire
     if (!surface_tangent_frame(sp, t, b)) return 0.0;
     vec2 d = vec2(1.0, 0.0);
     float strength = m.anisotropy;
-    if (m.anisotropy_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.anisotropy_texture)) {
         vec4 texel = sample_texture_ref(m.anisotropy_texture, sp.uv0, sp.uv1, lod);
         d = 2.0 * texel.xy - vec2(1.0);
         strength *= texel.z;
@@ -143,7 +147,7 @@ float surface_anisotropy(GpuMaterial m, SurfacePoint sp, vec2 lod, out vec3 dire
 // The interpolated normal perturbed by tangent-space normal map `tex` (or NO_TEXTURE), XY scaled
 // by `scale` (surface_mapped_normal): the base's and the clearcoat's maps.
 vec3 surface_mapped_normal(uint tex, float scale, SurfacePoint sp, vec2 lod) {
-    if (tex == NO_TEXTURE) return sp.ns;
+    if (!HAS_TEXTURE(tex)) return sp.ns;
     vec3 n = sp.ns;
     vec3 t, b;
     if (!surface_tangent_frame(sp, t, b)) return n;
@@ -167,47 +171,47 @@ GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     // The emission and the coat's factor, as emitters read them.
     GpuMaterial o = surface_emitter(m, sp, lod);
     vec4 base = vec4(m.base_color, m.alpha) * sp.color;
-    if (m.base_color_texture != NO_TEXTURE) base *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, lod);
+    if (HAS_TEXTURE(m.base_color_texture)) base *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, lod);
     o.base_color = base.xyz;
     o.alpha = base.w;
-    if (m.metallic_roughness_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.metallic_roughness_texture)) {
         vec4 mr = sample_texture_ref(m.metallic_roughness_texture, sp.uv0, sp.uv1, lod);
         o.metallic *= mr.z;
         o.roughness *= mr.y;
     }
-    if (m.transmission_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.transmission_texture)) {
         o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
     }
-    if (m.specular_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.specular_texture)) {
         o.specular *= sample_texture_ref(m.specular_texture, sp.uv0, sp.uv1, lod).w;
     }
-    if (m.specular_color_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.specular_color_texture)) {
         o.specular_color = m.specular_color * sample_texture_ref(m.specular_color_texture, sp.uv0, sp.uv1, lod).xyz;
     }
-    if (m.clearcoat_roughness_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.clearcoat_roughness_texture)) {
         o.clearcoat_roughness *= sample_texture_ref(m.clearcoat_roughness_texture, sp.uv0, sp.uv1, lod).y;
     }
-    if (m.sheen_color_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.sheen_color_texture)) {
         o.sheen_color = m.sheen_color * sample_texture_ref(m.sheen_color_texture, sp.uv0, sp.uv1, lod).xyz;
     }
-    if (m.sheen_roughness_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.sheen_roughness_texture)) {
         o.sheen_roughness *= sample_texture_ref(m.sheen_roughness_texture, sp.uv0, sp.uv1, lod).w;
     }
     // The coat's normal: its own map, else the interpolated normal (0: the base's shading normal).
-    if (o.clearcoat > 0.0 && (m.clearcoat_normal_texture != NO_TEXTURE || m.normal_texture != NO_TEXTURE)) {
+    if (o.clearcoat > 0.0 && (HAS_TEXTURE(m.clearcoat_normal_texture) || HAS_TEXTURE(m.normal_texture))) {
         o.clearcoat_normal = surface_mapped_normal(m.clearcoat_normal_texture, m.clearcoat_normal_scale, sp, lod);
     }
-    if (m.iridescence_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.iridescence_texture)) {
         o.iridescence *= sample_texture_ref(m.iridescence_texture, sp.uv0, sp.uv1, lod).x;
     }
-    if (m.iridescence_thickness_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.iridescence_thickness_texture)) {
         float g = sample_texture_ref(m.iridescence_thickness_texture, sp.uv0, sp.uv1, lod).y;
         o.iridescence_thickness = mix(m.iridescence_thickness_min, m.iridescence_thickness, g);
     }
-    if (m.diffuse_transmission_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.diffuse_transmission_texture)) {
         o.diffuse_transmission *= sample_texture_ref(m.diffuse_transmission_texture, sp.uv0, sp.uv1, lod).w;
     }
-    if (m.diffuse_transmission_color_texture != NO_TEXTURE) {
+    if (HAS_TEXTURE(m.diffuse_transmission_color_texture)) {
         o.diffuse_transmission_color = m.diffuse_transmission_color * sample_texture_ref(m.diffuse_transmission_color_texture, sp.uv0, sp.uv1, lod).xyz;
     }
     if (m.anisotropy > 0.0) o.anisotropy = surface_anisotropy(m, sp, lod, o.anisotropy_direction);
@@ -248,12 +252,12 @@ bool culled(uvec4 key, vec3 dir, vec3 n) {
 bool triangle_present(GpuTriangle tri, uint index, float u, float v, uvec4 key, vec3 dir) {
     if ((tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL)) == 0u) return true;
     if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, cross(tri.e1, tri.e2))) return false;
-    if ((tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
+    if (!SCENE_HAS(FEATURE_ALPHA) || (tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
     uvec4 tv = triangle_vertices_at(index);
     GpuMaterial m = material_at(triangle_material(tri));
     SurfacePoint sp = surface_point(tri, tv, u, v);
     float alpha = m.alpha * sp.color.w;
-    if (m.base_color_texture != NO_TEXTURE) alpha *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, LOD_MAGNIFY).w;
+    if (HAS_TEXTURE(m.base_color_texture)) alpha *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, LOD_MAGNIFY).w;
     return alpha_present(m.flags, alpha, m.alpha_cutoff, alpha_random(key, index));
 }
 

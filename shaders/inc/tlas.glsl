@@ -26,12 +26,12 @@ void instance_ray(GpuInstance inst, vec3 origin, vec3 dir, out vec3 o, out vec3 
 // binary ones where it has none (no triangles, or a walk that could defer more slots than
 // qbvh.glsl keeps; src/render.rs, gpu_bvh).
 bool blas_closest(GpuInstance inst, vec3 o, vec3 d, float t_min, uvec4 key, inout HitRecord hit) {
-    return inst.wide_root != NO_WIDE_ROOT ? qbvh_closest_from(inst.wide_root, o, d, t_min, key, hit)
+    return !SCENE_HAS(FEATURE_BINARY_WALK) || inst.wide_root != NO_WIDE_ROOT ? qbvh_closest_from(inst.wide_root, o, d, t_min, key, hit)
                                           : bvh_closest_from(inst.blas_root, o, d, t_min, key, hit);
 }
 
 bool blas_any(GpuInstance inst, vec3 o, vec3 d, float t_min, float t_max, uvec4 key) {
-    return inst.wide_root != NO_WIDE_ROOT ? qbvh_any_from(inst.wide_root, o, d, t_min, t_max, key)
+    return !SCENE_HAS(FEATURE_BINARY_WALK) || inst.wide_root != NO_WIDE_ROOT ? qbvh_any_from(inst.wide_root, o, d, t_min, t_max, key)
                                           : bvh_any_from(inst.blas_root, o, d, t_min, t_max, key);
 }
 
@@ -106,10 +106,10 @@ bool tlas_any_quantised(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 k
 bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key, out HitRecord hit) {
     hit = HitRecord(t_max, NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
     if (instances.length() == 0u) return false;
-    if (single_identity_instance()) {
+    if (!SCENE_HAS(FEATURE_TOP_LEVEL) || single_identity_instance()) {
         return blas_closest(instances[0], origin, dir, t_min, key, hit);
     }
-    if (frame.tlas_wide_root != NO_WIDE_ROOT) return tlas_closest_quantised(origin, dir, t_min, key, hit);
+    if (!SCENE_HAS(FEATURE_BINARY_WALK) || frame.tlas_wide_root != NO_WIDE_ROOT) return tlas_closest_quantised(origin, dir, t_min, key, hit);
     // The top level in its binary nodes (bvh.glsl's walk with the instances as leaves).
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
@@ -156,10 +156,10 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
 // True if anything of any instance is hit with t in (t_min, t_max).
 bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (instances.length() == 0u) return false;
-    if (single_identity_instance()) {
+    if (!SCENE_HAS(FEATURE_TOP_LEVEL) || single_identity_instance()) {
         return blas_any(instances[0], origin, dir, t_min, t_max, key);
     }
-    if (frame.tlas_wide_root != NO_WIDE_ROOT) return tlas_any_quantised(origin, dir, t_min, t_max, key);
+    if (!SCENE_HAS(FEATURE_BINARY_WALK) || frame.tlas_wide_root != NO_WIDE_ROOT) return tlas_any_quantised(origin, dir, t_min, t_max, key);
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
     uvec2 stack[BVH_STACK_SIZE];
     uint sp = 0u;

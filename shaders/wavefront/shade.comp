@@ -84,7 +84,7 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
         pmf = entry.pmf;
     }
     pmf *= keep;
-    if ((entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
+    if (SCENE_HAS(FEATURE_PUNCTUAL) && (entry.triangle & LIGHT_ENTRY_PUNCTUAL) != 0u) {
         GpuPunctualLight pl = punctual_lights[entry.triangle & ~LIGHT_ENTRY_PUNCTUAL];
         float dist;
         ls.radiance = punctual_incident(pl, p, ls.wi, dist);
@@ -142,7 +142,8 @@ void kernel_main() {
     // previous vertex (a ray that leaves into a volume and escapes crossed an infinite medium).
     if (hit.triangle == NO_HIT) {
         state.throughput *= transmittance(state.medium, 3.402823466e38);
-        if (frame.aov == AOV_RADIANCE && frame.env_width > 0u && path_ends_here(state.pad0, 4u)) {
+        if (frame.aov == AOV_RADIANCE && SCENE_HAS(FEATURE_ENVIRONMENT) && frame.env_width > 0u
+            && path_ends_here(state.pad0, 4u)) {
             vec3 le = env_radiance(ray.dir);
             float w = 1.0;
             if (state.prev_specular == 0u) {
@@ -166,7 +167,7 @@ void kernel_main() {
     GpuMaterial raw = material_at(triangle_material(tri));
     // KHR_materials_volume: the segment's attenuation, its medium read from either end.
     state.throughput *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
-    vec2 lod = (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
+    vec2 lod = SCENE_HAS(FEATURE_TEXTURES) && (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
     GpuMaterial mat = surface_material(raw, sp, lod);
     // --aov: a property of the first hit instead of radiance.
     if (frame.aov != AOV_RADIANCE) {
@@ -192,7 +193,7 @@ void kernel_main() {
     }
     // KHR_materials_dispersion: the path turns spectral at its first dispersive vertex, before
     // the vertex's emitter sample (src/spectrum.rs).
-    if (depth < frame.max_depth && is_dispersive(mat)) {
+    if (depth < frame.max_depth && SCENE_HAS(FEATURE_DISPERSION) && is_dispersive(mat)) {
         if (state.wavelength == 0.0) {
             state.wavelength = sample_wavelength_of(frame.seed, pixel, sample_index);
             state.throughput *= wavelength_weight(state.wavelength);

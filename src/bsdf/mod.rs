@@ -312,7 +312,7 @@ fn average(v: Vec3) -> f32 {
 
 /// Whether every frame of material `m` is [plain](BsdfFrame) whatever its textures: unlit, or
 /// no metal, specular layer, thin film, transmission, diffuse transmission, sheen or coat by
-/// their factors (the textures multiply them, so 0 stays 0). `FrameParams::plain_bsdf`.
+/// their factors (the textures multiply them, so 0 stays 0). `layout::FEATURE_GENERAL_BSDF`.
 pub fn material_is_plain(m: &GpuMaterial) -> bool {
     m.flags & MATERIAL_UNLIT != 0
         || (m.metallic == 0.0

@@ -234,6 +234,7 @@ fn cpu_stats(start: Instant, samples: u64, counts: &RayCounts, dropped: u64) -> 
         kernel_fetches: Vec::new(),
         fault: None,
         device_memory: None,
+        kernel_features: None,
     }
 }
 

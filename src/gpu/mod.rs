@@ -54,6 +54,8 @@ pub struct GpuRenderer {
     binding_limits: Option<[u64; 5]>,
     /// Whether BVH nodes and triangles are read from images where they fit (`SceneSplit::images`).
     scene_images: bool,
+    /// Whether kernels are specialised for each scene's features (else made with them all).
+    specialise: bool,
 }
 
 impl GpuRenderer {
@@ -69,6 +71,7 @@ impl GpuRenderer {
             binding_limits: None,
             // WAVETRACE_SCENE_IMAGES=0 reads them from storage buffers, to measure the two.
             scene_images: std::env::var("WAVETRACE_SCENE_IMAGES").map_or(true, |v| v != "0"),
+            specialise: true,
             commands,
             pipelines,
             ctx,
@@ -99,6 +102,12 @@ impl GpuRenderer {
     /// buffers. Results do not depend on it.
     pub fn set_scene_images(&mut self, images: bool) {
         self.scene_images = images;
+    }
+
+    /// Makes each scene's kernels without the code of features it lacks (the default,
+    /// `PreparedScene::gpu_features`), or with every feature. Results do not depend on it.
+    pub fn set_specialise(&mut self, specialise: bool) {
+        self.specialise = specialise;
     }
 
     /// How `scene`'s large arrays are laid over this device's bindings.
@@ -254,6 +263,7 @@ impl GpuRenderer {
         let mut film = Film::new(settings.width, settings.height);
         let mut stats = RenderStats {
             device_memory: Some(self.device_memory(&setup)),
+            kernel_features: Some(setup.features),
             ..RenderStats::default()
         };
         let start = Instant::now();
@@ -329,6 +339,14 @@ impl GpuRenderer {
             true => None,
             false => Some(Pipelines::new(ctx, &split)?),
         };
+        let features = match self.specialise {
+            true => scene.gpu_features(&scene.frame_params(settings)),
+            false => crate::layout::FEATURES_ALL,
+        };
+        pipelines
+            .as_ref()
+            .unwrap_or(&self.pipelines)
+            .prepare(wavefront::kernels(settings.integrator), features)?;
         let buffers = RenderBuffers::new(
             ctx,
             pipelines.as_ref().unwrap_or(&self.pipelines),
@@ -362,6 +380,7 @@ impl GpuRenderer {
             split_bindings: buffers.split_bindings,
             buffers,
             pipelines,
+            features,
             query_pool,
         })
     }
@@ -420,6 +439,7 @@ impl GpuRenderer {
         let mut pixels = Vec::with_capacity(settings.pixel_count() as usize);
         let mut stats = RenderStats {
             device_memory: Some(self.device_memory(setup)),
+            kernel_features: Some(setup.features),
             ..RenderStats::default()
         };
         let start = Instant::now();
@@ -685,6 +705,7 @@ impl GpuRenderer {
                 args,
                 counters,
                 pixel_count,
+                features: setup.features,
                 timestamps: query_pool,
                 timed: Vec::new(),
             };
@@ -796,6 +817,8 @@ struct Setup {
     buffers: RenderBuffers,
     /// Kernels specialised for a scene split across bindings (else the renderer's own).
     pipelines: Option<Pipelines>,
+    /// The scene's features, for which the kernels were specialised.
+    features: u32,
     /// Bindings each `SplitArray` uses.
     split_bindings: [u32; 5],
     query_pool: Option<vk::QueryPool>,

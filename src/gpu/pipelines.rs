@@ -7,6 +7,7 @@ use crate::layout::DispatchParams;
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
 use std::collections::HashMap;
+use std::sync::Mutex;
 
 /// The bindings of `shaders/inc/bindings.glsl`, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -391,12 +392,16 @@ pub struct Pipelines {
     pub layout: vk::PipelineLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
-    pipelines: HashMap<&'static str, vk::Pipeline>,
+    /// The specialisation constants of every kernel: the split's shifts, then whether scene
+    /// arrays are read from images (then the scene's features, per pipeline).
+    constants: Vec<u32>,
+    /// The pipelines created, by kernel and scene features (`layout::FEATURE_*`).
+    pipelines: Mutex<HashMap<(&'static str, u32), vk::Pipeline>>,
 }
 
 impl Pipelines {
-    /// The descriptor set and every kernel's pipeline, specialised for scenes laid over their
-    /// bindings as `split` says.
+    /// The descriptor set and the layout of kernels specialised for scenes laid over their
+    /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
     pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
         let device = &ctx.device;
         let storage = (Binding::ALL.len() - 1 - SceneImage::ALL.len()) as u32;
@@ -469,20 +474,87 @@ impl Pipelines {
         }
         .context("allocating the descriptor set")?[0];
 
-        let mut result = Pipelines {
-            device: device.clone(),
-            set_layout,
-            layout,
-            pool,
-            set,
-            pipelines: HashMap::new(),
-        };
         let constants: Vec<u32> = split
             .shifts
             .iter()
             .copied()
             .chain([split.images as u32])
             .collect();
+        Ok(Pipelines {
+            device: device.clone(),
+            set_layout,
+            layout,
+            pool,
+            set,
+            constants,
+            pipelines: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// Creates the pipelines of kernels `names` specialised for scenes of `features`
+    /// (`PreparedScene::gpu_features`) that are not created yet, side by side on as many
+    /// threads as the machine has cores: a CPU Vulkan device compiles a kernel with LLVM as its
+    /// pipeline is created (lavapipe, Cornell box: 0.3–0.9 s each for the large ones), so a
+    /// render compiles only the kernels its integrator dispatches (`wavefront::kernels`),
+    /// without the code of features its scene lacks.
+    pub fn prepare(&self, names: &[&'static str], features: u32) -> Result<()> {
+        let missing: Vec<&'static str> = {
+            let created = self.created();
+            names
+                .iter()
+                .copied()
+                .filter(|&n| !created.contains_key(&(n, features)))
+                .collect()
+        };
+        // Workers take the next kernel as they finish one, so a long compile (shade) does not
+        // hold up the others.
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let workers = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(missing.len());
+        let results: Vec<(&'static str, Result<vk::Pipeline>)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..workers)
+                .map(|_| {
+                    scope.spawn(|| {
+                        let mut done = Vec::new();
+                        loop {
+                            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let Some(&name) = missing.get(k) else {
+                                return done;
+                            };
+                            done.push((name, self.create(name, features)));
+                        }
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| {
+                    h.join().unwrap_or_else(|_| {
+                        vec![("", Err(anyhow!("a thread creating pipelines panicked")))]
+                    })
+                })
+                .collect()
+        });
+        let mut created = self.created();
+        let mut first_error = None;
+        for (name, result) in results {
+            match result {
+                Ok(pipeline) => {
+                    created.insert((name, features), pipeline);
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        first_error.map_or(Ok(()), Err)
+    }
+
+    /// The pipeline of kernel `name`, specialised by `self.constants` and `features`.
+    fn create(&self, name: &'static str, features: u32) -> Result<vk::Pipeline> {
+        let device = &self.device;
+        let constants: Vec<u32> = self.constants.iter().copied().chain([features]).collect();
         let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
             .map(|k| {
                 vk::SpecializationMapEntry::default()
@@ -494,33 +566,40 @@ impl Pipelines {
         let specialization = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(bytemuck::cast_slice(&constants));
-        for (name, _) in KERNELS {
-            let words = kernel_spirv(name)?;
-            let module = unsafe {
-                device
-                    .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
-            }
-            .with_context(|| format!("creating the shader module of kernel {name}"))?;
-            let stage = vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::COMPUTE)
-                .module(module)
-                .name(c"main")
-                .specialization_info(&specialization);
-            let info = [vk::ComputePipelineCreateInfo::default()
-                .stage(stage)
-                .layout(layout)];
-            let created =
-                unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-            unsafe { device.destroy_shader_module(module, None) };
-            let pipeline = created
-                .map_err(|(_, e)| anyhow!("creating the pipeline of kernel {name}: {e}"))?[0];
-            result.pipelines.insert(name, pipeline);
+        let words = kernel_spirv(name)?;
+        let module = unsafe {
+            device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
         }
-        Ok(result)
+        .with_context(|| format!("creating the shader module of kernel {name}"))?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main")
+            .specialization_info(&specialization);
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(self.layout)];
+        let created =
+            unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        unsafe { device.destroy_shader_module(module, None) };
+        Ok(created.map_err(|(_, e)| anyhow!("creating the pipeline of kernel {name}: {e}"))?[0])
     }
 
-    pub fn get(&self, name: &str) -> vk::Pipeline {
-        self.pipelines[name]
+    fn created(&self) -> std::sync::MutexGuard<'_, HashMap<(&'static str, u32), vk::Pipeline>> {
+        // A thread that panicked holding the lock left the map whole (inserts only).
+        self.pipelines
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// The pipeline of kernel `name` for scenes of `features`, which [`Pipelines::prepare`]
+    /// created: every kernel a render records is in its integrator's list
+    /// (`wavefront::kernels`), which the GPU tests of each integrator exercise.
+    pub fn get(&self, name: &'static str, features: u32) -> vk::Pipeline {
+        *self
+            .created()
+            .get(&(name, features))
+            .unwrap_or_else(|| panic!("kernel {name} is not in its integrator's list"))
     }
 
     /// Points every binding at its buffer (whole range).
@@ -571,7 +650,7 @@ impl Pipelines {
 impl Drop for Pipelines {
     fn drop(&mut self) {
         unsafe {
-            for (_, p) in self.pipelines.drain() {
+            for (_, p) in self.created().drain() {
                 self.device.destroy_pipeline(p, None);
             }
             self.device.destroy_descriptor_pool(self.pool, None);

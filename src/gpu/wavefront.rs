@@ -4,6 +4,7 @@
 
 use super::memory::{barrier, Buffer};
 use super::pipelines::Pipelines;
+use crate::cpu::Integrator;
 use crate::layout::{args, counter, DispatchParams, WORKGROUP_SIZE};
 use ash::vk;
 
@@ -92,9 +93,47 @@ pub struct Recorder<'a> {
     pub counters: &'a Buffer,
     /// Pixels in the image (accumulate runs one thread per pixel of the batch).
     pub pixel_count: u32,
+    /// The scene's features (`PreparedScene::gpu_features`): which pipelines to bind.
+    pub features: u32,
     /// Timestamp pool and the kernel name of each interval, when timing.
     pub timestamps: Option<vk::QueryPool>,
     pub timed: Vec<&'static str>,
+}
+
+/// The kernels that [`Recorder`] dispatches for `integrator`: the pipelines a render creates,
+/// the longest to compile first (lavapipe, Cornell box: shade 0.9 s, shade_light 0.7,
+/// connect_bdpt 0.5, shade_camera 0.45, connect 0.4, extend and connect_light 0.3,
+/// generate_light 0.2, the others under 0.01), since they are compiled side by side.
+pub fn kernels(integrator: Integrator) -> &'static [&'static str] {
+    match integrator {
+        Integrator::Path => &[
+            "shade",
+            "connect",
+            "extend",
+            "generate",
+            "dispatch_args",
+            "accumulate",
+        ],
+        Integrator::Light => &[
+            "shade_light",
+            "extend",
+            "connect_light",
+            "generate_light",
+            "dispatch_args",
+            "accumulate_splats",
+        ],
+        Integrator::Bdpt => &[
+            "shade_light",
+            "connect_bdpt",
+            "shade_camera",
+            "extend",
+            "connect_light",
+            "generate_light",
+            "generate",
+            "dispatch_args",
+            "accumulate_splats",
+        ],
+    }
 }
 
 impl Recorder<'_> {
@@ -364,7 +403,7 @@ impl Recorder<'_> {
             device.cmd_bind_pipeline(
                 cmd,
                 vk::PipelineBindPoint::COMPUTE,
-                self.pipelines.get(name),
+                self.pipelines.get(name, self.features),
             );
             device.cmd_push_constants(
                 cmd,
