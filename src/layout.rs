@@ -296,6 +296,9 @@ pub const FEATURE_ENVIRONMENT: u32 = 1 << 5;
 pub const FEATURE_PUNCTUAL: u32 = 1 << 6;
 /// A dispersive material (`FrameParams::spectral`): the path's wavelength.
 pub const FEATURE_DISPERSION: u32 = 1 << 7;
+/// A material with attenuation (`GpuMaterial::attenuation` > 0): volume_sigma and transmittance
+/// (otherwise 0 and 1 everywhere).
+pub const FEATURE_VOLUME: u32 = 1 << 8;
 /// Every feature: a pipeline that serves any scene.
 pub const FEATURES_ALL: u32 = u32::MAX;
 
@@ -310,6 +313,7 @@ pub fn feature_names(features: u32) -> Vec<&'static str> {
         (FEATURE_ENVIRONMENT, "environment"),
         (FEATURE_PUNCTUAL, "punctual lights"),
         (FEATURE_DISPERSION, "dispersion"),
+        (FEATURE_VOLUME, "volume"),
     ]
     .into_iter()
     .filter(|&(f, _)| features & f != 0)

@@ -710,7 +710,7 @@ impl PreparedScene {
     /// others' code. Each is left out only where no ray can reach its code: one instance placed
     /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
     /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
-    /// no dispersive material.
+    /// no dispersive material, no attenuation.
     pub fn gpu_features(&self, frame: &FrameParams) -> u32 {
         use crate::layout::*;
         let bvh = self.gpu_bvh();
@@ -722,6 +722,10 @@ impl PreparedScene {
             .triangles
             .iter()
             .any(|t| t.material & TRIANGLE_TEST_ALPHA != 0);
+        let volume = self
+            .materials
+            .iter()
+            .any(|m| m.attenuation.iter().any(|&s| s > 0.0));
         [
             (top_level, FEATURE_TOP_LEVEL),
             (binary_walk, FEATURE_BINARY_WALK),
@@ -731,6 +735,7 @@ impl PreparedScene {
             (frame.env_width > 0, FEATURE_ENVIRONMENT),
             (!self.punctual.is_empty(), FEATURE_PUNCTUAL),
             (frame.spectral != 0, FEATURE_DISPERSION),
+            (volume, FEATURE_VOLUME),
         ]
         .into_iter()
         .filter(|&(needed, _)| needed)

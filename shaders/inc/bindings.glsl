@@ -3,10 +3,6 @@
 #define BINDINGS_GLSL
 
 layout(std140, set = 0, binding = 0) uniform Frame { FrameParams frame; };
-// The scene's features (FEATURE_* in layout.glsl; src/render.rs, PreparedScene::gpu_features):
-// a pipeline specialised for a scene that lacks one compiles without its code (all by default).
-layout(constant_id = 6) const uint SCENE_FEATURES = 0xffffffffu;
-#define SCENE_HAS(f) scene_feature_in(SCENE_FEATURES, f)
 // The plain frames' path through the BSDF wherever the scene's every material is plain
 // (bsdf.glsl): the general path compiled out.
 #define BSDF_PLAIN_SCENE (!SCENE_HAS(FEATURE_GENERAL_BSDF))

@@ -113,7 +113,8 @@ struct GpuVertex {
 #define TRIANGLE_TEST_CULL 0x40000000u
 // A scene's features the wavefront kernels can be compiled without (src/layout.rs, FEATURE_*;
 // bindings.glsl, SCENE_FEATURES): the top level's walk, a binary walk, the general BSDF, the
-// alpha lookup of the any-hit test, texture lookups, the environment, punctual lights, dispersion.
+// alpha lookup of the any-hit test, texture lookups, the environment, punctual lights, dispersion,
+// volume attenuation.
 #define FEATURE_TOP_LEVEL 1u
 #define FEATURE_BINARY_WALK 2u
 #define FEATURE_GENERAL_BSDF 4u
@@ -122,10 +123,21 @@ struct GpuVertex {
 #define FEATURE_ENVIRONMENT 32u
 #define FEATURE_PUNCTUAL 64u
 #define FEATURE_DISPERSION 128u
+#define FEATURE_VOLUME 256u
 // Whether `features` holds feature f. (The specialisation constant is passed in, not named: an
 // expression of specialisation constants alone compiles to OpSpecConstantOp, which naga does
 // not read; the driver folds it once inlined, scene_arrays.glsl.)
 bool scene_feature_in(uint features, uint f) { return (features & f) != 0u; }
+#ifdef KERNEL_INDEX
+// A wavefront kernel: the render's features (src/render.rs, PreparedScene::gpu_features) as a
+// specialisation constant, every feature by default; a pipeline made for a render that lacks
+// one compiles without its code.
+layout(constant_id = 6) const uint SCENE_FEATURES = 0xffffffffu;
+#define SCENE_HAS(f) scene_feature_in(SCENE_FEATURES, f)
+#else
+// A test kernel: every feature's code is there.
+#define SCENE_HAS(f) true
+#endif
 uint triangle_material(GpuTriangle t) { return t.material & TRIANGLE_MATERIAL_MASK; }
 
 // A mip chain of RGBA8 texels and glTF's sampler settings (src/layout.rs). Total: 32 bytes.

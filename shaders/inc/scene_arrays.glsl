@@ -6,10 +6,6 @@
 // declare only the first binding of each array and read it directly.
 #ifndef SCENE_ARRAYS_GLSL
 #define SCENE_ARRAYS_GLSL
-// Test kernels have no SCENE_FEATURES (bindings.glsl): every feature's code is there.
-#ifndef SCENE_HAS
-#define SCENE_HAS(f) true
-#endif
 
 // A quantised node from its two node records as a storage buffer holds them (their floats' bits
 // are the node's words).
