@@ -299,6 +299,14 @@ pub const FEATURE_DISPERSION: u32 = 1 << 7;
 /// A material with attenuation (`GpuMaterial::attenuation` > 0): volume_sigma and transmittance
 /// (otherwise 0 and 1 everywhere).
 pub const FEATURE_VOLUME: u32 = 1 << 8;
+/// A path expression (`--paths`): the automaton's steps.
+pub const FEATURE_PATHS: u32 = 1 << 9;
+/// The stratified sampler (`--sampler stratified`).
+pub const FEATURE_STRATIFIED: u32 = 1 << 10;
+/// The Sobol sampler (`--sampler sobol`, the default).
+pub const FEATURE_SOBOL: u32 = 1 << 11;
+/// The light BVH (`--light-sampler bvh`, the default): else emitters by power alone.
+pub const FEATURE_LIGHT_BVH: u32 = 1 << 12;
 /// Every feature: a pipeline that serves any scene.
 pub const FEATURES_ALL: u32 = u32::MAX;
 
@@ -314,6 +322,10 @@ pub fn feature_names(features: u32) -> Vec<&'static str> {
         (FEATURE_PUNCTUAL, "punctual lights"),
         (FEATURE_DISPERSION, "dispersion"),
         (FEATURE_VOLUME, "volume"),
+        (FEATURE_PATHS, "path expression"),
+        (FEATURE_STRATIFIED, "stratified sampler"),
+        (FEATURE_SOBOL, "Sobol sampler"),
+        (FEATURE_LIGHT_BVH, "light BVH"),
     ]
     .into_iter()
     .filter(|&(f, _)| features & f != 0)

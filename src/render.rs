@@ -705,14 +705,16 @@ impl PreparedScene {
         self.materials.iter().all(crate::bsdf::material_is_plain)
     }
 
-    /// The features the GPU's kernels need for this scene rendered with `frame`
+    /// The features the GPU's kernels need for this scene rendered with `settings`
     /// (`layout::FEATURE_*`): its pipelines are specialised for them and compile without the
     /// others' code. Each is left out only where no ray can reach its code: one instance placed
     /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
     /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
-    /// no dispersive material, no attenuation.
-    pub fn gpu_features(&self, frame: &FrameParams) -> u32 {
+    /// no dispersive material, no attenuation, no path expression, and of the samplers and the
+    /// light samplers all but the one chosen.
+    pub fn gpu_features(&self, settings: &RenderSettings) -> u32 {
         use crate::layout::*;
+        let frame = self.frame_params(settings);
         let bvh = self.gpu_bvh();
         let top_level =
             !matches!(&bvh.instances[..], [only] if only.flags & INSTANCE_IDENTITY != 0);
@@ -736,6 +738,10 @@ impl PreparedScene {
             (!self.punctual.is_empty(), FEATURE_PUNCTUAL),
             (frame.spectral != 0, FEATURE_DISPERSION),
             (volume, FEATURE_VOLUME),
+            (settings.paths.is_some(), FEATURE_PATHS),
+            (frame.sampler_mode == SAMPLER_STRATIFIED, FEATURE_STRATIFIED),
+            (frame.sampler_mode == SAMPLER_SOBOL, FEATURE_SOBOL),
+            (frame.light_sampler == LIGHT_SAMPLER_BVH, FEATURE_LIGHT_BVH),
         ]
         .into_iter()
         .filter(|&(needed, _)| needed)

@@ -310,9 +310,10 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
 
 /// Kernels made for a scene's features (`PreparedScene::gpu_features`: without the top level's
 /// walk, the binary walk, the general BSDF, the alpha lookup, textures, the environment,
-/// punctual lights, dispersion or attenuation where the render has none) render the same bits
-/// as kernels made with every feature, on a scene that lacks them all (with each integrator)
-/// and on scenes that have each: specialising leaves out only code no ray of the render reaches.
+/// punctual lights, dispersion, attenuation, a path expression, or samplers and light samplers
+/// it does not use) render the same bits as kernels made with every feature, on a scene that
+/// lacks them all (with each integrator) and on scenes that have each: specialising leaves out
+/// only code no ray of the render reaches.
 #[test]
 fn kernels_specialised_for_a_scene_render_the_same_bits() {
     use wavetrace::cpu::Integrator;
@@ -320,7 +321,7 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
     if common::gpu().is_none() {
         return;
     }
-    // (name, scene, a feature it has (0: it has none), the sky it is rendered under)
+    // (name, scene, features it has (0: none but the default samplers'), its sky)
     let mut scenes = vec![
         ("cornell-box", common::prepared("cornell-box.gltf"), 0, 0.0),
         (
@@ -346,6 +347,13 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
             common::prepared("cornell-box.gltf"),
             FEATURE_ENVIRONMENT,
             0.5,
+        ),
+        // Stratified samples, emitters by power, a path expression (settings below).
+        (
+            "cornell-box, stratified",
+            common::prepared("cornell-box.gltf"),
+            FEATURE_STRATIFIED | FEATURE_PATHS,
+            0.0,
         ),
     ];
     if let Some(dir) = samples() {
@@ -376,6 +384,7 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
             _ => &[Integrator::Path],
         };
         for &integrator in integrators {
+            let stratified = *feature == FEATURE_STRATIFIED | FEATURE_PATHS;
             let settings = RenderSettings {
                 width: 16,
                 height: 16,
@@ -383,11 +392,29 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
                 max_depth: 4,
                 integrator,
                 environment: Vec3::splat(*sky),
+                sampler: if stratified {
+                    SAMPLER_STRATIFIED
+                } else {
+                    SAMPLER_SOBOL
+                },
+                light_sampler: if stratified {
+                    LIGHT_SAMPLER_POWER
+                } else {
+                    LIGHT_SAMPLER_BVH
+                },
+                paths: stratified.then(|| {
+                    std::sync::Arc::new(wavetrace::paths::PathExpr::parse("L(D|S)*DE").unwrap())
+                }),
                 ..RenderSettings::default()
             };
-            let features = scene.gpu_features(&scene.frame_params(&settings));
+            let features = scene.gpu_features(&settings);
             if *feature == 0 {
-                assert_eq!(features, 0, "{name}: features {features:#x}");
+                // The default sampler and light sampler only.
+                assert_eq!(
+                    features,
+                    FEATURE_SOBOL | FEATURE_LIGHT_BVH,
+                    "{name}: features {features:#x}"
+                );
             } else {
                 assert_eq!(
                     features & feature,

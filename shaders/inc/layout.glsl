@@ -114,7 +114,7 @@ struct GpuVertex {
 // A scene's features the wavefront kernels can be compiled without (src/layout.rs, FEATURE_*;
 // bindings.glsl, SCENE_FEATURES): the top level's walk, a binary walk, the general BSDF, the
 // alpha lookup of the any-hit test, texture lookups, the environment, punctual lights, dispersion,
-// volume attenuation.
+// volume attenuation, path expressions, the stratified and Sobol samplers, the light BVH.
 #define FEATURE_TOP_LEVEL 1u
 #define FEATURE_BINARY_WALK 2u
 #define FEATURE_GENERAL_BSDF 4u
@@ -124,6 +124,10 @@ struct GpuVertex {
 #define FEATURE_PUNCTUAL 64u
 #define FEATURE_DISPERSION 128u
 #define FEATURE_VOLUME 256u
+#define FEATURE_PATHS 512u
+#define FEATURE_STRATIFIED 1024u
+#define FEATURE_SOBOL 2048u
+#define FEATURE_LIGHT_BVH 4096u
 // Whether `features` holds feature f. (The specialisation constant is passed in, not named: an
 // expression of specialisation constants alone compiles to OpSpecConstantOp, which naga does
 // not read; the driver folds it once inlined, scene_arrays.glsl.)

@@ -8,7 +8,7 @@
 #define SYM_S 2u
 #define SYM_E 3u
 
-bool paths_enabled() { return path_dfa[0] != 0u; }
+bool paths_enabled() { return SCENE_HAS(FEATURE_PATHS) && path_dfa[0] != 0u; }
 
 // The automaton reading paths eye-first (the path tracer).
 uint dfa_step_reversed(uint state, uint symbol) { return path_dfa[path_dfa[3] + 4u * state + symbol]; }

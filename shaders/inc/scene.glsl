@@ -21,10 +21,10 @@ void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
 // The pair (u.x, u.y) of dimension `dimension` (block * 4 + first component) of a path's sample,
 // as the frame's sampler places it: N-rooks, Owen-scrambled Sobol or u itself (src/cpu/path.rs).
 vec2 sample_pair(uint pixel, uint sample_index, uint dimension, vec2 u) {
-    if (frame.sampler_mode == SAMPLER_STRATIFIED) {
+    if (SCENE_HAS(FEATURE_STRATIFIED) && frame.sampler_mode == SAMPLER_STRATIFIED) {
         return stratify2(frame.seed, pixel, sample_index, frame.spp, dimension, u);
     }
-    if (frame.sampler_mode == SAMPLER_SOBOL) {
+    if (SCENE_HAS(FEATURE_SOBOL) && frame.sampler_mode == SAMPLER_SOBOL) {
         return sobol_pair(frame.seed, pixel, sample_index, dimension);
     }
     return u;

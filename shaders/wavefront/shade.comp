@@ -23,7 +23,7 @@
 // the table (the environment's share left out): through the light BVH at that vertex, or its
 // power share (src/cpu/path.rs, triangle_light_pmf).
 float triangle_light_pmf(GpuTriangle tri, uint index, PathState state) {
-    if (frame.light_sampler == LIGHT_SAMPLER_BVH) {
+    if (SCENE_HAS(FEATURE_LIGHT_BVH) && frame.light_sampler == LIGHT_SAMPLER_BVH) {
         return frame.light_bounded_cdf * light_bvh_pmf(state.prev_position, state.prev_normal, index);
     }
     return tri.light_pmf;
@@ -72,7 +72,8 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     float u_table = min((u_pick - frame.env_pmf) / keep, ONE_MINUS_EPSILON);
     LightEntry entry;
     float pmf;
-    if (frame.light_sampler == LIGHT_SAMPLER_BVH && u_table < frame.light_bounded_cdf) {
+    if (SCENE_HAS(FEATURE_LIGHT_BVH) && frame.light_sampler == LIGHT_SAMPLER_BVH
+        && u_table < frame.light_bounded_cdf) {
         // A bounded emitter, by its importance to (p, ng) through the light BVH.
         float u_bvh = min(u_table / frame.light_bounded_cdf, ONE_MINUS_EPSILON);
         uint k;

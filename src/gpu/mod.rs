@@ -340,7 +340,7 @@ impl GpuRenderer {
             false => Some(Pipelines::new(ctx, &split)?),
         };
         let features = match self.specialise {
-            true => scene.gpu_features(&scene.frame_params(settings)),
+            true => scene.gpu_features(settings),
             false => crate::layout::FEATURES_ALL,
         };
         pipelines
