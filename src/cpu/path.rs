@@ -367,7 +367,10 @@ fn shade(
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
     // the surface exactly (nothing scatters along it).
     let ns = surface_normal(&textures, raw, &sp, lod);
-    let Some(bsdf) = BsdfFrame::new_shading(mat, ng, ns, wo) else {
+    // Borrowed where it was built: moving the 280-byte frame out of its Option copied it
+    // (callgrind: a memcpy per vertex).
+    let frame_at = BsdfFrame::new_shading(mat, ng, ns, wo);
+    let Some(bsdf) = frame_at.as_ref() else {
         return (None, None);
     };
 
