@@ -493,10 +493,10 @@ impl Pipelines {
 
     /// Creates the pipelines of kernels `names` specialised for scenes of `features`
     /// (`PreparedScene::gpu_features`) that are not created yet, side by side on as many
-    /// threads as the machine has cores: a CPU Vulkan device compiles a kernel with LLVM as its
-    /// pipeline is created (lavapipe, Cornell box: 0.3–0.9 s each for the large ones), so a
-    /// render compiles only the kernels its integrator dispatches (`wavefront::kernels`),
-    /// without the code of features its scene lacks.
+    /// threads as the machine has cores: a CPU Vulkan device compiles a kernel with LLVM, part
+    /// as its pipeline is created (lavapipe, Cornell box: 0.3–0.9 s each for the large ones) and
+    /// the rest at its first dispatch, so a render compiles only the kernels its integrator
+    /// dispatches (`wavefront::kernels`), without the code of features its scene lacks.
     pub fn prepare(&self, names: &[&'static str], features: u32) -> Result<()> {
         let missing: Vec<&'static str> = {
             let created = self.created();
