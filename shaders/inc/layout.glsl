@@ -112,7 +112,7 @@ struct GpuVertex {
 #define TRIANGLE_TEST_ALPHA 0x80000000u
 #define TRIANGLE_TEST_CULL 0x40000000u
 // A scene's features the wavefront kernels can be compiled without (src/layout.rs, FEATURE_*;
-// bindings.glsl, SCENE_FEATURES): the top level's walk, a binary walk, the general BSDF, the
+// SCENE_FEATURES below): the top level's walk, a binary walk, the general BSDF, the
 // alpha lookup of the any-hit test, texture lookups, the environment, punctual lights, dispersion,
 // volume attenuation, path expressions, the stratified and Sobol samplers, the light BVH.
 #define FEATURE_TOP_LEVEL 1u
