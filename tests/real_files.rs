@@ -321,61 +321,63 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
     if common::gpu().is_none() {
         return;
     }
-    // (name, scene, features it has (0: none but the default samplers'), its sky)
-    let mut scenes = vec![
-        ("cornell-box", common::prepared("cornell-box.gltf"), 0, 0.0),
-        (
-            "instances",
-            common::prepared("instances.gltf"),
-            FEATURE_TOP_LEVEL,
-            0.0,
-        ),
+    // (name, file, features it has (0: none but the default samplers'), its sky): committed
+    // scenes, then samples where the folder is there.
+    let committed = [
+        ("cornell-box", "cornell-box.gltf", 0, 0.0),
+        ("instances", "instances.gltf", FEATURE_TOP_LEVEL, 0.0),
         (
             "cornell-materials",
-            common::prepared("cornell-materials.gltf"),
+            "cornell-materials.gltf",
             FEATURE_GENERAL_BSDF,
             0.0,
         ),
-        (
-            "prism",
-            common::prepared("prism.gltf"),
-            FEATURE_DISPERSION,
-            0.0,
-        ),
+        ("prism", "prism.gltf", FEATURE_DISPERSION, 0.0),
         (
             "cornell-box under a sky",
-            common::prepared("cornell-box.gltf"),
+            "cornell-box.gltf",
             FEATURE_ENVIRONMENT,
             0.5,
         ),
         // Stratified samples, emitters by power, a path expression (settings below).
         (
             "cornell-box, stratified",
-            common::prepared("cornell-box.gltf"),
+            "cornell-box.gltf",
             FEATURE_STRATIFIED | FEATURE_PATHS,
             0.0,
         ),
     ];
-    if let Some(dir) = samples() {
-        let load = |path: &str| PreparedScene::new(&Scene::load(&dir.join(path)).unwrap());
-        scenes.push((
+    let sampled = [
+        (
             "AlphaBlendModeTest",
-            load("AlphaBlendModeTest.glb"),
+            "AlphaBlendModeTest.glb",
             FEATURE_ALPHA,
             0.5,
-        ));
-        scenes.push((
+        ),
+        (
             "AttenuationTest",
-            load("extensions/AttenuationTest.glb"),
+            "extensions/AttenuationTest.glb",
             FEATURE_VOLUME,
             0.5,
-        ));
-        scenes.push((
+        ),
+        (
             "LightsPunctualLamp",
-            load("LightsPunctualLamp/LightsPunctualLamp.gltf"),
+            "LightsPunctualLamp/LightsPunctualLamp.gltf",
             FEATURE_PUNCTUAL | FEATURE_TEXTURES,
             0.0,
-        ));
+        ),
+    ];
+    let load = |path: PathBuf| PreparedScene::new(&Scene::load(&path).unwrap());
+    let mut scenes: Vec<_> = committed
+        .into_iter()
+        .map(|(name, file, f, sky)| (name, load(common::scene_path(file)), f, sky))
+        .collect();
+    if let Some(dir) = samples() {
+        scenes.extend(
+            sampled
+                .into_iter()
+                .map(|(name, file, f, sky)| (name, load(dir.join(file)), f, sky)),
+        );
     }
     for (name, scene, feature, sky) in &scenes {
         // Every integrator where every feature is left out, the path tracer elsewhere.

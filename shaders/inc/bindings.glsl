@@ -3,9 +3,6 @@
 #define BINDINGS_GLSL
 
 layout(std140, set = 0, binding = 0) uniform Frame { FrameParams frame; };
-// The plain frames' path through the BSDF wherever the scene's every material is plain
-// (bsdf.glsl): the general path compiled out.
-#define BSDF_PLAIN_SCENE (!SCENE_HAS(FEATURE_GENERAL_BSDF))
 layout(std430, set = 0, binding = 1) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };

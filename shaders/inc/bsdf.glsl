@@ -147,14 +147,15 @@ bool bsdf_specular_free(BsdfFrame f) {
 }
 
 // Where the plain frames' path (BsdfFrame::plain: the general path's floats) is taken,
-// BSDF_PLAIN_PATH(f), true only where f is plain. The wavefront's kernels define
-// BSDF_PLAIN_SCENE, true only where every frame they build is plain, as the scene's
-// features say (bindings.glsl, FEATURE_GENERAL_BSDF): then the path is that, the general path
+// BSDF_PLAIN_PATH(f), true only where f is plain. In the wavefront's kernels (KERNEL_INDEX,
+// layout.glsl) BSDF_PLAIN_SCENE is true only where every frame they build is plain, as the
+// render's features say (FEATURE_GENERAL_BSDF): then the path is that, the general path
 // compiled out of the pipeline, where lavapipe runs a per-lane branch's both sides under
 // masks (a subgroup vote of f.plain measured no faster there than the general path), and
 // bsdf_frame_new_shading skips the Fresnel, sheen and coat blocks every frame would skip.
 // Elsewhere (the twins tests) the choice is per lane.
-#ifdef BSDF_PLAIN_SCENE
+#ifdef KERNEL_INDEX
+#define BSDF_PLAIN_SCENE (!SCENE_HAS(FEATURE_GENERAL_BSDF))
 #define BSDF_PLAIN_PATH(f) BSDF_PLAIN_SCENE
 #else
 #define BSDF_PLAIN_SCENE false

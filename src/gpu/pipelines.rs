@@ -6,6 +6,7 @@ use crate::kernels::KERNELS;
 use crate::layout::DispatchParams;
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::Mutex;
 
@@ -506,36 +507,11 @@ impl Pipelines {
                 .filter(|&n| !created.contains_key(&(n, features)))
                 .collect()
         };
-        // Workers take the next kernel as they finish one, so a long compile (shade) does not
-        // hold up the others.
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let workers = std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(missing.len());
-        let results: Vec<(&'static str, Result<vk::Pipeline>)> = std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..workers)
-                .map(|_| {
-                    scope.spawn(|| {
-                        let mut done = Vec::new();
-                        loop {
-                            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                            let Some(&name) = missing.get(k) else {
-                                return done;
-                            };
-                            done.push((name, self.create(name, features)));
-                        }
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .flat_map(|h| {
-                    h.join().unwrap_or_else(|_| {
-                        vec![("", Err(anyhow!("a thread creating pipelines panicked")))]
-                    })
-                })
-                .collect()
-        });
+        // On rayon's threads, one per core, each taking the next kernel as it finishes one.
+        let results: Vec<(&'static str, Result<vk::Pipeline>)> = missing
+            .par_iter()
+            .map(|&name| (name, self.create(name, features)))
+            .collect();
         let mut created = self.created();
         let mut first_error = None;
         for (name, result) in results {
