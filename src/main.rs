@@ -1079,6 +1079,11 @@ fn walk_cost(
 /// Rays `bench --bvh` traces through each tree.
 const RAYS: u32 = 1 << 20;
 
+/// A build's parts in ms: the primitive references, the tree, its assembly (`BvhStats`).
+fn build_parts_ms(stats: &wavetrace::bvh::BvhStats) -> [f64; 3] {
+    [stats.refs_time, stats.tree_time, stats.assemble_time].map(|t| t.as_secs_f64() * 1e3)
+}
+
 /// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
 fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray, WideBvh};
@@ -1115,12 +1120,17 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         // does: page faults); the later ones mostly reuse what the allocator kept.
         let mut bvh = Bvh::build(&positions);
         let first_ms = bvh.stats.build_time.as_secs_f64() * 1e3;
+        let first_parts = build_parts_ms(&bvh.stats);
+        let mut parts = Vec::new();
         for _ in 0..builds {
             bvh = Bvh::build(&positions);
             times.push(bvh.stats.build_time.as_secs_f64() * 1e3);
+            parts.push((times[times.len() - 1], build_parts_ms(&bvh.stats)));
         }
         times.sort_by(f64::total_cmp);
+        parts.sort_by(|a, b| a.0.total_cmp(&b.0));
         let build_ms = times[builds / 2];
+        let median_parts = parts[builds / 2].1;
         let triangles = gpu_triangles(&positions, &[], &bvh.order);
         // Rays from uniform points of the root's box in uniform directions (seeded, so every
         // build of the same tree is measured on the same rays).
@@ -1168,6 +1178,11 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             wide_rays_per_second * 1e-6,
             quant_rays_per_second * 1e-6
         );
+        let [refs_ms, tree_ms, assemble_ms] = median_parts;
+        println!(
+            "{:<32} median build: references {refs_ms:.1} ms, tree {tree_ms:.1} ms, assembly {assemble_ms:.1} ms; first build: {:.1}, {:.1}, {:.1} ms",
+            "", first_parts[0], first_parts[1], first_parts[2]
+        );
         rows.push(serde_json::json!({
             "scene": name,
             "triangles": positions.len(),
@@ -1175,6 +1190,12 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             "build_ms_all": times,
             "build_ms_first": first_ms,
             "build_ms_per_million": per_million,
+            "build_parts_ms": { "references": refs_ms, "tree": tree_ms, "assembly": assemble_ms },
+            "build_parts_ms_first": {
+                "references": first_parts[0],
+                "tree": first_parts[1],
+                "assembly": first_parts[2],
+            },
             "nodes": s.nodes,
             "leaves": s.leaves,
             "max_depth": s.max_depth,

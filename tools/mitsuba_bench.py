@@ -6,6 +6,7 @@ path against llvm_ad_rgb / cuda_ad_rgb).
     pip install mitsuba
     python3 tools/mitsuba_bench.py scenes/cornell-box.gltf [--variant scalar_rgb]
         [--width 256] [--height 256] [--spp 16] [--max-depth 8] [--rr-depth 3] [--out FILE.exr]
+        [--threads N]
 
 The glTF file is converted, not approximated: only what both renderers mean the same by is
 accepted — triangle meshes (node matrices or TRS, any hierarchy), materials that are exactly
@@ -249,10 +250,15 @@ def main():
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--rr-depth", type=int, default=3)
     ap.add_argument("--out")
+    ap.add_argument("--threads", type=int, help="render threads (default: every core)")
     args = ap.parse_args()
     import mitsuba as mi
 
     mi.set_variant(args.variant)
+    if args.threads:
+        import drjit as dr
+
+        dr.set_thread_count(args.threads)
     with tempfile.TemporaryDirectory() as folder:
         scene = mi.load_dict(scene_dict(args.scene, args, folder))
         mi.render(scene, spp=1)  # untimed: LLVM variants compile their kernels here

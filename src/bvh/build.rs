@@ -721,6 +721,8 @@ impl Bvh {
     }
 
     fn build_refs(mut refs: Vec<PrimRef>, start_time: Instant) -> Bvh {
+        let refs_time = start_time.elapsed();
+        let mut assemble_time = std::time::Duration::ZERO;
         let mut order = Vec::new();
         let (nodes, mut stats) = if refs.is_empty() {
             let empty = BvhNode {
@@ -735,10 +737,16 @@ impl Bvh {
             let tree = build_parallel(&mut refs, 0, 0, bounds, centroids, None);
             let stats = tree.stats.clone();
             order = refs.par_iter().map(PrimRef::id).collect();
-            (tree.assemble(bytemuck::cast_vec(refs)), stats)
+            let assembling = Instant::now();
+            let nodes = tree.assemble(bytemuck::cast_vec(refs));
+            assemble_time = assembling.elapsed();
+            (nodes, stats)
         };
         // The build ends here; the SAH cost is a statistic of its result.
         stats.build_time = start_time.elapsed();
+        stats.refs_time = refs_time;
+        stats.assemble_time = assemble_time;
+        stats.tree_time = stats.build_time.saturating_sub(refs_time + assemble_time);
         stats.nodes = nodes.len();
         stats.sah_cost = sah_cost(&nodes);
         Bvh {
