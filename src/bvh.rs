@@ -497,6 +497,7 @@ pub(crate) fn bvh_slab_min_max(
 /// Möller–Trumbore ray/triangle test (Möller & Trumbore 1997), double-sided: (t, u, v) for a hit
 /// with t in (t_min, t_max), u and v the barycentric weights of p1 and p2. Every acceptance test
 /// is written so that NaN rejects.
+#[inline]
 pub fn intersect_triangle(
     tri: &GpuTriangle,
     ray: &Ray,

@@ -53,6 +53,14 @@ pub trait WideSlots: Copy + Send + Sync {
     fn valid(&self) -> u32;
     fn entry(&self, s: usize) -> Entry;
 
+    /// How many slots are in use: they come first, so `valid` is a run of low bits and its
+    /// length is its highest set bit's place (a bit scan; `count_ones` without the POPCNT of a
+    /// portable x86-64 build is a dozen instructions per node visited).
+    #[inline(always)]
+    fn slots(&self) -> u32 {
+        u32::BITS - self.valid().leading_zeros()
+    }
+
     /// The slots in use that name a wide node (not a leaf).
     fn interior_slots(&self) -> impl Iterator<Item = usize> + '_ {
         (0..WIDTH).filter(move |&s| self.valid() & (1 << s) != 0 && self.entry(s).child & LEAF == 0)
@@ -238,6 +246,8 @@ impl WideBvh<WideNode> {
         for (s, &i) in open.iter().enumerate() {
             self.fill_slot(&mut node, s, nodes, i);
         }
+        // The slots in use come first (`WideSlots::slots`).
+        debug_assert_eq!(node.valid & (node.valid + 1), 0);
         self.nodes[index] = node;
         index as u32
     }
@@ -442,7 +452,7 @@ impl<N: WideSlots> Hierarchy for WideBvh<N> {
                 }
             } else {
                 let node = &self.nodes[at.child as usize];
-                boxes += node.valid().count_ones();
+                boxes += node.slots();
                 let (t_enter, mask) = slab4(node, &ray, t_min, t_far);
                 if mask != 0 {
                     if mask & (mask - 1) == 0 {
