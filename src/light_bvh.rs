@@ -116,6 +116,15 @@ impl LightBounds {
         }
     }
 
+    /// The same box and cone of directions (everything but the power): the two bounds'
+    /// importance at any point differs only by the ratio of their powers.
+    pub fn same_reach(&self, other: &LightBounds) -> bool {
+        LightBounds {
+            phi: other.phi,
+            ..*self
+        } == *other
+    }
+
     pub fn centroid(&self) -> Vec3 {
         (self.bounds_min + self.bounds_max) * 0.5
     }
@@ -320,6 +329,12 @@ pub struct LightBvh {
     /// `trails[light]`: bit d = 1 where the path from the root to the light's leaf takes the
     /// second child at depth d; [`NO_LIGHT_TRAIL`] for a light that is not in the tree.
     pub trails: Vec<u32>,
+    /// Every light in the tree has the same box and cone of directions (a quad light's two
+    /// triangles share their box): the importance is linear in the power and its other factor
+    /// depends only on those, so at every point each light's pmf through the tree is its share
+    /// of the power — the walk cannot tell the lights apart, and sampling by power is the same
+    /// estimator without it (up to rounding; exactly for two lights of equal power).
+    pub power_alike: bool,
 }
 
 /// A light while the tree is built.
@@ -456,6 +471,9 @@ impl LightBvh {
         let mut bvh = LightBvh {
             nodes: Vec::with_capacity(2 * build.len()),
             trails: vec![NO_LIGHT_TRAIL; lights.len()],
+            power_alike: build
+                .windows(2)
+                .all(|w| w[0].bounds.same_reach(&w[1].bounds)),
         };
         if !build.is_empty() {
             bvh.build_node(&mut build, 0, 0);

@@ -169,6 +169,9 @@ pub struct PreparedScene {
     /// The light BVH over the table's bounded entries (its leaves index the table), and per
     /// triangle the trail to its entry's leaf (empty when no triangle emits).
     pub light_nodes: Vec<GpuLightNode>,
+    /// The light BVH cannot tell its lights apart (`LightBvh::power_alike`): renders sample
+    /// emitters by power whichever light sampler they ask for (`frame_params`).
+    pub light_power_alike: bool,
     pub light_trails: Vec<u32>,
     /// The table's CDF at its last bounded entry (`FrameParams::light_bounded_cdf`).
     pub light_bounded_cdf: f32,
@@ -517,6 +520,7 @@ impl PreparedScene {
             triangles,
             materials,
             light_nodes: light_bvh.nodes,
+            light_power_alike: light_bvh.power_alike,
             light_trails,
             light_bounded_cdf,
             lights,
@@ -769,7 +773,7 @@ impl PreparedScene {
             spp: settings.spp,
             sampler_mode: settings.sampler,
             rr_mode: settings.rr_mode,
-            light_sampler: if self.light_nodes.is_empty() {
+            light_sampler: if self.light_nodes.is_empty() || self.light_power_alike {
                 LIGHT_SAMPLER_POWER
             } else {
                 settings.light_sampler

@@ -567,3 +567,51 @@ fn node_constants_are_their_bounds() {
         }
     }
 }
+
+/// The premise of `LightBvh::power_alike`: lights of one box and cone (a quad's two triangles,
+/// and a third coplanar one with the same box) get their power share as their pmf through the
+/// tree at every point, so a render samples them by power instead; moving one light's box
+/// makes the tree tell them apart.
+#[test]
+fn lights_of_one_box_and_cone_get_their_power_share() {
+    let (a, b, c, d) = (
+        Vec3::new(-0.3, 0.9, -0.2),
+        Vec3::new(0.3, 0.9, -0.2),
+        Vec3::new(0.3, 0.9, 0.2),
+        Vec3::new(-0.3, 0.9, 0.2),
+    );
+    // Downward-facing, as a ceiling light: (p1 − p0) × (p2 − p0) points along −y.
+    let quad = [
+        LightBounds::triangle(a, b, c, 1.0, false),
+        LightBounds::triangle(a, c, d, 3.0, false),
+        LightBounds::triangle(b, c, d, 0.5, false),
+    ];
+    assert!(quad.iter().all(|l| l.w == Vec3::NEG_Y), "{quad:?}");
+    let bvh = LightBvh::build(&quad);
+    assert!(bvh.power_alike);
+    let total: f32 = quad.iter().map(|l| l.phi).sum();
+    let mut lit = 0;
+    for i in 0..2000 {
+        let (p, n) = random_point(5, i);
+        for (k, light) in quad.iter().enumerate() {
+            let pmf = light_bvh_pmf(&bvh.nodes, &bvh.trails, p, n, k as u32);
+            if pmf > 0.0 {
+                lit += 1;
+                let share = light.phi / total;
+                // Rounding only: the walk multiplies per-level ratios of sums of products.
+                assert!(
+                    (pmf - share).abs() <= 4.0 * f32::EPSILON * share,
+                    "{p} {n}: light {k}: {pmf} against {share}"
+                );
+            }
+        }
+    }
+    assert!(lit > 1000, "too few points lit: {lit}");
+
+    let mut moved = quad;
+    moved[2].bounds_min += Vec3::new(0.0, 0.0, 0.1);
+    assert!(!LightBvh::build(&moved).power_alike);
+    let mut turned = quad;
+    turned[1].two_sided = true;
+    assert!(!LightBvh::build(&turned).power_alike);
+}
