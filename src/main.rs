@@ -394,11 +394,20 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let b = &prepared.bvh.stats;
     println!(
-        "{}: {} triangles stored, {} placements, {} emitting, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
+        "{}: {} triangles stored, {} placements, {} emitting{}, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
         path.display(),
         prepared.triangles.len(),
         prepared.instances.len(),
         prepared.lights.len(),
+        // `--light-sampler bvh` where the tree cannot tell the emitters apart (render.rs).
+        if settings.light_sampler == wavetrace::layout::LIGHT_SAMPLER_BVH
+            && prepared.light_power_alike
+            && !prepared.light_nodes.is_empty()
+        {
+            " (sampled by power: their light BVH cannot tell them apart)"
+        } else {
+            ""
+        },
         prepared.materials.len(),
         if prepared.plain_diffuse() {
             " (all plain diffuse)"
