@@ -226,10 +226,11 @@ const OFFSET_INT_SCALE: f32 = 256.0;
 pub fn offset_ray_origin_scalar(p: Vec3, n: Vec3) -> Vec3 {
     let offset = |p: f32, n: f32| -> f32 {
         let of_i = (OFFSET_INT_SCALE * n) as i32;
-        let p_i = f32::from_bits(
-            (p.to_bits() as i32).wrapping_add(if p < 0.0 { of_i.wrapping_neg() } else { of_i })
-                as u32,
-        );
+        let p_i = f32::from_bits((p.to_bits() as i32).wrapping_add(if p < 0.0 {
+            of_i.wrapping_neg()
+        } else {
+            of_i
+        }) as u32);
         if p.abs() < OFFSET_ORIGIN {
             p + OFFSET_FLOAT_SCALE * n
         } else {
