@@ -199,77 +199,23 @@ pub fn build_frame(n: Vec3) -> (Vec3, Vec3) {
 /// Moves a surface point off its surface along the geometric normal `n` (pointing to the side
 /// the new ray leaves to) by a few ulps, so the ray cannot re-hit the surface (Wächter & Binder,
 /// "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems, ch. 6).
-///
-/// On x86-64 the three coordinates go through SSE2 together (a path vertex moves two or three
-/// origins: 400 of a Cornell box sample's 12 600 instructions were this function's, one
-/// coordinate at a time); [`offset_ray_origin_scalar`] is the same per coordinate, bit for bit
-/// (test `offset_lanes_equal_the_scalar_form`), and the other architectures' form.
-#[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        offset_ray_origin_sse2(p, n)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        offset_ray_origin_scalar(p, n)
-    }
-}
-
-const OFFSET_ORIGIN: f32 = 1.0 / 32.0;
-const OFFSET_FLOAT_SCALE: f32 = 1.0 / 65536.0;
-const OFFSET_INT_SCALE: f32 = 256.0;
-
-/// [`offset_ray_origin`] one coordinate at a time: near the origin a fixed step along `n`,
-/// elsewhere `n` · 256 added to the coordinate's bits (away from zero), so the step grows with
-/// the coordinate's magnitude.
-pub fn offset_ray_origin_scalar(p: Vec3, n: Vec3) -> Vec3 {
+    const ORIGIN: f32 = 1.0 / 32.0;
+    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+    const INT_SCALE: f32 = 256.0;
     let offset = |p: f32, n: f32| -> f32 {
-        let of_i = (OFFSET_INT_SCALE * n) as i32;
-        let p_i = f32::from_bits((p.to_bits() as i32).wrapping_add(if p < 0.0 {
-            of_i.wrapping_neg()
-        } else {
-            of_i
-        }) as u32);
-        if p.abs() < OFFSET_ORIGIN {
-            p + OFFSET_FLOAT_SCALE * n
+        let of_i = (INT_SCALE * n) as i32;
+        let p_i =
+            f32::from_bits(
+                (p.to_bits() as i32).wrapping_add(if p < 0.0 { -of_i } else { of_i }) as u32,
+            );
+        if p.abs() < ORIGIN {
+            p + FLOAT_SCALE * n
         } else {
             p_i
         }
     };
     Vec3::new(offset(p.x, n.x), offset(p.y, n.y), offset(p.z, n.z))
-}
-
-/// [`offset_ray_origin_scalar`] in the lanes of one SSE2 register, the same operations lane by
-/// lane: the conversion's out-of-range and NaN results fixed to what `as i32` gives (i32::MAX
-/// at or above 2³¹, 0 for NaN), the selections as masks.
-#[cfg(target_arch = "x86_64")]
-#[inline]
-fn offset_ray_origin_sse2(p: Vec3, n: Vec3) -> Vec3 {
-    use std::arch::x86_64::*;
-    // SAFETY: SSE2 is part of x86-64; the intrinsics only compute on registers.
-    unsafe {
-        let select = |mask: __m128i, a: __m128i, b: __m128i| {
-            _mm_or_si128(_mm_and_si128(mask, a), _mm_andnot_si128(mask, b))
-        };
-        let pv = _mm_setr_ps(p.x, p.y, p.z, 0.0);
-        let nv = _mm_setr_ps(n.x, n.y, n.z, 0.0);
-        let scaled = _mm_mul_ps(_mm_set1_ps(OFFSET_INT_SCALE), nv);
-        let too_big = _mm_castps_si128(_mm_cmpge_ps(scaled, _mm_set1_ps(2_147_483_648.0)));
-        let nan = _mm_castps_si128(_mm_cmpunord_ps(scaled, scaled));
-        let of = select(too_big, _mm_set1_epi32(i32::MAX), _mm_cvttps_epi32(scaled));
-        let of = _mm_andnot_si128(nan, of);
-        let negative = _mm_castps_si128(_mm_cmplt_ps(pv, _mm_setzero_ps()));
-        let step = select(negative, _mm_sub_epi32(_mm_setzero_si128(), of), of);
-        let p_i = _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(pv), step));
-        let magnitude = _mm_and_ps(pv, _mm_castsi128_ps(_mm_set1_epi32(i32::MAX)));
-        let near = _mm_cmplt_ps(magnitude, _mm_set1_ps(OFFSET_ORIGIN));
-        let nudged = _mm_add_ps(pv, _mm_mul_ps(_mm_set1_ps(OFFSET_FLOAT_SCALE), nv));
-        let r = _mm_or_ps(_mm_and_ps(near, nudged), _mm_andnot_ps(near, p_i));
-        let mut out = [0.0f32; 4];
-        _mm_storeu_ps(out.as_mut_ptr(), r);
-        Vec3::new(out[0], out[1], out[2])
-    }
 }
 
 #[cfg(test)]
@@ -523,53 +469,6 @@ mod tests {
             let (t, b) = build_frame(n);
             assert!(t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5 && t.dot(b).abs() < 1e-5);
             assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
-        }
-    }
-
-    /// The SSE2 form against the scalar one, bit for bit: random points near and far from the
-    /// origin with unit normals, and every pair of the special values (±0, ±tiny, the origin
-    /// threshold and its neighbours, ±1, huge, ±∞, NaN) as coordinates and normals.
-    #[test]
-    fn offset_lanes_equal_the_scalar_form() {
-        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-        let check = |p: Vec3, n: Vec3| {
-            assert_eq!(
-                bits(offset_ray_origin(p, n)),
-                bits(offset_ray_origin_scalar(p, n)),
-                "p {p:?}, n {n:?}"
-            );
-        };
-        for u in uniforms(20_000) {
-            let scale = 10f32.powf(8.0 * u.w - 4.0);
-            let p = (u.truncate() - Vec3::splat(0.5)) * scale;
-            let n = (Vec3::new(u.y, u.z, u.x) - Vec3::splat(0.5)).normalize_or(Vec3::Z);
-            check(p, n);
-            check(p, -n);
-        }
-        let special = [
-            0.0,
-            -0.0,
-            1e-40,
-            -1e-40,
-            1.0 / 32.0,
-            -1.0 / 32.0,
-            f32::from_bits((1.0f32 / 32.0).to_bits() - 1),
-            f32::from_bits((1.0f32 / 32.0).to_bits() + 1),
-            1.0,
-            -1.0,
-            0.7,
-            3e7,
-            -3e38,
-            f32::MAX,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
-        for &a in &special {
-            for &b in &special {
-                check(Vec3::new(a, b, 0.5), Vec3::new(b, a, -0.25));
-                check(Vec3::splat(a), Vec3::splat(b));
-            }
         }
     }
 
