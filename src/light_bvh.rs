@@ -333,7 +333,8 @@ pub struct LightBvh {
     /// triangles share their box): the importance is linear in the power and its other factor
     /// depends only on those, so at every point each light's pmf through the tree is its share
     /// of the power — the walk cannot tell the lights apart, and sampling by power is the same
-    /// estimator without it (up to rounding; exactly for two lights of equal power).
+    /// estimator without it (up to rounding; exactly for two lights of equal power). False for
+    /// an empty tree.
     pub power_alike: bool,
 }
 
@@ -471,9 +472,10 @@ impl LightBvh {
         let mut bvh = LightBvh {
             nodes: Vec::with_capacity(2 * build.len()),
             trails: vec![NO_LIGHT_TRAIL; lights.len()],
-            power_alike: build
-                .windows(2)
-                .all(|w| w[0].bounds.same_reach(&w[1].bounds)),
+            power_alike: !build.is_empty()
+                && build
+                    .windows(2)
+                    .all(|w| w[0].bounds.same_reach(&w[1].bounds)),
         };
         if !build.is_empty() {
             bvh.build_node(&mut build, 0, 0);

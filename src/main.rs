@@ -402,7 +402,6 @@ fn render(args: &RenderArgs) -> Result<()> {
         // `--light-sampler bvh` where the tree cannot tell the emitters apart (render.rs).
         if settings.light_sampler == wavetrace::layout::LIGHT_SAMPLER_BVH
             && prepared.light_power_alike
-            && !prepared.light_nodes.is_empty()
         {
             " (sampled by power: their light BVH cannot tell them apart)"
         } else {
@@ -1124,22 +1123,23 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
     for path in scenes {
         let scene = Scene::load_with(path, &LoadOptions::default())?;
         let positions: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
-        let mut times = Vec::new();
         // The first build writes memory the process has not used yet (as a render's one build
-        // does: page faults); the later ones mostly reuse what the allocator kept.
+        // does: page faults); the later ones mostly reuse what the allocator kept. Each build's
+        // (ms, parts), fastest first.
         let mut bvh = Bvh::build(&positions);
         let first_ms = bvh.stats.build_time.as_secs_f64() * 1e3;
         let first_parts = build_parts_ms(&bvh.stats);
-        let mut parts = Vec::new();
+        let mut later = Vec::new();
         for _ in 0..builds {
             bvh = Bvh::build(&positions);
-            times.push(bvh.stats.build_time.as_secs_f64() * 1e3);
-            parts.push((times[times.len() - 1], build_parts_ms(&bvh.stats)));
+            later.push((
+                bvh.stats.build_time.as_secs_f64() * 1e3,
+                build_parts_ms(&bvh.stats),
+            ));
         }
-        times.sort_by(f64::total_cmp);
-        parts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let build_ms = times[builds / 2];
-        let median_parts = parts[builds / 2].1;
+        later.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let times: Vec<f64> = later.iter().map(|&(ms, _)| ms).collect();
+        let (build_ms, median_parts) = later[builds / 2];
         let triangles = gpu_triangles(&positions, &[], &bvh.order);
         // Rays from uniform points of the root's box in uniform directions (seeded, so every
         // build of the same tree is measured on the same rays).

@@ -169,8 +169,9 @@ pub struct PreparedScene {
     /// The light BVH over the table's bounded entries (its leaves index the table), and per
     /// triangle the trail to its entry's leaf (empty when no triangle emits).
     pub light_nodes: Vec<GpuLightNode>,
-    /// The light BVH cannot tell its lights apart (`LightBvh::power_alike`): renders sample
-    /// emitters by power whichever light sampler they ask for (`frame_params`).
+    /// The light BVH cannot tell its lights apart (`LightBvh::power_alike`; false without
+    /// one): renders sample emitters by power whichever light sampler they ask for
+    /// (`frame_params`).
     pub light_power_alike: bool,
     pub light_trails: Vec<u32>,
     /// The table's CDF at its last bounded entry (`FrameParams::light_bounded_cdf`).
