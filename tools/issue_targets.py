@@ -15,7 +15,13 @@ within a round: the table gives its median and range over the rounds.
     git worktree add /tmp/before 26cccc5 && (cd /tmp/before && cargo build --release)
     python3 tools/gen_large.py terrain --triangles 1000000 /tmp/terrain-1000000.gltf
     tools/issue_targets.py /tmp/before/target/release/wavetrace target/release/wavetrace \\
-        --rounds 6 --terrain /tmp/terrain-1000000.gltf
+        --rounds 6 --terrain /tmp/terrain-1000000.gltf --earlier-gpu 0.66 --earlier-build 444
+
+The issue's absolute targets (1.0 M samples/s on lavapipe, 60 ms per million triangles) were
+set on this machine as it ran that day, when the earlier build did 0.66 M samples/s and 444 ms;
+`--earlier-gpu` and `--earlier-build` give the later build's figures at that speed of the
+machine (its ratio to the earlier build, measured in the same round, times the earlier build's
+figure of that day), since the machine's speed drifts by more than the targets' margins.
 
 Arguments after the two binaries and the script's own options go to `wavetrace bench` as they
 are (default: the Cornell box, `bench`'s 256², 16 spp, depth 8). It reads the text table `bench`
@@ -82,6 +88,15 @@ def main():
     parser.add_argument("--rounds", type=int, default=4)
     parser.add_argument("--terrain", help="a large scene whose BVH build is timed")
     parser.add_argument("--no-mitsuba", action="store_true")
+    parser.add_argument(
+        "--earlier-gpu", type=float, metavar="M",
+        help="the earlier build's GPU M samples/s as measured when its target was set (issue "
+             "13: 0.66): the later build's figure is also given at that speed of the machine, "
+             "its ratio to the earlier build in a round times M")
+    parser.add_argument(
+        "--earlier-build", type=float, metavar="MS",
+        help="the earlier build's BVH build ms as measured when its target was set (issue 13: "
+             "444): the later build's is also given at that speed, MS over the round's ratio")
     args, bench_args = parser.parse_known_args()
     scenes = [a for a in bench_args if a.endswith((".gltf", ".glb"))]
     if not scenes:
@@ -116,6 +131,9 @@ def main():
         print(f"| {device} M samples/s, later | {column(lambda x: x['later'][device])} |")
         print(f"| {device} later / earlier | "
               f"{column(lambda x: x['later'][device] / x['earlier'][device])} |")
+        if device == "gpu" and args.earlier_gpu:
+            print(f"| gpu M samples/s, later, with the earlier at {args.earlier_gpu} | "
+                  f"{column(lambda x: args.earlier_gpu * x['later'][device] / x['earlier'][device])} |")
     if devices == ["gpu", "cpu"]:
         print(f"| later gpu / later cpu | {column(lambda x: x['later']['gpu'] / x['later']['cpu'])} |")
     if not args.no_mitsuba and "cpu" in devices and all(x["mitsuba"] for x in rounds):
@@ -130,6 +148,9 @@ def main():
         print(f"| BVH build ms, later | {column(lambda x: x['later build'])} |")
         print(f"| BVH build earlier / later | "
               f"{column(lambda x: x['earlier build'] / x['later build'])} |")
+        if args.earlier_build:
+            print(f"| BVH build ms, later, with the earlier at {args.earlier_build} | "
+                  f"{column(lambda x: args.earlier_build * x['later build'] / x['earlier build'])} |")
 
 
 if __name__ == "__main__":
