@@ -309,6 +309,24 @@ pub const FEATURE_SOBOL: u32 = 1 << 11;
 pub const FEATURE_LIGHT_BVH: u32 = 1 << 12;
 /// Every feature: a pipeline that serves any scene.
 pub const FEATURES_ALL: u32 = u32::MAX;
+/// The feature bits proper; the top byte is the quantised walks' deferred array
+/// ([`qbvh_stack_size`]).
+pub const FEATURE_FLAGS: u32 = (1 << 24) - 1;
+/// Where `gpu_features` puts the entries of the quantised walks' per-lane array of deferred
+/// slots made for the scene (`QBVH_STACK_SIZE`, the kernels' specialisation constant 7).
+pub const FEATURE_STACK_SHIFT: u32 = 24;
+/// The largest such array, and the one of kernels made with every feature: the GPU keeps at
+/// most this many deferred slots beside its registers (`bvh::quantized::GPU_DEFERRED_MAX`).
+pub const QBVH_STACK_MAX: u32 = 48;
+
+/// The entries of the quantised walks' deferred array of kernels made for `features`: the top
+/// byte where it is 1 to [`QBVH_STACK_MAX`], else (every feature) the largest.
+pub fn qbvh_stack_size(features: u32) -> u32 {
+    match features >> FEATURE_STACK_SHIFT {
+        n @ 1..=QBVH_STACK_MAX => n,
+        _ => QBVH_STACK_MAX,
+    }
+}
 
 /// The names of the features in `features`, in bit order (`render --stats`).
 pub fn feature_names(features: u32) -> Vec<&'static str> {

@@ -154,11 +154,12 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
     if let Some(features) = stats.kernel_features.filter(|_| per_kernel) {
         let names = wavetrace::layout::feature_names(features);
         println!(
-            "kernels made for: {}",
+            "kernels made for: {}; deferred slots per lane: {}",
             match names.len() {
                 0 => "no optional feature (the plain path)".to_string(),
                 _ => names.join(", "),
-            }
+            },
+            wavetrace::layout::qbvh_stack_size(features)
         );
     }
     if per_kernel && !stats.kernel_seconds.is_empty() {

@@ -138,6 +138,9 @@ pub struct GpuBvh {
     /// The top level's quantised root in `nodes` (`FrameParams::tlas_wide_root`), or
     /// `NO_WIDE_ROOT` where it is walked in its binary nodes.
     pub tlas_wide_root: u32,
+    /// The most slots a walk of any quantised level can have deferred at once
+    /// (`WideBvh::deferred_bound`; 0 where no level is quantised).
+    pub deferred_max: u32,
 }
 
 /// The scene in the form both integrators trace: the two-level BVH (`tlas.rs`) and triangles
@@ -621,10 +624,17 @@ impl PreparedScene {
                 })
                 .collect();
             let tlas_wide_root = wide_root(self.tlas_root);
+            let deferred_max = bounds
+                .values()
+                .copied()
+                .filter(|&b| b <= crate::bvh::quantized::GPU_DEFERRED_MAX)
+                .max()
+                .unwrap_or(0);
             GpuBvh {
                 nodes,
                 instances,
                 tlas_wide_root,
+                deferred_max,
             }
         })
     }
@@ -716,7 +726,9 @@ impl PreparedScene {
     /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
     /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
     /// no dispersive material, no attenuation, no path expression, and of the samplers and the
-    /// light samplers all but the one chosen.
+    /// light samplers all but the one chosen. The top byte is the quantised walks' array of
+    /// deferred slots made for the scene (`layout::qbvh_stack_size`): its levels' largest
+    /// deferred bound less the two slots the walks keep in registers, at least 1.
     pub fn gpu_features(&self, settings: &RenderSettings) -> u32 {
         use crate::layout::*;
         let frame = self.frame_params(settings);
@@ -751,6 +763,7 @@ impl PreparedScene {
         .into_iter()
         .filter(|&(needed, _)| needed)
         .fold(0, |features, (_, f)| features | f)
+            | bvh.deferred_max.saturating_sub(2).clamp(1, QBVH_STACK_MAX) << FEATURE_STACK_SHIFT
     }
 
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {

@@ -10,11 +10,33 @@ use wavetrace::gpu::pipelines::{kernel_spirv, Binding};
 use wavetrace::kernels::{KERNELS, TEST_KERNELS};
 use wavetrace::layout::STRUCT_LAYOUTS;
 
+/// The module with its specialisation constants made plain constants of their default values,
+/// as a pipeline made without specialisation runs it: naga reads a constant decorated with a
+/// SpecId as an override, and sizes no array by one (the quantised walks' deferred array,
+/// `QBVH_STACK_SIZE`, is one), so every `OpDecorate <id> SpecId <n>` becomes a decoration of
+/// the same length that naga skips (Alignment <n>), and naga validates each kernel as
+/// specialised to its defaults.
+fn with_default_constants(mut words: Vec<u32>) -> Vec<u32> {
+    const OP_DECORATE: u32 = 71;
+    const SPEC_ID: u32 = 1;
+    const ALIGNMENT: u32 = 44;
+    let mut at = 5; // past the header
+    while at < words.len() {
+        let (count, opcode) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+        if opcode == OP_DECORATE && count == 4 && words[at + 2] == SPEC_ID {
+            words[at + 2] = ALIGNMENT;
+        }
+        at += count.max(1);
+    }
+    words
+}
+
 fn parse(name: &str) -> Module {
     let words = match TEST_KERNELS.iter().find(|(n, _)| *n == name) {
         Some((_, bytes)) => ash::util::read_spv(&mut std::io::Cursor::new(bytes)).unwrap(),
         None => kernel_spirv(name).unwrap(),
     };
+    let words = with_default_constants(words);
     naga::front::spv::parse_u8_slice(
         bytemuck::cast_slice(&words),
         &naga::front::spv::Options::default(),

@@ -18,7 +18,11 @@
 // in its binary nodes instead (tlas.glsl). A smaller array than the 3 × 64 a 4-wide walk can need
 // in the worst case: on lavapipe the array's size costs time (192 → 48 entries: extend 5–9 %
 // faster against shade).
-#define QBVH_STACK_SIZE 48u
+// The array is made for the scene (src/layout.rs, qbvh_stack_size; src/render.rs,
+// PreparedScene::gpu_features): its levels' largest deferred_bound less the two registers, at
+// least 1; the default, 48, in kernels made with every feature and the test kernels. A
+// specialisation constant: on lavapipe the array's size costs time (below).
+layout(constant_id = 7) const uint QBVH_STACK_SIZE = 48u;
 
 // The node's scale per axis, 2^(e − 127) from its biased exponent e (src/bvh/quantized.rs,
 // scale): made once per node, for all four slots.

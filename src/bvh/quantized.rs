@@ -138,7 +138,7 @@ impl WideBvh<WideNode> {
 /// (`QBVH_STACK_SIZE`) and the two the any-hit walk holds in registers (the closest-hit walk
 /// holds three). A level whose
 /// [`WideBvh::deferred_bound`] exceeds it is walked in its binary nodes on the GPU.
-pub const GPU_DEFERRED_MAX: u32 = 48 + 2;
+pub const GPU_DEFERRED_MAX: u32 = crate::layout::QBVH_STACK_MAX + 2;
 
 impl WideBvh<QuantNode> {
     /// The most slots a walk from wide node `w` can have deferred at once: over every path from
@@ -185,15 +185,17 @@ mod tests {
     use crate::bvh::Bvh;
     use glam::Vec3;
 
-    /// The GPU's bound is its walks' array and the any-hit walk's two registers (`qbvh.glsl`).
+    /// The GPU's bound is its walks' largest array (the specialisation constant's default, which
+    /// kernels made with every feature keep) and the any-hit walk's two registers (`qbvh.glsl`).
     #[test]
     fn gpu_deferred_max_is_the_shaders_array_and_two_registers() {
         let glsl = include_str!("../../shaders/inc/qbvh.glsl");
         let size: u32 = glsl
             .lines()
-            .find_map(|l| l.strip_prefix("#define QBVH_STACK_SIZE "))
-            .and_then(|v| v.trim().trim_end_matches('u').parse().ok())
+            .find_map(|l| l.strip_prefix("layout(constant_id = 7) const uint QBVH_STACK_SIZE = "))
+            .and_then(|v| v.trim().trim_end_matches("u;").parse().ok())
             .expect("QBVH_STACK_SIZE in qbvh.glsl");
+        assert_eq!(size, crate::layout::QBVH_STACK_MAX);
         assert_eq!(size + 2, GPU_DEFERRED_MAX);
     }
 

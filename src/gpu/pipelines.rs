@@ -394,7 +394,8 @@ pub struct Pipelines {
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     /// The specialisation constants of every kernel: the split's shifts, then whether scene
-    /// arrays are read from images (then the scene's features, per pipeline).
+    /// arrays are read from images (then the scene's features and the quantised walks'
+    /// deferred array, per pipeline: `layout::qbvh_stack_size`).
     constants: Vec<u32>,
     /// The pipelines created, by kernel and scene features (`layout::FEATURE_*`).
     pipelines: Mutex<HashMap<(&'static str, u32), vk::Pipeline>>,
@@ -530,7 +531,13 @@ impl Pipelines {
     /// The pipeline of kernel `name`, specialised by `self.constants` and `features`.
     fn create(&self, name: &'static str, features: u32) -> Result<vk::Pipeline> {
         let device = &self.device;
-        let constants: Vec<u32> = self.constants.iter().copied().chain([features]).collect();
+        let stack = crate::layout::qbvh_stack_size(features);
+        let constants: Vec<u32> = self
+            .constants
+            .iter()
+            .copied()
+            .chain([features, stack])
+            .collect();
         let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
             .map(|k| {
                 vk::SpecializationMapEntry::default()
