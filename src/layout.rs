@@ -1020,6 +1020,26 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
 mod tests {
     use super::*;
 
+    /// The deferred array of kernels made for a scene is the features' top byte; kernels made
+    /// with every feature (and a byte out of range) keep the largest, and the top byte never
+    /// reads as a feature.
+    #[test]
+    fn deferred_array_comes_from_the_top_byte() {
+        assert_eq!(qbvh_stack_size(FEATURES_ALL), QBVH_STACK_MAX);
+        assert_eq!(qbvh_stack_size(FEATURE_SOBOL), QBVH_STACK_MAX);
+        for n in 1..=QBVH_STACK_MAX {
+            let features = FEATURE_SOBOL | FEATURE_LIGHT_BVH | n << FEATURE_STACK_SHIFT;
+            assert_eq!(qbvh_stack_size(features), n);
+            assert_eq!(features & FEATURE_FLAGS, FEATURE_SOBOL | FEATURE_LIGHT_BVH);
+            assert_eq!(
+                feature_names(features),
+                feature_names(FEATURE_SOBOL | FEATURE_LIGHT_BVH)
+            );
+        }
+        assert_eq!(qbvh_stack_size(49 << FEATURE_STACK_SHIFT), QBVH_STACK_MAX);
+        assert!(FEATURE_LIGHT_BVH < 1 << FEATURE_STACK_SHIFT);
+    }
+
     /// The material image marks exactly the materials whose extension parameters (past the
     /// first five texels) are not the defaults the kernels substitute.
     #[test]
