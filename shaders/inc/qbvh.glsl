@@ -20,8 +20,8 @@
 // faster against shade).
 // The array is made for the scene (src/layout.rs, qbvh_stack_size; src/render.rs,
 // PreparedScene::gpu_features): its levels' largest deferred_bound less the two registers, at
-// least 1; the default, 48, in kernels made with every feature and the test kernels. A
-// specialisation constant: on lavapipe the array's size costs time (below).
+// least 1; the default, 48, in kernels made with every feature and the test kernels: made to
+// measure because its size costs time.
 layout(constant_id = 7) const uint QBVH_STACK_SIZE = 48u;
 
 // The node's scale per axis, 2^(e − 127) from its biased exponent e (src/bvh/quantized.rs,
