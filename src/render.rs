@@ -602,14 +602,20 @@ impl PreparedScene {
             let quant = WideBvh::collapse(&self.bvh.nodes, &self.level_roots()).quantized();
             let (nodes, base) = crate::bvh::quantized::gpu_nodes(&self.bvh.nodes, &quant);
             // A level of no primitives, or whose walk could defer more slots than the GPU
-            // keeps, is walked in its binary nodes (`tlas.glsl`).
+            // keeps, is walked in its binary nodes (`tlas.glsl`); the largest bound of the others
+            // sizes the kernels' deferred array (`gpu_features`).
             let mut bounds = std::collections::HashMap::new();
+            let mut deferred_max = 0;
             let mut wide_root = |binary: u32| {
                 quant
                     .root(binary)
                     .filter(|&w| {
                         let bound = *bounds.entry(w).or_insert_with(|| quant.deferred_bound(w));
-                        bound <= crate::bvh::quantized::GPU_DEFERRED_MAX
+                        let walked = bound <= crate::bvh::quantized::GPU_DEFERRED_MAX;
+                        if walked {
+                            deferred_max = deferred_max.max(bound);
+                        }
+                        walked
                     })
                     .map_or(crate::layout::NO_WIDE_ROOT, |w| {
                         crate::bvh::quantized::gpu_node_index(base, w)
@@ -624,12 +630,6 @@ impl PreparedScene {
                 })
                 .collect();
             let tlas_wide_root = wide_root(self.tlas_root);
-            let deferred_max = bounds
-                .values()
-                .copied()
-                .filter(|&b| b <= crate::bvh::quantized::GPU_DEFERRED_MAX)
-                .max()
-                .unwrap_or(0);
             GpuBvh {
                 nodes,
                 instances,
@@ -763,7 +763,11 @@ impl PreparedScene {
         .into_iter()
         .filter(|&(needed, _)| needed)
         .fold(0, |features, (_, f)| features | f)
-            | bvh.deferred_max.saturating_sub(2).clamp(1, QBVH_STACK_MAX) << FEATURE_STACK_SHIFT
+            | bvh
+                .deferred_max
+                .saturating_sub(crate::bvh::quantized::GPU_DEFERRED_REGISTERS)
+                .clamp(1, QBVH_STACK_MAX)
+                << FEATURE_STACK_SHIFT
     }
 
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {

@@ -138,7 +138,11 @@ impl WideBvh<WideNode> {
 /// (`QBVH_STACK_SIZE`) and the two the any-hit walk holds in registers (the closest-hit walk
 /// holds three). A level whose
 /// [`WideBvh::deferred_bound`] exceeds it is walked in its binary nodes on the GPU.
-pub const GPU_DEFERRED_MAX: u32 = crate::layout::QBVH_STACK_MAX + 2;
+pub const GPU_DEFERRED_MAX: u32 = crate::layout::QBVH_STACK_MAX + GPU_DEFERRED_REGISTERS;
+
+/// The deferred slots the any-hit walk keeps in registers (`qbvh.glsl`; the closest-hit walk
+/// keeps three): a level whose bound is b needs b less these in the array.
+pub const GPU_DEFERRED_REGISTERS: u32 = 2;
 
 impl WideBvh<QuantNode> {
     /// The most slots a walk from wide node `w` can have deferred at once: over every path from
