@@ -196,7 +196,6 @@ pub fn surface_emitter(
 }
 
 /// Material `m` at the surface point: factors times textures times vertex colour.
-
 pub fn surface_material(
     data: &TextureData,
     m: &GpuMaterial,
