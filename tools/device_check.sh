@@ -1,56 +1,93 @@
 #!/usr/bin/env bash
-# The real-GPU figures issue 13 asks for, as one prepared run of the project's `device` tool (a
-# lent machine with one NVIDIA H100 or H200, its Vulkan driver, no Rust and no network, and
-# 15 minutes of device time per session, start-up included), so a session that is lent one
-# spends it measuring rather than setting up.
+# The real-GPU checks and figures issue 13 asks for, as one prepared run of the project's
+# `device` tool (a lent machine with one NVIDIA H100 or H200, its Vulkan driver, no Rust and no
+# network, and 15 minutes of device time per session, start-up included), so a session that is
+# lent one spends it measuring rather than setting up.
 #
-#   tools/device_check.sh prepare [--mitsuba]    here: fills .device/ and .gl/ (both ignored)
-#   run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=540)
-#   tools/device_check.sh run --quick            here, on lavapipe: the same steps, small
-#                                                (PYTHON=python3.12 for the Mitsuba step)
+#   tools/device_check.sh prepare [--mitsuba] [--tests]   here: fills .device/ and .gl/ (ignored)
+#   run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=560)
+#   tools/device_check.sh run --quick                     here, on lavapipe: the same steps,
+#                                           small (PYTHON=python3.12 for the Mitsuba step)
 #
-# `prepare` builds the release binary and puts a stripped copy in .device/, with the two
-# Khronos sample models the issue names read from ../shared/gltf-samples (third-party data:
-# copied into the ignored .device/ for the trip, never committed), the Vulkan loader packages
-# the device README names in .gl/, and with --mitsuba Mitsuba 3 and Dr.Jit (Python 3.12 wheels,
-# trimmed to the scalar_rgb and cuda_ad_rgb variants and compressed) in .device/site.tar.xz,
-# under the tool's 64 MiB limit on what travels.
+# `prepare` builds the release binary and packs a stripped copy into .device/, with the two
+# Khronos sample models the figures name read from ../shared/gltf-samples (third-party data:
+# copied into the ignored .device/ for the trip, never committed) and the Vulkan loader
+# packages the device README names in .gl/. --mitsuba adds Mitsuba 3 and Dr.Jit (Python 3.12
+# wheels trimmed to the scalar_rgb and cuda_ad_rgb variants); --tests adds the test binaries
+# that open a GPU, stripped, and the whole samples folder they read. All of it travels under
+# the tool's 64 MiB (about 56 MB with both options).
 #
 # `run` writes under $OUT (the tool brings back at most 8 files): device_check.log (every
 # step's output, its wall time and exit status), bench-cornell.json and bench-large.json
-# (`wavetrace bench --json`) and cornell-box.png. A step that fails or runs past its time is
-# logged and the next one runs. The steps:
-#   1. nvidia-smi, and `render --device auto` of the Cornell box: it must say it chose the GPU;
-#   2. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference, every scene;
-#   3. `bench --gpu-only` of the Cornell box (1024², 64 spp, depth 8): samples/s, rays/s and
-#      per-kernel ms, as on lavapipe but wide;
-#   4. `bench --gpu-only --environment 1` of TransmissionTest (129k triangles),
+# (`wavetrace bench --json`) and cornell-box.png. A step that fails or runs past its limit is
+# logged and the next one runs. The steps, figures first:
+#   1. nvidia-smi, and `render --device auto` of the Cornell box, which must choose the GPU;
+#   2. `bench --gpu-only` of the Cornell box (1024², 64 spp, depth 8): samples/s, rays/s and
+#      per-kernel ms;
+#   3. `bench --gpu-only --environment 1` of TransmissionTest (129k triangles),
 #      MetalRoughSpheresNoTextures (1M) and a 2M-triangle terrain (tools/gen_large.py): the
-#      issue's ≥ 1 G rays/s (extension + shadow; the uniform environment gives the unlit spheres
-#      shadow rays);
-#   5. `bench --bvh` of the two large scenes on the machine's 16 cores;
-#   6. with .device/site.tar.xz: Mitsuba 3's cuda_ad_rgb on the Cornell box at step 3's settings
-#      (tools/mitsuba_bench.py, independent sampler on both sides), then wavetrace the same way.
+#      issue's ≥ 1 G rays/s, extension + shadow (the uniform environment gives the unlit
+#      spheres shadow rays);
+#   4. with Mitsuba packed: its cuda_ad_rgb on the Cornell box at step 2's settings
+#      (tools/mitsuba_bench.py), then wavetrace sampling as Mitsuba does;
+#   5. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
+#   6. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
+#      (the binaries read files under the path they were built in, which `run` links to);
+#   7. `bench --bvh` of the large scenes on the machine's cores.
 set -uo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root" || exit 2
 samples="${WAVETRACE_SAMPLES:-$root/../shared/gltf-samples}"
 large=(TransmissionTest.glb MetalRoughSpheresNoTextures.glb)
+# The test binaries that open a GPU (tests/common's `gpu()`).
+gpu_tests=(adaptive bidir cli dispersion environment furnace gpu_vs_cpu light_bvh_twins
+    light_sampling material_extensions materials punctual real_files shards surface_twins
+    texture_spec transmission_extensions twins verify)
 
 prepare() {
-    local mitsuba=0
-    [ "${1:-}" = "--mitsuba" ] && mitsuba=1
+    local mitsuba=0 tests=0
+    for a in "$@"; do
+        case "$a" in
+        --mitsuba) mitsuba=1 ;;
+        --tests) tests=1 ;;
+        *) echo "prepare: unknown option $a" >&2 && exit 2 ;;
+        esac
+    done
     cargo build --release --locked || exit 1
-    mkdir -p .device
-    objcopy --strip-all target/release/wavetrace .device/wavetrace || exit 1
+    rm -rf .device && mkdir -p .device/pack/tests
+    objcopy --strip-all target/release/wavetrace .device/pack/wavetrace || exit 1
+    # Where the test binaries look for the repository and its ../shared (env!("CARGO_MANIFEST_DIR")).
+    echo "$root" >.device/pack/built_in
     for f in "${large[@]}"; do
         if [ -f "$samples/valid/$f" ]; then
             cp "$samples/valid/$f" .device/
         else
-            echo "notice: $samples/valid/$f is absent: step 4 measures the terrain alone"
+            echo "notice: $samples/valid/$f is absent: step 3 measures the terrain alone"
         fi
     done
+    if [ $tests = 1 ]; then
+        local list
+        list=$(cargo test --release --locked --no-run --message-format=json 2>/dev/null |
+            python3 -c 'import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and "test" in m["target"]["kind"]:
+        print(m["target"]["name"], m["executable"])') || exit 1
+        for t in "${gpu_tests[@]}"; do
+            local exe
+            exe=$(echo "$list" | awk -v t="$t" '$1 == t {print $2}')
+            [ -n "$exe" ] || { echo "prepare: no test binary $t" >&2 && exit 1; }
+            objcopy --strip-all "$exe" ".device/pack/tests/$t" || exit 1
+        done
+        if [ -d "$samples" ]; then
+            cp -r --no-preserve=mode "$samples" .device/gltf-samples
+        else
+            echo "notice: $samples is absent: the real-file tests will skip there"
+        fi
+    fi
+    # One archive: the binaries share most of their code, which xz finds (100 MB -> 10 MB).
+    tar -C .device -cJf .device/pack.tar.xz pack && rm -rf .device/pack
     if ! ls .gl/*.deb >/dev/null 2>&1; then
         # The device README's recipe: the loaders, as amd64 packages, unpacked there.
         local o=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64)
@@ -65,15 +102,15 @@ prepare() {
         python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
             --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
             --platform manylinux_2_17_x86_64 -d "$whl" mitsuba==3.9.1 drjit==1.5.0 || exit 1
-        rm -rf .device/site && mkdir -p .device/site
+        mkdir -p .device/site
         for w in "$whl"/*.whl; do
             python3 -m zipfile -e "$w" .device/site || exit 1
         done
-        # Unpacked the two are 190 MB, past the 64 MiB that may travel: keep the bindings of
-        # two variants and the plugins tools/mitsuba_bench.py's scenes name (plus the textures
-        # and spectra an RGB scene loads by default), drop headers, stubs and the spectral
-        # upsampling table, and send them compressed.
-        local m=.device/site/mitsuba keep=" area box d65 diffuse hdrfilm independent merge path perspective ply srgb twosided uniform "
+        # Unpacked the two are 190 MB: keep the bindings of two variants and the plugins
+        # tools/mitsuba_bench.py's scenes name (and the textures and spectra an RGB scene loads
+        # by default), drop headers, stubs and the spectral upsampling table, and compress.
+        local m=.device/site/mitsuba
+        local keep=" area box d65 diffuse hdrfilm independent merge path perspective ply srgb twosided uniform "
         find $m -maxdepth 1 -name '*.cpython-*.so' ! -name 'cuda_ad_rgb.*' ! -name 'scalar_rgb.*' \
             ! -name 'mitsuba_*' -delete
         for p in $m/plugins/*.so; do
@@ -83,9 +120,15 @@ prepare() {
         find .device/site -name '*.pyi' -delete
         tar -C .device -cJf .device/site.tar.xz site && rm -rf .device/site "$whl"
     fi
-    echo "what travels (carry .device and .gl; the repository's own files come too):"
+    echo "what travels (carry .device and .gl; the repository's tracked files come too):"
     du -sh .device .gl
-    echo 'run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=540)'
+    echo 'run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=560)'
+}
+
+# unpack ARCHIVE: into /tmp, with tar or, where xz is missing, Python's tarfile.
+unpack() {
+    tar -C /tmp -xJf "$1" 2>/dev/null ||
+        python3 -c 'import sys, tarfile; tarfile.open(sys.argv[1]).extractall("/tmp")' "$1"
 }
 
 # step NAME SECONDS COMMAND...: runs it under a time limit, logging its wall time and status.
@@ -98,13 +141,13 @@ step() {
     timeout --kill-after=10 "$limit" "$@"
     local rc=$?
     echo "== $name: exit $rc after $((SECONDS - t0)) s"
+    return $rc
 }
 
 run() {
-    local size=1024 spp=64
+    local quick=0 size=1024 spp=64
     if [ "${1:-}" = "--quick" ]; then
-        size=128
-        spp=4
+        quick=1 size=128 spp=4
     fi
     local out="${OUT:-$root/target/device-check}"
     mkdir -p "$out"
@@ -118,33 +161,59 @@ run() {
     if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
         export VK_DRIVER_FILES=$icd
     fi
-    local wt=.device/wavetrace
-    [ -x "$wt" ] || wt=target/release/wavetrace
+    local wt=target/release/wavetrace tests=()
+    if [ -f .device/pack.tar.xz ]; then
+        rm -rf /tmp/pack && unpack .device/pack.tar.xz || exit 1
+        wt=/tmp/pack/wavetrace
+        for t in /tmp/pack/tests/*; do [ -x "$t" ] && tests+=("$t"); done
+    fi
     local scenes=()
     for f in "${large[@]}"; do
         [ -f ".device/$f" ] && scenes+=(".device/$f")
     done
     local terrain=/tmp/terrain-2000000.gltf
-    step "terrain scene" 120 python3 tools/gen_large.py terrain "$terrain" --triangles 2000000 --texture 1024 &&
-        scenes+=("$terrain")
+    step "terrain scene" 120 python3 tools/gen_large.py terrain "$terrain" --triangles 2000000 \
+        --texture 1024 && scenes+=("$terrain")
 
     step "GPU" 30 nvidia-smi -L
     step "render --device auto" 120 "$wt" render scenes/cornell-box.gltf --width 256 --height 256 \
         --spp 16 --stats -o "$out/cornell-box.png"
-    step "verify" 240 "$wt" verify scenes/*.gltf --width 64 --spp 256 --max-depth 7
     step "bench cornell-box" 120 "$wt" bench --gpu-only --width $size --height $size --spp $spp \
         --json "$out/bench-cornell.json" scenes/cornell-box.gltf
     step "bench large scenes" 240 "$wt" bench --gpu-only --width $size --height $size --spp $spp \
         --environment 1 --json "$out/bench-large.json" "${scenes[@]}"
-    step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
-    if [ -f .device/site.tar.xz ] && tar -C /tmp -xJf .device/site.tar.xz; then
+    if [ -f .device/site.tar.xz ] && unpack .device/site.tar.xz; then
         local variant=cuda_ad_rgb
-        [ "${1:-}" = "--quick" ] && variant=scalar_rgb
-        step "Mitsuba $variant" 180 env PYTHONPATH=/tmp/site "${PYTHON:-python3}" tools/mitsuba_bench.py \
-            scenes/cornell-box.gltf --variant $variant --width $size --height $size --spp $spp
-        step "wavetrace, as Mitsuba samples" 120 "$wt" bench --gpu-only --width $size --height $size \
-            --spp $spp --sampler independent --light-sampler power scenes/cornell-box.gltf
+        [ $quick = 1 ] && variant=scalar_rgb
+        step "Mitsuba $variant" 180 env PYTHONPATH=/tmp/site "${PYTHON:-python3}" \
+            tools/mitsuba_bench.py scenes/cornell-box.gltf --variant $variant --width $size \
+            --height $size --spp $spp
+        step "wavetrace, as Mitsuba samples" 120 "$wt" bench --gpu-only --width $size \
+            --height $size --spp $spp --sampler independent --light-sampler power \
+            scenes/cornell-box.gltf
     fi
+    step "verify" 240 "$wt" verify scenes/*.gltf --width 64 --spp 256 --max-depth 7
+    if [ ${#tests[@]} -gt 0 ]; then
+        # The binaries name files under the folder they were built in and its ../shared, and
+        # run the CLI from its target/release: make those paths lead here.
+        local built_in
+        built_in=$(cat /tmp/pack/built_in)
+        if [ "$built_in" != "$root" ] && [ ! -e "$built_in" ]; then
+            mkdir -p "$(dirname "$built_in")" && ln -s "$root" "$built_in"
+        fi
+        if [ -d .device/gltf-samples ] && [ ! -e "$built_in/../shared/gltf-samples" ]; then
+            mkdir -p "$built_in/../shared" && ln -s "$root/.device/gltf-samples" "$built_in/../shared/gltf-samples"
+        fi
+        if [ ! -x target/release/wavetrace ]; then
+            mkdir -p target/release && cp "$wt" target/release/wavetrace
+        fi
+        [ $quick = 1 ] && tests=(/tmp/pack/tests/twins /tmp/pack/tests/verify)
+        for t in "${tests[@]}"; do
+            step "test $(basename "$t")" 300 "$t" --test-threads "$(nproc)" 2>&1 |
+                grep -E '^(==|test result|failures:|    [a-z_:]+$|thread .* panicked|GPU tests on)'
+        done
+    fi
+    step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
     echo
     echo "== done ($(date -u +%H:%M:%S)); files in $out"
 }
@@ -159,7 +228,7 @@ run)
     run "$@"
     ;;
 *)
-    sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,36p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac
