@@ -260,13 +260,13 @@ impl WideBvh<WideNode> {
 /// BVHs", §3.1's dynamic program, for four slots). Every binary leaf is kept, so the leaves'
 /// part of the cost is fixed, and a ray's walk tests a wide node's slots together: a tree's
 /// cost is the sum of its wide nodes' surface areas (each the box of the binary node it
-/// collapses). In [`Plan::solve`], `cost[i][k − 1]` is the least sum over the wide nodes strictly below binary node
-/// i's place when its subtree fills at most k slots of its parent: 0 for a leaf; for k = 1 an
-/// interior node is a wide node of its own, its area plus the best split of four slots between
-/// its children; for k ≥ 2 the better of k − 1 slots and each split of k between the children.
-/// Opening the largest child first (pbrt's and Embree's greedy collapse, this project's until
-/// December 2026) left the Cornell box's walks 19 % more wide nodes by this measure, and
-/// DamagedHelmet's 3 %.
+/// collapses). In [`Plan::solve`], `cost[i][k − 1]` is the least such sum over the wide nodes
+/// in binary node i's subtree when the subtree fills at most k slots of its parent's wide
+/// node: 0 for a leaf; for k = 1 an interior node is a wide node of its own, its area plus the
+/// best split of four slots between its children; for k ≥ 2 the better of k − 1 slots and each
+/// split of k between the children. Opening the largest child first (pbrt's and Embree's greedy
+/// collapse, this project's until December 2026) left the Cornell box's walks 19 % more wide
+/// nodes by this measure, and DamagedHelmet's 3 %.
 pub(super) struct Plan {
     /// Per node and k: for k ≥ 2 the left child's share of the k slots, 0 where k − 1 slots
     /// cost less; for k = 1 the two children's shares of their wide node's four slots (left in
