@@ -152,6 +152,7 @@ run() {
     local out="${OUT:-$root/target/device-check}"
     mkdir -p "$out"
     exec > >(tee "$out/device_check.log") 2>&1
+    local tee_pid=$!
     echo "wavetrace device check, $(date -u), $(nproc) cores, git $(git rev-parse --short HEAD 2>/dev/null || echo '?')"
     if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
         for f in .gl/*.deb; do [ -f "$f" ] && dpkg -x "$f" /; done
@@ -216,6 +217,9 @@ run() {
     step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
     echo
     echo "== done ($(date -u +%H:%M:%S)); files in $out"
+    # The log is whole before the tool collects $OUT.
+    exec >&- 2>&-
+    wait "$tee_pid" 2>/dev/null
 }
 
 case "${1:-}" in
