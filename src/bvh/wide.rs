@@ -619,3 +619,4 @@ impl<N: WideSlots> Hierarchy for WideBvh<N> {
         }
     }
 }
+
