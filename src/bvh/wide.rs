@@ -619,4 +619,3 @@ impl<N: WideSlots> Hierarchy for WideBvh<N> {
         }
     }
 }
-
