@@ -355,7 +355,7 @@ fn validate_wide(bvh: &Bvh, wide: &WideBvh) {
     // the same f32 areas in different orders; each of their n − 1 additions rounds by at most
     // 2⁻²⁴ of the running sum (n < 2¹⁶ here), hence the bound.
     if !bvh.nodes[0].is_leaf() && !bvh.is_empty() {
-        let areas: Vec<f64> = wide.nodes.iter().map(|w| wide_node_half_area(w)).collect();
+        let areas: Vec<f64> = wide.nodes.iter().map(wide_node_half_area).collect();
         let sum: f64 = areas.iter().sum();
         let plan = wide::Plan::cost_of(&bvh.nodes, 0) as f64;
         let bound = areas.len() as f64 * 2f64.powi(-24) * sum;
