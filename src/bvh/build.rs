@@ -757,16 +757,20 @@ impl Bvh {
     }
 }
 
+/// Half the surface area of a node's box (0 for an inverted one), as the build's SAH takes it:
+/// xy + yz + zx in that order.
+pub(crate) fn node_half_area(n: &BvhNode) -> f32 {
+    Aabb {
+        min: Vec3::from(n.bounds_min).extend(0.0),
+        max: Vec3::from(n.bounds_max).extend(0.0),
+    }
+    .half_area()
+}
+
 /// SAH cost of a flattened BVH: Σ interior area·C_T + Σ leaf area·count·C_I, over the root's area
 /// (C_T = C_I = 1). 0 for an empty or zero-area BVH.
 pub fn sah_cost(nodes: &[BvhNode]) -> f32 {
-    let area = |n: &BvhNode| {
-        Aabb {
-            min: Vec3::from(n.bounds_min).extend(0.0),
-            max: Vec3::from(n.bounds_max).extend(0.0),
-        }
-        .half_area()
-    };
+    let area = node_half_area;
     let Some(root_area) = nodes.first().map(area).filter(|&a| a > 0.0) else {
         return 0.0;
     };

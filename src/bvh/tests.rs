@@ -379,8 +379,7 @@ fn wide_node_half_area(w: &wide::WideNode) -> f64 {
 
 /// Binary node `i`'s half area, as the collapse's plan takes it.
 fn node_half_area(n: &BvhNode) -> f64 {
-    let d = Vec3::from(n.bounds_max) - Vec3::from(n.bounds_min);
-    (d.x * d.y + d.y * d.z + d.z * d.x) as f64
+    super::build::node_half_area(n) as f64
 }
 
 /// The least sum of wide-node half areas of the collapse of the subtree at interior node `i`,

@@ -286,10 +286,7 @@ impl Plan {
     /// the one with fewer nodes.
     #[allow(clippy::type_complexity)]
     fn solve(nodes: &[BvhNode]) -> (Vec<[(f32, u32); WIDTH]>, Vec<[u8; WIDTH]>) {
-        let half_area = |n: &BvhNode| {
-            let d = glam::Vec3::from(n.bounds_max) - glam::Vec3::from(n.bounds_min);
-            d.x * d.y + d.y * d.z + d.z * d.x
-        };
+        let half_area = super::build::node_half_area;
         let less = |a: (f32, u32), b: (f32, u32)| a.0 < b.0 || (a.0 == b.0 && a.1 < b.1);
         let add = |a: (f32, u32), b: (f32, u32)| (a.0 + b.0, a.1 + b.1);
         let mut cost = vec![[(0.0f32, 0u32); WIDTH]; nodes.len()];
