@@ -390,15 +390,15 @@ pub fn towards_eye(key: UVec4) -> UVec4 {
     UVec4::new(key.x, key.y, key.z | ALPHA_KEY_TOWARDS_EYE, key.w)
 }
 
-/// Whether a single-sided triangle whose front-face normal is `n` is absent for a ray of
-/// direction `dir` with alpha key `key` (module rule above: primary rays and joins to the
-/// camera only).
-pub fn culled(key: UVec4, dir: Vec3, n: Vec3) -> bool {
-    let facing = dir.dot(n);
+/// Whether a single-sided triangle with edges `e1`, `e2` (front-face normal e1 × e2) is absent
+/// for a ray of direction `dir` with alpha key `key` (module rule above: primary rays and joins
+/// to the camera only). The normal is formed only for those rays, which every other ray of a
+/// path skips (Cornell box: 12 178 → 12 098 CPU instructions per sample).
+pub fn culled(key: UVec4, dir: Vec3, e1: Vec3, e2: Vec3) -> bool {
     if key.z & ALPHA_KEY_TOWARDS_EYE != 0 {
-        facing < 0.0
+        dir.dot(e1.cross(e2)) < 0.0
     } else {
-        key.z == ALPHA_KEY_PRIMARY_Z && facing > 0.0
+        key.z == ALPHA_KEY_PRIMARY_Z && dir.dot(e1.cross(e2)) > 0.0
     }
 }
 
@@ -436,7 +436,7 @@ pub fn triangle_present(
         return true;
     }
     if tri.material & TRIANGLE_TEST_CULL != 0
-        && culled(key, dir, Vec3::from(tri.e1).cross(Vec3::from(tri.e2)))
+        && culled(key, dir, Vec3::from(tri.e1), Vec3::from(tri.e2))
     {
         return false;
     }

@@ -240,10 +240,10 @@ bool alpha_present(uint flags, float alpha, float cutoff, float u) {
 #define ALPHA_KEY_PRIMARY_Z 0x40000000u
 #define ALPHA_KEY_TOWARDS_EYE 0x80000000u
 uvec4 towards_eye(uvec4 key) { return uvec4(key.x, key.y, key.z | ALPHA_KEY_TOWARDS_EYE, key.w); }
-bool culled(uvec4 key, vec3 dir, vec3 n) {
-    float facing = dot(dir, n);
-    if ((key.z & ALPHA_KEY_TOWARDS_EYE) != 0u) return facing < 0.0;
-    return key.z == ALPHA_KEY_PRIMARY_Z && facing > 0.0;
+// The normal e1 × e2 is formed only for the rays that cull.
+bool culled(uvec4 key, vec3 dir, vec3 e1, vec3 e2) {
+    if ((key.z & ALPHA_KEY_TOWARDS_EYE) != 0u) return dot(dir, cross(e1, e2)) < 0.0;
+    return key.z == ALPHA_KEY_PRIMARY_Z && dot(dir, cross(e1, e2)) > 0.0;
 }
 
 // The any-hit test of both traversals: whether triangle `index` (its record `tri`, which the
@@ -251,7 +251,7 @@ bool culled(uvec4 key, vec3 dir, vec3 n) {
 // TRIANGLE_TEST_CULL triangle is culled, alpha-tested ones by their alpha.
 bool triangle_present(GpuTriangle tri, uint index, float u, float v, uvec4 key, vec3 dir) {
     if ((tri.material & (TRIANGLE_TEST_ALPHA | TRIANGLE_TEST_CULL)) == 0u) return true;
-    if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, cross(tri.e1, tri.e2))) return false;
+    if ((tri.material & TRIANGLE_TEST_CULL) != 0u && culled(key, dir, tri.e1, tri.e2)) return false;
     if (!SCENE_HAS(FEATURE_ALPHA) || (tri.material & TRIANGLE_TEST_ALPHA) == 0u) return true;
     uvec4 tv = triangle_vertices_at(index);
     GpuMaterial m = material_at(triangle_material(tri));
