@@ -330,19 +330,30 @@ fn no_specular_layer(metallic: f32, f0: Vec3, f90: f32, film: &ThinFilm, etap: f
     metallic == 0.0 && f90 == 0.0 && f0.max_element() == 0.0 && film.factor <= 0.0 && etap >= 1.0
 }
 
-impl BsdfFrame {
-    /// The frame of the geometric normal (no shading normal). None where `wo` lies in the
-    /// surface's plane (no light leaves along it).
-    pub fn new(m: &GpuMaterial, ng: Vec3, wo: Vec3) -> Option<BsdfFrame> {
-        BsdfFrame::new_shading(m, ng, ng, wo)
-    }
+/// The shading frame of a surface seen from `wo`, the first steps of every frame
+/// ([`BsdfFrame::new_shading`], [`LambertFrame::new`]).
+struct Shading {
+    /// ng · wo.
+    cos_g: f32,
+    /// Whether `wo` lies on the front face's side.
+    front: bool,
+    /// The geometric normal on `wo`'s side.
+    ng_wo: Vec3,
+    /// The shading normal on `wo`'s side, bent ([`bend_shading_normal`]), and the tangents.
+    n: Vec3,
+    t: Vec3,
+    b: Vec3,
+    /// `ng_wo` in the local frame (+Z where the shading normal is the geometric one).
+    ng_local: Vec3,
+    unlit: bool,
+    /// KHR_materials_anisotropy's strength (0 for an unlit surface).
+    anisotropy: f32,
+}
 
-    /// The frame of shading normal `ns` (unit, either side), flipped with the geometric normal
-    /// `ng` to `wo`'s side and bent by [`bend_shading_normal`]. The BSDF is evaluated in it,
-    /// but whether a direction reflects or transmits is decided by the geometric surface, and
-    /// where the two disagree the BSDF is zero, so no light leaks through a surface whose
-    /// shading normal tilts over its horizon (Veach 1997, §5.3; pbrt-v3 §9.1).
-    pub fn new_shading(m: &GpuMaterial, ng: Vec3, ns: Vec3, wo: Vec3) -> Option<BsdfFrame> {
+impl Shading {
+    /// None where `wo` lies in the surface's plane (no light leaves along it).
+    #[inline(always)]
+    fn new(m: &GpuMaterial, ng: Vec3, ns: Vec3, wo: Vec3) -> Option<Shading> {
         let cos_g = ng.dot(wo);
         if cos_g == 0.0 || !cos_g.is_finite() {
             return None;
@@ -359,6 +370,201 @@ impl BsdfFrame {
         let unlit = m.flags & MATERIAL_UNLIT != 0;
         let anisotropy = if unlit { 0.0 } else { m.anisotropy };
         let (t, b) = anisotropic_frame(n, anisotropy, Vec3::from(m.anisotropy_direction));
+        let ng_local = if ns == ng {
+            Vec3::Z
+        } else {
+            Vec3::new(ng_wo.dot(t), ng_wo.dot(b), ng_wo.dot(n))
+        };
+        Some(Shading {
+            cos_g,
+            front,
+            ng_wo,
+            n,
+            t,
+            b,
+            ng_local,
+            unlit,
+            anisotropy,
+        })
+    }
+}
+
+/// A plain diffuse material ([`material_is_plain`]) seen from `wo`: Lambert's lobe alone, the
+/// fields a [`plain`](BsdfFrame) [`BsdfFrame`] reads (72 bytes of its 280), whose plain path is
+/// this frame's. Its eval, pdf and sample give the general path's floats (test
+/// `lambert_frames_equal_the_general_path`).
+/// The CPU reference shades every vertex of a plain material with it: building the general
+/// frame — the layers' arithmetic and the stores of its fields — was most of a plain vertex's
+/// BSDF work.
+#[derive(Clone, Copy, Debug)]
+pub struct LambertFrame {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    /// The geometric normal on `wo`'s side, in the local frame.
+    ng: Vec3,
+    base: Vec3,
+    /// The diffuse lobe's probability: 1, or 0 where the surface scatters nothing.
+    pmf: f32,
+    /// The diffuse lobe's albedo estimate, average(base colour) ([`BsdfFrame::albedo_estimate`]).
+    pub albedo_estimate: f32,
+}
+
+impl LambertFrame {
+    /// The frame of a plain material `m` at shading normal `ns` ([`BsdfFrame::new_shading`]
+    /// for such a material, which it must be). None where `wo` lies in the surface's plane.
+    pub fn new(m: &GpuMaterial, ng: Vec3, ns: Vec3, wo: Vec3) -> Option<LambertFrame> {
+        debug_assert!(material_is_plain(m));
+        let s = Shading::new(m, ng, ns, wo)?;
+        let base = if s.unlit {
+            Vec3::ZERO
+        } else {
+            Vec3::from(m.base_color)
+        };
+        // new_shading's lobe estimates of a plain material: the diffuse lobe's
+        // 1 · (1 − 0) · average(base), every other lobe's an exact 0; normalised by their sum
+        // (1 where the surface scatters; NaN where the sum is infinite, as there).
+        let diffuse = average(base);
+        let total = diffuse;
+        Some(LambertFrame {
+            t: s.t,
+            b: s.b,
+            n: s.n,
+            ng: s.ng_local,
+            base,
+            pmf: if total > 0.0 { diffuse / total } else { 0.0 },
+            albedo_estimate: total,
+        })
+    }
+
+    /// Whether local `wi` lies on the same side of the geometric and the shading surface.
+    fn consistent(&self, wi: Vec3) -> bool {
+        (wi.dot(self.ng) > 0.0) == (wi.z > 0.0)
+    }
+
+    fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+    }
+
+    /// Lambert's f at world-space `wi` (the same in both transport modes).
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        let wi = self.to_local(wi);
+        if self.consistent(wi) && wi.z > 0.0 {
+            FRAC_1_PI * self.base
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// The cosine-weighted pdf at world-space `wi`.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let wi = self.to_local(wi);
+        if self.consistent(wi) && wi.z > 0.0 {
+            self.pmf * cosine_hemisphere_pdf(wi.z)
+        } else {
+            0.0
+        }
+    }
+
+    /// |cos| between world-space `wi` and the shading normal.
+    pub fn cos_theta(&self, wi: Vec3) -> f32 {
+        wi.dot(self.n).abs()
+    }
+
+    /// A cosine-weighted direction for `u.xy` if the surface scatters anything (`u.z`, the
+    /// general frame's lobe choice, is not read); a direction on the surface is no sample.
+    pub fn sample(&self, u: Vec3) -> Option<BsdfSample> {
+        if !(self.pmf > 0.0) {
+            return None;
+        }
+        let local = sample_cosine_hemisphere(Vec2::new(u.x, u.y));
+        if !(local.z > 0.0) {
+            return None;
+        }
+        let wi = self.t * local.x + self.b * local.y + self.n * local.z;
+        let pdf = self.pdf(wi);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.eval(wi) * (self.cos_theta(wi) / pdf),
+            pdf,
+            delta: false,
+        })
+    }
+}
+
+/// What a path vertex asks of its BSDF (the CPU reference's `shade`), from a general
+/// [`BsdfFrame`] or a [`LambertFrame`].
+pub trait VertexBsdf {
+    fn eval(&self, wi: Vec3, mode: TransportMode) -> Vec3;
+    fn pdf(&self, wi: Vec3) -> f32;
+    fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample>;
+    fn cos_theta(&self, wi: Vec3) -> f32;
+    fn albedo_estimate(&self) -> f32;
+}
+
+impl VertexBsdf for BsdfFrame {
+    fn eval(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
+        BsdfFrame::eval(self, wi, mode)
+    }
+    fn pdf(&self, wi: Vec3) -> f32 {
+        BsdfFrame::pdf(self, wi)
+    }
+    fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        BsdfFrame::sample(self, u, mode)
+    }
+    fn cos_theta(&self, wi: Vec3) -> f32 {
+        BsdfFrame::cos_theta(self, wi)
+    }
+    fn albedo_estimate(&self) -> f32 {
+        self.albedo_estimate
+    }
+}
+
+impl VertexBsdf for LambertFrame {
+    fn eval(&self, wi: Vec3, _mode: TransportMode) -> Vec3 {
+        LambertFrame::eval(self, wi)
+    }
+    fn pdf(&self, wi: Vec3) -> f32 {
+        LambertFrame::pdf(self, wi)
+    }
+    fn sample(&self, u: Vec3, _mode: TransportMode) -> Option<BsdfSample> {
+        LambertFrame::sample(self, u)
+    }
+    fn cos_theta(&self, wi: Vec3) -> f32 {
+        LambertFrame::cos_theta(self, wi)
+    }
+    fn albedo_estimate(&self) -> f32 {
+        self.albedo_estimate
+    }
+}
+
+impl BsdfFrame {
+    /// The frame of the geometric normal (no shading normal). None where `wo` lies in the
+    /// surface's plane (no light leaves along it).
+    pub fn new(m: &GpuMaterial, ng: Vec3, wo: Vec3) -> Option<BsdfFrame> {
+        BsdfFrame::new_shading(m, ng, ng, wo)
+    }
+
+    /// The frame of shading normal `ns` (unit, either side), flipped with the geometric normal
+    /// `ng` to `wo`'s side and bent by [`bend_shading_normal`]. The BSDF is evaluated in it,
+    /// but whether a direction reflects or transmits is decided by the geometric surface, and
+    /// where the two disagree the BSDF is zero, so no light leaks through a surface whose
+    /// shading normal tilts over its horizon (Veach 1997, §5.3; pbrt-v3 §9.1).
+    pub fn new_shading(m: &GpuMaterial, ng: Vec3, ns: Vec3, wo: Vec3) -> Option<BsdfFrame> {
+        let Shading {
+            cos_g,
+            front,
+            ng_wo,
+            n,
+            t,
+            b,
+            ng_local,
+            unlit,
+            anisotropy,
+        } = Shading::new(m, ng, ns, wo)?;
         let wo_local = Vec3::new(
             wo.dot(t),
             wo.dot(b),
@@ -471,11 +677,7 @@ impl BsdfFrame {
             dt_color,
             lobe_pmf,
             albedo_estimate: total,
-            ng: if ns == ng {
-                Vec3::Z
-            } else {
-                Vec3::new(ng_wo.dot(t), ng_wo.dot(b), ng_wo.dot(n))
-            },
+            ng: ng_local,
             ng_world: ng_wo,
             clearcoat,
             cc_alpha: Vec2::splat(m.clearcoat_roughness * m.clearcoat_roughness),
@@ -492,23 +694,18 @@ impl BsdfFrame {
         })
     }
 
-    /// Lambert's f at local `wi` of a [`plain`](Self::plain) frame: [`eval_local`](Self::eval_local)
-    /// with its zero terms left out.
-    fn eval_plain(&self, wi: Vec3) -> Vec3 {
-        if self.consistent(wi) && wi.z > 0.0 {
-            FRAC_1_PI * self.base
-        } else {
-            Vec3::ZERO
-        }
-    }
-
-    /// The cosine-weighted pdf at local `wi` of a [`plain`](Self::plain) frame:
-    /// [`pdf_local`](Self::pdf_local) with its zero terms left out.
-    fn pdf_plain(&self, wi: Vec3) -> f32 {
-        if self.consistent(wi) && wi.z > 0.0 {
-            self.lobe_pmf[LOBE_DIFFUSE] * cosine_hemisphere_pdf(wi.z)
-        } else {
-            0.0
+    /// A [`plain`](Self::plain) frame as the [`LambertFrame`] it is: its eval, pdf and sample
+    /// are [`eval_local`](Self::eval_local)'s, [`pdf_local`](Self::pdf_local)'s and the diffuse
+    /// lobe's sample with their zero terms left out.
+    fn lambert(&self) -> LambertFrame {
+        LambertFrame {
+            t: self.t,
+            b: self.b,
+            n: self.n,
+            ng: self.ng,
+            base: self.base,
+            pmf: self.lobe_pmf[LOBE_DIFFUSE],
+            albedo_estimate: self.albedo_estimate,
         }
     }
 
@@ -790,7 +987,7 @@ impl BsdfFrame {
     /// f(wo, wi) of the non-delta lobes for world-space `wi` ([`bsdf_eval`] with this frame).
     pub fn eval(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
         if self.plain {
-            return self.eval_plain(self.to_local(wi));
+            return self.lambert().eval(wi);
         }
         let base = self.eval_local(self.to_local(wi), mode);
         if self.clearcoat <= 0.0 {
@@ -803,7 +1000,7 @@ impl BsdfFrame {
     /// The mixture pdf at world-space `wi` ([`bsdf_pdf`] with this frame).
     pub fn pdf(&self, wi: Vec3) -> f32 {
         if self.plain {
-            return self.pdf_plain(self.to_local(wi));
+            return self.lambert().pdf(wi);
         }
         let base = self.pdf_local(self.to_local(wi));
         if self.clearcoat <= 0.0 || self.lobe_pmf[LOBE_CLEARCOAT] <= 0.0 {
@@ -815,16 +1012,7 @@ impl BsdfFrame {
     /// Samples one lobe with `u.z`, then a direction in it with `u.xy` ([`bsdf_sample`]).
     pub fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
         if self.plain {
-            // The diffuse lobe if it scatters anything, chosen whatever u.z; a direction on the
-            // surface is no sample.
-            if !(self.lobe_pmf[LOBE_DIFFUSE] > 0.0) {
-                return None;
-            }
-            let wi = sample_cosine_hemisphere(Vec2::new(u.x, u.y));
-            if !(wi.z > 0.0) {
-                return None;
-            }
-            return self.weighed(self.to_world(wi), mode);
+            return self.lambert().sample(u);
         }
         // The first lobe whose cumulative probability exceeds u.z (rounding past the last
         // sum: the last lobe that can be chosen).

@@ -1347,37 +1347,43 @@ fn diffuse_transmission_is_reciprocal_and_a_white_leaf_keeps_all_the_light() {
 /// materials (colour, black too, roughness, anisotropy, ior, specular colour, unlit), shading
 /// normals, sides and directions; every frame of a material `material_is_plain` accepts is
 /// plain, and a material with any other lobe is neither.
+/// Random plain case `i`: a material `material_is_plain` accepts (colour, black too, roughness,
+/// anisotropy, ior, specular colour, unlit), and the surface's ng, ns (half the cases a shading
+/// normal of its own, tilted from ng) and wo.
+fn plain_case(i: u32) -> (GpuMaterial, Vec3, Vec3, Vec3) {
+    let r = rng_uniform4(91, i, 0, 0);
+    let q = rng_uniform4(91, i, 1, 0);
+    let base = Vec3::new(r.x, r.y, r.z) * [1.0, 1e-3, 0.0][(i % 7).min(2) as usize];
+    let m = GpuMaterial {
+        base_color: base.into(),
+        metallic: 0.0,
+        roughness: r.w,
+        ior: 0.8 + q.x,
+        specular: 0.0,
+        specular_color: [q.y * 2.0, 1.0, q.z],
+        anisotropy: if i % 3 == 0 { q.w } else { 0.0 },
+        anisotropy_direction: [0.48, 0.6, -0.64],
+        sheen_roughness: q.x,
+        clearcoat_roughness: q.y,
+        flags: if i % 11 == 5 { MATERIAL_UNLIT } else { 0 },
+        ..Default::default()
+    };
+    assert!(material_is_plain(&m));
+    let ng = unit(rng_uniform4(91, i, 2, 0));
+    let ns = if i % 2 == 0 {
+        ng
+    } else {
+        (ng + 0.6 * unit(rng_uniform4(91, i, 3, 0))).normalize()
+    };
+    (m, ng, ns, unit(rng_uniform4(91, i, 4, 0)))
+}
+
 #[test]
 fn plain_diffuse_frames_equal_the_general_path() {
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let mut plain_frames = 0;
     for i in 0..4000u32 {
-        let r = rng_uniform4(91, i, 0, 0);
-        let q = rng_uniform4(91, i, 1, 0);
-        let base = Vec3::new(r.x, r.y, r.z) * [1.0, 1e-3, 0.0][(i % 7).min(2) as usize];
-        let m = GpuMaterial {
-            base_color: base.into(),
-            metallic: 0.0,
-            roughness: r.w,
-            ior: 0.8 + q.x,
-            specular: 0.0,
-            specular_color: [q.y * 2.0, 1.0, q.z],
-            anisotropy: if i % 3 == 0 { q.w } else { 0.0 },
-            anisotropy_direction: [0.48, 0.6, -0.64],
-            sheen_roughness: q.x,
-            clearcoat_roughness: q.y,
-            flags: if i % 11 == 5 { MATERIAL_UNLIT } else { 0 },
-            ..Default::default()
-        };
-        assert!(material_is_plain(&m));
-        let ng = unit(rng_uniform4(91, i, 2, 0));
-        // Half the cases with a shading normal of their own, tilted from ng.
-        let ns = if i % 2 == 0 {
-            ng
-        } else {
-            (ng + 0.6 * unit(rng_uniform4(91, i, 3, 0))).normalize()
-        };
-        let wo = unit(rng_uniform4(91, i, 4, 0));
+        let (m, ng, ns, wo) = plain_case(i);
         let Some(frame) = BsdfFrame::new_shading(&m, ng, ns, wo) else {
             continue;
         };
@@ -1462,6 +1468,74 @@ fn plain_diffuse_frames_equal_the_general_path() {
             "material {k}: {m:?}"
         );
     }
+}
+
+/// A LambertFrame is the BsdfFrame of its material, float for float: the same frames exist
+/// (None alike where wo grazes the surface), the same albedo estimate, and eval, pdf, |cos| and
+/// sample give the general path's bits (the frame with `plain` cleared), in both transport
+/// modes, over the random plain cases of `plain_diffuse_frames_equal_the_general_path` and
+/// directions on both sides.
+#[test]
+fn lambert_frames_equal_the_general_path() {
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    let mut frames = 0;
+    for i in 0..4000u32 {
+        let (m, ng, ns, wo) = plain_case(i);
+        // Every eighth case grazes: wo in the surface's plane.
+        let wo = if i % 8 == 3 {
+            (wo - ng * ng.dot(wo)).normalize()
+        } else {
+            wo
+        };
+        let (lambert, general) = (
+            LambertFrame::new(&m, ng, ns, wo),
+            BsdfFrame::new_shading(&m, ng, ns, wo),
+        );
+        assert_eq!(lambert.is_some(), general.is_some(), "case {i}");
+        let (Some(lambert), Some(general)) = (lambert, general) else {
+            continue;
+        };
+        let general = BsdfFrame {
+            plain: false,
+            ..general
+        };
+        frames += 1;
+        assert_eq!(
+            lambert.albedo_estimate.to_bits(),
+            general.albedo_estimate.to_bits(),
+            "case {i}"
+        );
+        for k in 0..8 {
+            let wi = unit(rng_uniform4(93, i, k, 0));
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                assert_eq!(
+                    bits(VertexBsdf::eval(&lambert, wi, mode)),
+                    bits(general.eval(wi, mode)),
+                    "case {i}, eval at {wi}"
+                );
+                let (a, b) = (
+                    VertexBsdf::sample(&lambert, u3(94 + k, i), mode),
+                    general.sample(u3(94 + k, i), mode),
+                );
+                assert_eq!(
+                    a.map(|a| (bits(a.wi), bits(a.weight), a.pdf.to_bits(), a.delta)),
+                    b.map(|b| (bits(b.wi), bits(b.weight), b.pdf.to_bits(), b.delta)),
+                    "case {i}, sample {k}"
+                );
+            }
+            assert_eq!(
+                lambert.pdf(wi).to_bits(),
+                general.pdf(wi).to_bits(),
+                "case {i}, pdf at {wi}"
+            );
+            assert_eq!(
+                lambert.cos_theta(wi).to_bits(),
+                general.cos_theta(wi).to_bits(),
+                "case {i}, cos at {wi}"
+            );
+        }
+    }
+    assert!(frames > 3400, "{frames}");
 }
 
 /// A unit vector from four uniform numbers (the first three, centred).

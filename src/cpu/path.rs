@@ -3,7 +3,9 @@
 //! random numbers, so that a disagreement between the two integrators points at one stage.
 
 use crate::bsdf::volume::{transmittance, volume_sigma};
-use crate::bsdf::{fresnel_coat, BsdfFrame, TransportMode};
+use crate::bsdf::{
+    fresnel_coat, material_is_plain, BsdfFrame, LambertFrame, TransportMode, VertexBsdf,
+};
 use crate::bvh::Ray;
 use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
 use crate::layout::LIGHT_SAMPLER_BVH;
@@ -365,15 +367,64 @@ fn shade(
     }
     let mat = &mat;
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
-    // the surface exactly (nothing scatters along it).
+    // the surface exactly (nothing scatters along it). A plain diffuse material's is a
+    // LambertFrame, whose eval, pdf and sample give the general frame's floats.
     let ns = surface_normal(&textures, raw, &sp, lod);
-    // Borrowed where it was built: moving the 280-byte frame out of its Option copied it
-    // (callgrind: a memcpy per vertex).
-    let frame_at = BsdfFrame::new_shading(mat, ng, ns, wo);
-    let Some(bsdf) = frame_at.as_ref() else {
-        return (None, None);
+    let vertex = Vertex {
+        scene,
+        frame,
+        env,
+        key: (pixel, sample, depth),
+        p,
+        ng,
+        mat,
     };
+    if material_is_plain(raw) {
+        match LambertFrame::new(mat, ng, ns, wo) {
+            Some(bsdf) => scatter(&vertex, &bsdf, throughput, state, class),
+            None => (None, None),
+        }
+    } else {
+        // Borrowed where it was built: moving the 280-byte frame out of its Option copied it
+        // (callgrind: a memcpy per vertex).
+        let frame_at = BsdfFrame::new_shading(mat, ng, ns, wo);
+        match frame_at.as_ref() {
+            Some(bsdf) => scatter(&vertex, bsdf, throughput, state, class),
+            None => (None, None),
+        }
+    }
+}
 
+/// A path vertex's surface as [`scatter`] reads it: the scene and render, the path's
+/// (pixel, sample, depth), the hit point, its geometric normal and its material.
+struct Vertex<'a> {
+    scene: &'a PreparedScene,
+    frame: &'a FrameParams,
+    env: &'a EnvironmentMap,
+    key: (u32, u32, u32),
+    p: Vec3,
+    ng: Vec3,
+    mat: &'a GpuMaterial,
+}
+
+/// The rest of a vertex (shade.comp) once its BSDF is known: one emitter sample, the BSDF
+/// sample of the continuation ray, Russian roulette.
+fn scatter<B: VertexBsdf>(
+    vertex: &Vertex,
+    bsdf: &B,
+    mut throughput: Vec3,
+    state: &mut PathState,
+    class: &mut Classifier,
+) -> (Option<Ray>, Option<ShadowRay>) {
+    let &Vertex {
+        scene,
+        frame,
+        env,
+        key: (pixel, sample, depth),
+        p,
+        ng,
+        mat,
+    } = vertex;
     // Emitter sampling: the environment with probability env_pmf, else one emitter of the table
     // chosen by power (one point on its triangle, or a punctual light). Delta lobes have no
     // part in it (bsdf_eval leaves them out); transmissive surfaces see lights on both sides.
@@ -476,7 +527,7 @@ fn shade(
     // albedo (the subcritical set-up P = ∫K).
     if depth + 1 >= frame.rr_start_depth && frame.rr_mode != RR_OFF {
         let survive = if frame.rr_mode == RR_ALBEDO {
-            bsdf.albedo_estimate.min(1.0)
+            bsdf.albedo_estimate().min(1.0)
         } else {
             throughput.max_element().min(1.0)
         };
