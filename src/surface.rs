@@ -178,6 +178,16 @@ pub fn surface_emission(
     e * sample_texture_ref(data, m.emissive_texture, sp.uv, lod).truncate()
 }
 
+/// Whether [`surface_emitter`] reads the surface point: an emissive or clearcoat texture, or an
+/// unlit material's vertex colour. Where it does not, the emitter is the material's own factors
+/// (`surface_emitter` returns them unchanged), and the point's attributes need not be
+/// interpolated.
+pub fn emitter_reads_surface(m: &GpuMaterial) -> bool {
+    m.emissive_texture != NO_TEXTURE
+        || m.clearcoat_texture != NO_TEXTURE
+        || m.flags & MATERIAL_UNLIT != 0
+}
+
 /// An emitter's material at a point as [`crate::cpu::emitted_radiance`] reads it: the
 /// emission ([`surface_emission`]) and KHR_materials_clearcoat's clearcoat × R of its texture
 /// (the coat darkens the emission below it), the rest as the factors give it.

@@ -99,6 +99,13 @@ vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
     return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
 }
 
+// Whether surface_emitter reads the point: an emissive or clearcoat texture, or an unlit
+// material's vertex colour; else the emitter is the material's own factors (src/surface.rs).
+bool emitter_reads_surface(GpuMaterial m) {
+    return HAS_TEXTURE(m.emissive_texture) || HAS_TEXTURE(m.clearcoat_texture)
+        || (m.flags & MATERIAL_UNLIT) != 0u;
+}
+
 // An emitter's material at a point as emitted_radiance reads it: the emission and the coat's
 // clearcoat x R of its texture (src/surface.rs, surface_emitter).
 GpuMaterial surface_emitter(GpuMaterial m, SurfacePoint sp, vec2 lod) {

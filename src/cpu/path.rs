@@ -29,8 +29,8 @@ use crate::spectrum::{
     is_dispersive, material_at_wavelength, sample_wavelength_of, wavelength_weight,
 };
 use crate::surface::{
-    alpha_key, surface_emitter, surface_lod_base, surface_material, surface_normal, surface_point,
-    LOD_MAGNIFY,
+    alpha_key, emitter_reads_surface, surface_emitter, surface_lod_base, surface_material,
+    surface_normal, surface_point, LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
 
@@ -643,7 +643,6 @@ fn sample_emitter(
         });
     }
     let light = &scene.triangles[entry.triangle as usize];
-    let light_vertices = scene.triangle_vertices[entry.triangle as usize];
     let b = sample_uniform_triangle(u_point);
     let (l1, l2) = (Vec3::from(light.e1), Vec3::from(light.e2));
     let y = Vec3::from(light.p0) + b.x * l1 + b.y * l2;
@@ -652,15 +651,23 @@ fn sample_emitter(
     let dist2 = to_light.dot(to_light);
     let wi = to_light / dist2.sqrt();
     let cos_light = light_n.dot(-wi);
-    // The light point's emission (its textures at level 0) where its surface exists.
+    // The light point's emission (its textures at level 0) where its surface exists; the
+    // point's attributes only where the emitter reads them.
     let textures = scene.texture_data();
     let raw = &scene.materials[light.material_index() as usize];
-    let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
-    let light_mat = surface_emitter(&textures, raw, &light_sp, LOD_MAGNIFY);
+    let surface_mat;
+    let light_mat = if emitter_reads_surface(raw) {
+        let light_vertices = scene.triangle_vertices[entry.triangle as usize];
+        let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
+        surface_mat = surface_emitter(&textures, raw, &light_sp, LOD_MAGNIFY);
+        &surface_mat
+    } else {
+        raw
+    };
     let key = alpha_key(frame.seed, pixel, sample, depth, true);
     // (Culling does not apply: the light's own sidedness is its emission's.)
     let radiance = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
-        emitted_radiance(&light_mat, cos_light)
+        emitted_radiance(light_mat, cos_light)
     } else {
         Vec3::ZERO
     };
@@ -675,6 +682,6 @@ fn sample_emitter(
         // Solid-angle pdf: pmf · (1/area) · dist² / |cos at the light|.
         pdf: pmf * dist2 / (cos_light.abs() * light.area),
         delta: false,
-        medium: volume_sigma(&light_mat, light_n, -wi),
+        medium: volume_sigma(light_mat, light_n, -wi),
     })
 }
