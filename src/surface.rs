@@ -26,8 +26,8 @@
 
 use crate::layout::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuVertex, INSTANCE_IDENTITY, INSTANCE_MIRRORED,
-    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_UNLIT, NO_TEXTURE, TRIANGLE_FLAT,
-    TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_TEXTURED, MATERIAL_UNLIT, NO_TEXTURE,
+    TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::sampling::{pcg4d, uint_to_unit_float};
 use crate::texture::{sample_texture_ref, TextureData};
@@ -203,6 +203,14 @@ pub fn surface_emitter(
         out.clearcoat *= sample_texture_ref(data, m.clearcoat_texture, sp.uv, lod).x;
     }
     out
+}
+
+/// Whether [`surface_material`] returns `m` itself at `sp`: no texture (`MATERIAL_TEXTURED`), no
+/// anisotropy (its direction follows the surface's tangent) and a white vertex colour, so every
+/// factor is multiplied by nothing or by an exact 1. The CPU reference then reads the material
+/// in place instead of copying it per vertex.
+pub fn material_is_constant(m: &GpuMaterial, sp: &SurfacePoint) -> bool {
+    m.flags & MATERIAL_TEXTURED == 0 && !(m.anisotropy > 0.0) && sp.color == Vec4::ONE
 }
 
 /// Material `m` at the surface point: factors times textures times vertex colour.
@@ -461,4 +469,83 @@ pub fn triangle_present(
         alpha *= sample_texture_ref(data, m.base_color_texture, sp.uv, LOD_MAGNIFY).w;
     }
     alpha_present(m.flags, alpha, m.alpha_cutoff, alpha_random(key, index))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::rng_uniform4;
+
+    /// Where `material_is_constant` holds, `surface_material` returns the material's own bytes
+    /// (random factors, unlit or not, coats, vertex colour white), so the CPU reference may read
+    /// it in place; a vertex colour other than white, anisotropy or a texture makes it false.
+    #[test]
+    fn constant_materials_are_their_own_surface_material() {
+        let data = TextureData {
+            textures: &[],
+            refs: &[],
+            texels: &[],
+        };
+        let mut constant = 0;
+        for i in 0..2000u32 {
+            let r = rng_uniform4(17, i, 0, 0);
+            let q = rng_uniform4(17, i, 1, 0);
+            let m = GpuMaterial {
+                base_color: [r.x, r.y, r.z],
+                alpha: r.w,
+                emission: [q.x * 4.0, q.y, -0.0],
+                metallic: q.z,
+                roughness: q.w,
+                clearcoat: if i % 3 == 0 { r.x } else { 0.0 },
+                anisotropy: if i % 5 == 0 { q.x } else { 0.0 },
+                flags: if i % 4 == 1 { MATERIAL_UNLIT } else { 0 },
+                ..Default::default()
+            };
+            let color = if i % 7 == 0 {
+                Vec4::new(r.y, 1.0, 1.0, 1.0)
+            } else {
+                Vec4::ONE
+            };
+            let sp = SurfacePoint {
+                p: Vec3::ZERO,
+                ng: Vec3::Z,
+                ns: Vec3::Z,
+                tangent: Vec4::new(1.0, 0.0, 0.0, 1.0),
+                uv: [Vec2::new(q.x, q.y); 2],
+                color,
+                uv_area: [1.0; 2],
+                world_area: 1.0,
+                flags: 0,
+            };
+            let is_constant = material_is_constant(&m, &sp);
+            assert_eq!(
+                is_constant,
+                !(m.anisotropy > 0.0) && color == Vec4::ONE,
+                "case {i}"
+            );
+            if is_constant {
+                constant += 1;
+                let out = surface_material(&data, &m, &sp, LOD_MAGNIFY);
+                assert_eq!(
+                    bytemuck::bytes_of(&out),
+                    bytemuck::bytes_of(&m),
+                    "case {i}: {m:?}"
+                );
+            }
+        }
+        assert!(constant > 1200, "{constant}");
+        let textured = GpuMaterial {
+            flags: MATERIAL_TEXTURED,
+            ..Default::default()
+        };
+        let sp = surface_point(
+            &GpuTriangle::default(),
+            UVec4::new(0, 0, 0, TRIANGLE_PLAIN),
+            &[],
+            0.2,
+            0.3,
+        );
+        assert!(!material_is_constant(&textured, &sp));
+        assert!(material_is_constant(&GpuMaterial::default(), &sp));
+    }
 }

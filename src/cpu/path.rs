@@ -29,8 +29,8 @@ use crate::spectrum::{
     is_dispersive, material_at_wavelength, sample_wavelength_of, wavelength_weight,
 };
 use crate::surface::{
-    alpha_key, emitter_reads_surface, surface_emitter, surface_lod_base, surface_material,
-    surface_normal, surface_point, LOD_MAGNIFY,
+    alpha_key, emitter_reads_surface, material_is_constant, surface_emitter, surface_lod_base,
+    surface_material, surface_normal, surface_point, LOD_MAGNIFY,
 };
 use glam::{Vec2, Vec3};
 
@@ -320,7 +320,15 @@ fn shade(
     } else {
         [0.0; 2]
     };
-    let mut mat = surface_material(&textures, raw, &sp, lod);
+    // A material without textures, anisotropy or vertex colours here is its own factors
+    // (`surface_material` would return a copy of them).
+    let (surface, dispersed);
+    let mut mat = if material_is_constant(raw, &sp) {
+        raw
+    } else {
+        surface = surface_material(&textures, raw, &sp, lod);
+        &surface
+    };
     // --aov: a property of the first hit instead of radiance.
     if frame.aov != AOV_RADIANCE {
         let value = match frame.aov {
@@ -334,7 +342,7 @@ fn shade(
     }
 
     // Direct emission, weighted against emitter sampling from the previous vertex.
-    let le = emitted_radiance(&mat, cos_out);
+    let le = emitted_radiance(mat, cos_out);
     if le.max_element() > 0.0 && class.ends_here(&[]) {
         let mut w = 1.0;
         if state.prev_specular == 0 {
@@ -357,15 +365,17 @@ fn shade(
     }
     // KHR_materials_dispersion: the path turns spectral at its first dispersive vertex, before
     // the vertex's emitter sample (`spectrum`'s module docs).
-    if is_dispersive(&mat) {
+    if is_dispersive(mat) {
         if state.wavelength == 0.0 {
             let lambda = sample_wavelength_of(frame.seed, pixel, sample);
             throughput *= wavelength_weight(lambda);
             state.wavelength = lambda;
         }
-        material_at_wavelength(&mut mat, state.wavelength);
+        let mut m = *mat;
+        material_at_wavelength(&mut m, state.wavelength);
+        dispersed = m;
+        mat = &dispersed;
     }
-    let mat = &mat;
     // The material seen from wo, once for every BSDF query of this vertex; none where wo grazes
     // the surface exactly (nothing scatters along it). A plain diffuse material's is a
     // LambertFrame, whose eval, pdf and sample give the general frame's floats.
