@@ -62,11 +62,9 @@ BdptVertex bdpt_camera(uint path, uint k) {
 // ior at the sample's wavelength `lambda` (0: none; spectrum.glsl).
 GpuMaterial bdpt_material(BdptVertex v, float lambda) {
     GpuTriangle tri = triangle_at(v.index);
+    if (bdpt_kind(v) == BDPT_VERTEX_AREA_LIGHT) return emitter_at(tri, v.index, v.bary);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(v.index), v.bary.x, v.bary.y);
     GpuMaterial raw = material_at(triangle_material(tri));
-    if (bdpt_kind(v) == BDPT_VERTEX_AREA_LIGHT) {
-        return surface_emitter(raw, sp, LOD_MAGNIFY);
-    }
     surface_to_world(sp, tri, instance_at(v.instance));
     GpuMaterial m = surface_material(raw, sp, LOD_MAGNIFY);
     material_at_wavelength(m, lambda);

@@ -253,6 +253,15 @@ bool culled(uvec4 key, vec3 dir, vec3 e1, vec3 e2) {
     return key.z == ALPHA_KEY_PRIMARY_Z && dot(dir, cross(e1, e2)) > 0.0;
 }
 
+// Emitting triangle `index`'s (record `tri`) material at barycentrics b, textures at level 0, as
+// emitted_radiance reads it: surface_emitter at the point, whose attributes are interpolated
+// only where emitter_reads_surface says the emitter reads them (src/render.rs, emitter_at).
+GpuMaterial emitter_at(GpuTriangle tri, uint index, vec2 b) {
+    GpuMaterial m = material_at(triangle_material(tri));
+    if (!emitter_reads_surface(m)) return m;
+    return surface_emitter(m, surface_point(tri, triangle_vertices_at(index), b.x, b.y), LOD_MAGNIFY);
+}
+
 // The any-hit test of both traversals: whether triangle `index` (its record `tri`, which the
 // caller has read) exists at (u, v) for the ray of direction dir (triangle space): not where a
 // TRIANGLE_TEST_CULL triangle is culled, alpha-tested ones by their alpha.

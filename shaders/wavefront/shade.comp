@@ -103,13 +103,8 @@ bool sample_emitter(uint pixel, uint sample_index, uint depth, vec3 p, vec3 ng, 
     float dist2 = dot(to_light, to_light);
     ls.wi = to_light / sqrt(dist2);
     float cos_light = dot(light_n, -ls.wi);
-    // The light point's emission (its textures at level 0) where its surface exists; the
-    // point's attributes only where the emitter reads them.
-    GpuMaterial light_mat = material_at(triangle_material(light));
-    if (emitter_reads_surface(light_mat)) {
-        SurfacePoint light_sp = surface_point(light, triangle_vertices_at(entry.triangle), b.x, b.y);
-        light_mat = surface_emitter(light_mat, light_sp, LOD_MAGNIFY);
-    }
+    // The light point's emission (its textures at level 0) where its surface exists.
+    GpuMaterial light_mat = emitter_at(light, entry.triangle, b);
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, depth, true);
     ls.radiance = triangle_present(light, entry.triangle, b.x, b.y, key, vec3(0.0))
         ? emitted_radiance(light_mat, cos_light) : vec3(0.0);

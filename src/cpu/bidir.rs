@@ -53,10 +53,7 @@ use crate::sampling::{
     sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
 use crate::spectrum::{material_at_wavelength, sample_wavelength_of, wavelength_weight};
-use crate::surface::{
-    alpha_key, surface_emitter, surface_material, surface_normal, surface_point, towards_eye,
-    LOD_MAGNIFY,
-};
+use crate::surface::{alpha_key, surface_material, surface_normal, towards_eye, LOD_MAGNIFY};
 use crate::texture::TextureData;
 use glam::{Vec2, Vec3};
 use indicatif::ProgressBar;
@@ -288,15 +285,9 @@ impl<'a> Bidir<'a> {
         if !scene.present(&self.textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
             return None;
         }
-        let raw = &scene.materials[tri.material_index() as usize];
-        let sp = surface_point(
-            tri,
-            scene.triangle_vertices[entry.triangle as usize],
-            &scene.vertices,
-            b.x,
-            b.y,
-        );
-        let mat = surface_emitter(&self.textures, raw, &sp, LOD_MAGNIFY);
+        let mat = scene
+            .emitter_at(&self.textures, entry.triangle, b.x, b.y)
+            .into_owned();
         let p_a = pmf / tri.area;
         let mut v = Vertex::endpoint(
             Kind::AreaLight,

@@ -29,8 +29,7 @@ use crate::spectrum::{
     is_dispersive, material_at_wavelength, sample_wavelength_of, wavelength_weight,
 };
 use crate::surface::{
-    alpha_key, emitter_reads_surface, material_is_constant, surface_emitter, surface_lod_base,
-    surface_material, surface_normal, surface_point, LOD_MAGNIFY,
+    alpha_key, material_is_constant, surface_lod_base, surface_material, surface_normal,
 };
 use glam::{Vec2, Vec3};
 
@@ -661,19 +660,9 @@ fn sample_emitter(
     let dist2 = to_light.dot(to_light);
     let wi = to_light / dist2.sqrt();
     let cos_light = light_n.dot(-wi);
-    // The light point's emission (its textures at level 0) where its surface exists; the
-    // point's attributes only where the emitter reads them.
+    // The light point's emission (its textures at level 0) where its surface exists.
     let textures = scene.texture_data();
-    let raw = &scene.materials[light.material_index() as usize];
-    let surface_mat;
-    let light_mat = if emitter_reads_surface(raw) {
-        let light_vertices = scene.triangle_vertices[entry.triangle as usize];
-        let light_sp = surface_point(light, light_vertices, &scene.vertices, b.x, b.y);
-        surface_mat = surface_emitter(&textures, raw, &light_sp, LOD_MAGNIFY);
-        &surface_mat
-    } else {
-        raw
-    };
+    let light_mat = &*scene.emitter_at(&textures, entry.triangle, b.x, b.y);
     let key = alpha_key(frame.seed, pixel, sample, depth, true);
     // (Culling does not apply: the light's own sidedness is its emission's.)
     let radiance = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
