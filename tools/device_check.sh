@@ -30,10 +30,11 @@
 #      spheres shadow rays);
 #   4. with Mitsuba packed: its cuda_ad_rgb on the Cornell box at step 2's settings
 #      (tools/mitsuba_bench.py), then wavetrace sampling as Mitsuba does;
-#   5. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
-#   6. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
-#      (the binaries read files under the path they were built in, which `run` links to);
-#   7. `bench --bvh` of the large scenes on the machine's cores.
+#   5. the Cornell box with a quarter and twice the default paths in flight, and BDPT;
+#   6. `bench --bvh` of the large scenes on the machine's cores;
+#   7. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
+#   8. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
+#      (the binaries read files under the path they were built in, which `run` links to).
 set -uo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -193,6 +194,14 @@ run() {
             --height $size --spp $spp --sampler independent --light-sampler power \
             scenes/cornell-box.gltf
     fi
+    # How many paths in flight a real GPU wants: the default (2^20) against a quarter and twice.
+    for w in 262144 2097152; do
+        step "bench cornell-box --wavefront $w" 60 "$wt" bench --gpu-only --width $size \
+            --height $size --spp $spp --wavefront $w scenes/cornell-box.gltf
+    done
+    step "bench light tracing and BDPT" 120 "$wt" bench --gpu-only --width $size --height $size \
+        --spp $((spp / 4)) --integrator bdpt scenes/cornell-box.gltf scenes/caustic.gltf
+    step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
     step "verify" 240 "$wt" verify scenes/*.gltf --width 64 --spp 256 --max-depth 7
     if [ ${#tests[@]} -gt 0 ]; then
         # The binaries name files under the folder they were built in and its ../shared, and
@@ -214,7 +223,6 @@ run() {
                 grep -E '^(==|test result|failures:|    [a-z_:]+$|thread .* panicked|GPU tests on)'
         done
     fi
-    step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
     echo
     echo "== done ($(date -u +%H:%M:%S)); files in $out"
     # The log is whole before the tool collects $OUT.
