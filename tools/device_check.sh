@@ -6,6 +6,7 @@
 #
 #   tools/device_check.sh prepare [--mitsuba] [--tests]   here: fills .device/ and .gl/ (ignored)
 #   run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=560)
+#   run(command="bash tools/device_check.sh run --tests twins surface_twins", ...)  those alone
 #   tools/device_check.sh run --quick                     here, on lavapipe: the same steps,
 #                                           small (PYTHON=python3.12 for the Mitsuba step)
 #
@@ -18,7 +19,8 @@
 # the tool's 64 MiB (about 56 MB with both options).
 #
 # `run` writes under $OUT (the tool brings back at most 8 files): device_check.log (every
-# step's output, its wall time and exit status), bench-cornell.json and bench-large.json
+# step's output, its wall time and exit status), tests.log (the test binaries' whole output),
+# bench-cornell.json and bench-large.json
 # (`wavetrace bench --json`) and cornell-box.png. A step that fails or runs past its limit is
 # logged and the next one runs. The steps, figures first:
 #   1. nvidia-smi, and `render --device auto` of the Cornell box, which must choose the GPU;
@@ -145,30 +147,9 @@ step() {
     return $rc
 }
 
-run() {
-    local quick=0 size=1024 spp=64
-    if [ "${1:-}" = "--quick" ]; then
-        quick=1 size=128 spp=4
-    fi
-    local out="${OUT:-$root/target/device-check}"
-    mkdir -p "$out"
-    exec > >(tee "$out/device_check.log") 2>&1
-    local tee_pid=$!
-    echo "wavetrace device check, $(date -u), $(nproc) cores, git $(git rev-parse --short HEAD 2>/dev/null || echo '?')"
-    if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
-        for f in .gl/*.deb; do [ -f "$f" ] && dpkg -x "$f" /; done
-        ldconfig
-    fi
-    local icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-    if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
-        export VK_DRIVER_FILES=$icd
-    fi
-    local wt=target/release/wavetrace tests=()
-    if [ -f .device/pack.tar.xz ]; then
-        rm -rf /tmp/pack && unpack .device/pack.tar.xz || exit 1
-        wt=/tmp/pack/wavetrace
-        for t in /tmp/pack/tests/*; do [ -x "$t" ] && tests+=("$t"); done
-    fi
+# figures WAVETRACE OUT QUICK SIZE SPP: the benchmark steps (1 to 6).
+figures() {
+    local wt=$1 out=$2 quick=$3 size=$4 spp=$5
     local scenes=()
     for f in "${large[@]}"; do
         [ -f ".device/$f" ] && scenes+=(".device/$f")
@@ -202,7 +183,52 @@ run() {
     step "bench light tracing and BDPT" 120 "$wt" bench --gpu-only --width $size --height $size \
         --spp $((spp / 4)) --integrator bdpt scenes/cornell-box.gltf scenes/caustic.gltf
     step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
-    step "verify" 240 "$wt" verify scenes/*.gltf --width 64 --spp 256 --max-depth 7
+}
+
+run() {
+    local quick=0 size=1024 spp=64 only=()
+    while [ $# -gt 0 ]; do
+        case "$1" in
+        --quick) quick=1 size=128 spp=4 ;;
+        --tests)
+            shift
+            only=("$@")
+            break
+            ;;
+        *) echo "run: unknown option $1" >&2 && exit 2 ;;
+        esac
+        shift
+    done
+    local out="${OUT:-$root/target/device-check}"
+    mkdir -p "$out"
+    exec > >(tee "$out/device_check.log") 2>&1
+    local tee_pid=$!
+    echo "wavetrace device check, $(date -u), $(nproc) cores, git $(git rev-parse --short HEAD 2>/dev/null || echo '?')"
+    if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
+        for f in .gl/*.deb; do [ -f "$f" ] && dpkg -x "$f" /; done
+        ldconfig
+    fi
+    local icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+    if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
+        export VK_DRIVER_FILES=$icd
+    fi
+    local wt=target/release/wavetrace tests=()
+    if [ -f .device/pack.tar.xz ]; then
+        rm -rf /tmp/pack && unpack .device/pack.tar.xz || exit 1
+        wt=/tmp/pack/wavetrace
+        # The twin tests first: quick, and the ones a new driver's arithmetic tests hardest.
+        for t in twins surface_twins light_bvh_twins "${gpu_tests[@]}"; do
+            case " ${tests[*]} " in *" /tmp/pack/tests/$t "*) continue ;; esac
+            [ -x "/tmp/pack/tests/$t" ] && tests+=("/tmp/pack/tests/$t")
+        done
+    fi
+    if [ ${#only[@]} -gt 0 ]; then
+        tests=()
+        for t in "${only[@]}"; do tests+=("/tmp/pack/tests/$t"); done
+    else
+        figures "$wt" "$out" $quick $size $spp
+    fi
+    [ ${#only[@]} -gt 0 ] || step "verify" 240 "$wt" verify scenes/*.gltf --width 64 --spp 256 --max-depth 7
     if [ ${#tests[@]} -gt 0 ]; then
         # The binaries name files under the folder they were built in and its ../shared, and
         # run the CLI from its target/release: make those paths lead here.
@@ -217,9 +243,11 @@ run() {
         if [ ! -x target/release/wavetrace ]; then
             mkdir -p target/release && cp "$wt" target/release/wavetrace
         fi
-        [ $quick = 1 ] && tests=(/tmp/pack/tests/twins /tmp/pack/tests/verify)
+        [ $quick = 1 ] && [ ${#only[@]} -eq 0 ] && tests=(/tmp/pack/tests/twins /tmp/pack/tests/verify)
         for t in "${tests[@]}"; do
+            # Whole in tests.log (a failing twin test names every disagreement there).
             step "test $(basename "$t")" 300 "$t" --test-threads "$(nproc)" 2>&1 |
+                tee -a "$out/tests.log" |
                 grep -E '^(==|test result|failures:|    [a-z_:]+$|thread .* panicked|GPU tests on)'
         done
     fi
@@ -240,7 +268,7 @@ run)
     run "$@"
     ;;
 *)
-    sed -n '2,36p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac
