@@ -174,7 +174,30 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
                 ))
             );
         }
+        if let Some(host) = host_phases(stats) {
+            println!("  outside the kernels: {host}");
+        }
     }
+}
+
+/// The GPU render's wall time outside its kernels (`RenderStats::host_seconds`), in words.
+fn host_phases(stats: &wavetrace::render::RenderStats) -> Option<String> {
+    if stats.host_seconds.is_empty() {
+        return None;
+    }
+    let phases: Vec<String> = stats
+        .host_seconds
+        .iter()
+        .map(|(name, s)| match name.as_str() {
+            "between batches" => format!(
+                "{name} {:.1} ms ({} submissions)",
+                s * 1e3,
+                stats.submissions
+            ),
+            _ => format!("{name} {:.1} ms", s * 1e3),
+        })
+        .collect();
+    Some(phases.join(", "))
 }
 
 /// A progress bar over the render's samples on stderr (hidden when stderr is not a terminal);
@@ -1023,6 +1046,8 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "shadow_rays": s.shadow_rays,
                 "dropped": s.dropped,
                 "kernel_ms": s.kernel_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
+                "host_ms": s.host_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
+                "submissions": s.submissions,
                 "kernel_fetches_per_ray": s.kernel_seconds.iter().filter_map(|(k, _)| Some((k.clone(), serde_json::json!(fetches_per_ray(&s, k)?.0)))).collect::<serde_json::Map<_, _>>(),
                 "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
                 "triangles": prepared.triangles.len(),
@@ -1037,6 +1062,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
                     })
                     .collect();
                 println!("{:<20} {:<6} per kernel: {}", "", "", kernels.join(", "));
+                if let Some(host) = host_phases(&s) {
+                    println!("{:<20} {:<6} outside the kernels: {host}", "", "");
+                }
             }
         }
     }

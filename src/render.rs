@@ -871,6 +871,11 @@ pub struct RenderStats {
     pub kernel_seconds: Vec<(String, f64)>,
     /// GPU only, with `GpuOptions::count_fetches`: (kernel, scene-image texels it fetched).
     pub kernel_fetches: Vec<(String, u64)>,
+    /// GPU only, where timestamps exist: the render's wall time outside its kernels, by phase
+    /// (`HOST_PHASES`: the film's clear or upload, the time between the kernels' first and last
+    /// timestamps and the submissions' ends, the film's read-back), and the submissions.
+    pub host_seconds: Vec<(String, f64)>,
+    pub submissions: u64,
     /// GPU only: the error that ended the render early (a lost device, exhausted memory); the
     /// film holds the samples finished before it.
     pub fault: Option<String>,
@@ -917,7 +922,18 @@ impl std::fmt::Display for DeviceMemory {
     }
 }
 
+/// The phases of a GPU render's wall time outside its kernels (`RenderStats::host_seconds`).
+pub const HOST_PHASES: [&str; 3] = ["film setup", "between batches", "film read-back"];
+
 impl RenderStats {
+    /// Adds `seconds` to the host phase `name` (one of `HOST_PHASES`).
+    pub fn add_host(&mut self, name: &str, seconds: f64) {
+        match self.host_seconds.iter_mut().find(|(n, _)| n == name) {
+            Some((_, s)) => *s += seconds,
+            None => self.host_seconds.push((name.to_string(), seconds)),
+        }
+    }
+
     pub fn samples_per_second(&self) -> f64 {
         self.samples as f64 / self.seconds.max(1e-9)
     }

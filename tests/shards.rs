@@ -557,6 +557,18 @@ fn gpu_faults_end_cleanly_and_keep_the_finished_samples() {
     render("gpu", 32, 12, &resume, &partial);
     assert_same_samples(&partial, &full);
 
+    // Lost in the first batch, before any whole pass: a film of no samples, still written.
+    let none = temp("fault-none.exr");
+    let o = run_render_with_fault("device-lost@1", 32, 12, &wavefront, &none);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("holds the samples 0..0 finished before it"),
+        "{err}"
+    );
+    let p = read_exr_file(&none);
+    assert_eq!(p.record.samples, Some(SampleRange::new(0, 0)));
+
     for buffer in ["film", "bvh_nodes", "rays"] {
         let out = temp(&format!("fault-{buffer}.exr"));
         let o = run_render_with_fault(&format!("oom@{buffer}"), 16, 2, &[], &out);

@@ -230,11 +230,7 @@ fn cpu_stats(start: Instant, samples: u64, counts: &RayCounts, dropped: u64) -> 
         extension_rays: counts.extension,
         shadow_rays: counts.shadow,
         dropped,
-        kernel_seconds: Vec::new(),
-        kernel_fetches: Vec::new(),
-        fault: None,
-        device_memory: None,
-        kernel_features: None,
+        ..RenderStats::default()
     }
 }
 

@@ -140,8 +140,18 @@ impl Buffer {
 
     /// Host buffers only: the first `len` bytes.
     pub fn read(&self, len: usize) -> Vec<u8> {
+        self.read_pod(len)
+    }
+
+    /// Host buffers only: the first `len` bytes as a vector of `T`, copied once (the film's
+    /// read-back is tens of MiB: a byte vector cast after would copy it twice).
+    pub fn read_pod<T: bytemuck::Pod>(&self, len: usize) -> Vec<T> {
         assert!(!self.mapped.is_null() && len as u64 <= self.size);
-        unsafe { std::slice::from_raw_parts(self.mapped, len) }.to_vec()
+        let bytes = unsafe { std::slice::from_raw_parts(self.mapped, len) };
+        match bytemuck::try_cast_slice::<u8, T>(bytes) {
+            Ok(items) => items.to_vec(),
+            Err(_) => bytemuck::pod_collect_to_vec(bytes),
+        }
     }
 }
 
