@@ -642,6 +642,10 @@ pub struct BenchArgs {
     /// to the same scene × device there.
     #[arg(long, value_name = "FILE.json")]
     pub baseline: Option<PathBuf>,
+    /// Do not count the GPU kernels' scene fetches (one atomic addition per invocation and
+    /// kernel), to measure what counting costs on a device.
+    #[arg(long)]
+    pub no_fetch_counts: bool,
 }
 
 /// A finite number.

@@ -190,9 +190,10 @@ fn host_phases(stats: &wavetrace::render::RenderStats) -> Option<String> {
         .iter()
         .map(|(name, s)| match name.as_str() {
             "between batches" => format!(
-                "{name} {:.1} ms ({} submissions)",
+                "{name} {:.1} ms ({} submission{})",
                 s * 1e3,
-                stats.submissions
+                stats.submissions,
+                if stats.submissions == 1 { "" } else { "s" }
             ),
             _ => format!("{name} {:.1} ms", s * 1e3),
         })
@@ -920,8 +921,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
             device_index: args.gpu_index,
             validation: false,
             timing: true,
-            // One atomic addition per invocation and kernel: within the run-to-run spread.
-            count_fetches: true,
+            // One atomic addition per invocation and kernel: within the run-to-run spread on
+            // lavapipe.
+            count_fetches: !args.no_fetch_counts,
         })
     };
     // Warm-up: the first dispatches of a pipeline include the driver's lazy work.

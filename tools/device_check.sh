@@ -32,7 +32,8 @@
 #      spheres shadow rays);
 #   4. with Mitsuba packed: its cuda_ad_rgb on the Cornell box at step 2's settings
 #      (tools/mitsuba_bench.py), then wavetrace sampling as Mitsuba does;
-#   5. the Cornell box with a quarter and twice the default paths in flight, and BDPT;
+#   5. the Cornell box with a quarter, half and twice the default paths in flight; every scene
+#      with its data in storage buffers and without the fetch counters; BDPT;
 #   6. `bench --bvh` of the large scenes on the machine's cores;
 #   7. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
 #   8. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
@@ -175,11 +176,20 @@ figures() {
             --height $size --spp $spp --sampler independent --light-sampler power \
             scenes/cornell-box.gltf
     fi
-    # How many paths in flight a real GPU wants: the default (2^20) against a quarter and twice.
-    for w in 262144 2097152; do
+    # How many paths in flight a real GPU wants: a quarter and half the default (2^21).
+    for w in 262144 1048576; do
         step "bench cornell-box --wavefront $w" 60 "$wt" bench --gpu-only --width $size \
             --height $size --spp $spp --wavefront $w scenes/cornell-box.gltf
     done
+    # Twice the new default in flight (the most 65535 workgroups hold), the scene read from
+    # storage buffers instead of images (chosen for llvmpipe), and without the fetch counters.
+    step "bench cornell-box --wavefront 4194240" 60 "$wt" bench --gpu-only --width $size \
+        --height $size --spp $spp --wavefront 4194240 scenes/cornell-box.gltf
+    step "bench, scene in storage buffers" 240 env WAVETRACE_SCENE_IMAGES=0 "$wt" bench \
+        --gpu-only --width $size --height $size --spp $spp --environment 1 \
+        scenes/cornell-box.gltf "${scenes[@]}"
+    step "bench, no fetch counts" 240 "$wt" bench --gpu-only --no-fetch-counts --width $size \
+        --height $size --spp $spp --environment 1 scenes/cornell-box.gltf "${scenes[@]}"
     step "bench light tracing and BDPT" 120 "$wt" bench --gpu-only --width $size --height $size \
         --spp $((spp / 4)) --integrator bdpt scenes/cornell-box.gltf scenes/caustic.gltf
     step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
