@@ -523,6 +523,65 @@ impl VertexBsdf for BsdfFrame {
     }
 }
 
+/// A vertex's frame for callers that build several per vertex (light tracing, BDPT): a plain
+/// material's [`LambertFrame`], bit for bit the general frame's values
+/// (`lambert_frames_equal_the_general_path`) at a quarter of its size and less of its setup,
+/// else the general [`BsdfFrame`].
+pub enum ShadingFrame {
+    Lambert(LambertFrame),
+    General(BsdfFrame),
+}
+
+impl ShadingFrame {
+    /// [`BsdfFrame::new_shading`], as the plain frame where `m` is [plain](material_is_plain).
+    #[inline]
+    pub fn new_shading(m: &GpuMaterial, ng: Vec3, ns: Vec3, wo: Vec3) -> Option<ShadingFrame> {
+        if material_is_plain(m) {
+            LambertFrame::new(m, ng, ns, wo).map(ShadingFrame::Lambert)
+        } else {
+            BsdfFrame::new_shading(m, ng, ns, wo).map(ShadingFrame::General)
+        }
+    }
+}
+
+impl VertexBsdf for ShadingFrame {
+    #[inline]
+    fn eval(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
+        match self {
+            ShadingFrame::Lambert(f) => f.eval(wi),
+            ShadingFrame::General(f) => f.eval(wi, mode),
+        }
+    }
+    #[inline]
+    fn pdf(&self, wi: Vec3) -> f32 {
+        match self {
+            ShadingFrame::Lambert(f) => f.pdf(wi),
+            ShadingFrame::General(f) => f.pdf(wi),
+        }
+    }
+    #[inline]
+    fn sample(&self, u: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        match self {
+            ShadingFrame::Lambert(f) => f.sample(u),
+            ShadingFrame::General(f) => f.sample(u, mode),
+        }
+    }
+    #[inline]
+    fn cos_theta(&self, wi: Vec3) -> f32 {
+        match self {
+            ShadingFrame::Lambert(f) => f.cos_theta(wi),
+            ShadingFrame::General(f) => f.cos_theta(wi),
+        }
+    }
+    #[inline]
+    fn albedo_estimate(&self) -> f32 {
+        match self {
+            ShadingFrame::Lambert(f) => f.albedo_estimate,
+            ShadingFrame::General(f) => f.albedo_estimate,
+        }
+    }
+}
+
 impl VertexBsdf for LambertFrame {
     fn eval(&self, wi: Vec3, _mode: TransportMode) -> Vec3 {
         LambertFrame::eval(self, wi)

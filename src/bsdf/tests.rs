@@ -1538,6 +1538,73 @@ fn lambert_frames_equal_the_general_path() {
     assert!(frames > 3400, "{frames}");
 }
 
+/// `ShadingFrame` (light tracing, BDPT) is the plain frame exactly where the material is plain,
+/// and either way gives the general frame's eval, pdf, sample and cosine bit for bit: plain
+/// materials and the same made general by one layer each (metal, specular, film, transmission,
+/// diffuse transmission, sheen, coat).
+#[test]
+fn shading_frames_are_the_general_frames() {
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    let mut kinds = [0; 2];
+    for i in 0..2000u32 {
+        let (mut m, ng, ns, wo) = plain_case(i);
+        if i % 2 == 1 {
+            m.flags = 0;
+            match (i / 2) % 7 {
+                0 => m.metallic = 0.5,
+                1 => m.specular = 0.5,
+                2 => m.iridescence = 0.5,
+                3 => m.transmission = 0.5,
+                4 => m.diffuse_transmission = 0.5,
+                5 => m.sheen_color = [0.5; 3],
+                _ => m.clearcoat = 0.5,
+            }
+        }
+        let (frame, general) = (
+            ShadingFrame::new_shading(&m, ng, ns, wo),
+            BsdfFrame::new_shading(&m, ng, ns, wo),
+        );
+        assert_eq!(frame.is_some(), general.is_some(), "case {i}");
+        let (Some(frame), Some(general)) = (frame, general) else {
+            continue;
+        };
+        let lambert = matches!(frame, ShadingFrame::Lambert(_));
+        assert_eq!(lambert, material_is_plain(&m), "case {i}");
+        kinds[lambert as usize] += 1;
+        assert_eq!(
+            frame.albedo_estimate().to_bits(),
+            general.albedo_estimate.to_bits(),
+            "case {i}"
+        );
+        for k in 0..4 {
+            let wi = unit(rng_uniform4(95, i, k, 0));
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                assert_eq!(
+                    bits(frame.eval(wi, mode)),
+                    bits(general.eval(wi, mode)),
+                    "case {i}, eval at {wi}"
+                );
+                let (a, b) = (
+                    frame.sample(u3(96 + k, i), mode),
+                    general.sample(u3(96 + k, i), mode),
+                );
+                assert_eq!(
+                    a.map(|a| (bits(a.wi), bits(a.weight), a.pdf.to_bits(), a.delta)),
+                    b.map(|b| (bits(b.wi), bits(b.weight), b.pdf.to_bits(), b.delta)),
+                    "case {i}, sample {k}"
+                );
+            }
+            assert_eq!(frame.pdf(wi).to_bits(), general.pdf(wi).to_bits(), "case {i}");
+            assert_eq!(
+                frame.cos_theta(wi).to_bits(),
+                general.cos_theta(wi).to_bits(),
+                "case {i}"
+            );
+        }
+    }
+    assert!(kinds[0] > 900 && kinds[1] > 900, "{kinds:?}");
+}
+
 /// A unit vector from four uniform numbers (the first three, centred).
 fn unit(u: glam::Vec4) -> Vec3 {
     (Vec3::new(u.x, u.y, u.z) - Vec3::splat(0.5)).normalize()

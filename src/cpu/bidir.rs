@@ -35,7 +35,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::bsdf::volume::{transmittance, volume_sigma};
-use crate::bsdf::{BsdfFrame, TransportMode};
+use crate::bsdf::{ShadingFrame, TransportMode, VertexBsdf};
 use crate::bvh::Ray;
 use crate::cpu::path::{sample_pair, RayCounts};
 use crate::cpu::{accumulate, emitted_radiance};
@@ -382,8 +382,8 @@ impl<'a> Bidir<'a> {
         self.to_area(pdf_dir, v.p, next)
     }
 
-    fn bsdf(&self, v: &Vertex, w_cam: Vec3) -> Option<BsdfFrame> {
-        BsdfFrame::new_shading(&v.mat, v.ng, v.ns, w_cam)
+    fn bsdf(&self, v: &Vertex, w_cam: Vec3) -> Option<ShadingFrame> {
+        ShadingFrame::new_shading(&v.mat, v.ng, v.ns, w_cam)
     }
 
     /// φ(ω_c, ω_l) of a scattering vertex: f·|n_s·ω_l| / |n_g·ω_l| (module docs).
@@ -528,7 +528,7 @@ impl<'a> Bidir<'a> {
             }
             if bounce + 1 >= f.rr_start_depth && f.rr_mode != RR_OFF {
                 let survive = if camera && f.rr_mode == RR_ALBEDO {
-                    frame.albedo_estimate.min(1.0)
+                    frame.albedo_estimate().min(1.0)
                 } else if camera {
                     beta.max_element().min(1.0)
                 } else {
