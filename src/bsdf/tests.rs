@@ -1594,7 +1594,11 @@ fn shading_frames_are_the_general_frames() {
                     "case {i}, sample {k}"
                 );
             }
-            assert_eq!(frame.pdf(wi).to_bits(), general.pdf(wi).to_bits(), "case {i}");
+            assert_eq!(
+                frame.pdf(wi).to_bits(),
+                general.pdf(wi).to_bits(),
+                "case {i}"
+            );
             assert_eq!(
                 frame.cos_theta(wi).to_bits(),
                 general.cos_theta(wi).to_bits(),
