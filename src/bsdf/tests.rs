@@ -1380,7 +1380,6 @@ fn plain_case(i: u32) -> (GpuMaterial, Vec3, Vec3, Vec3) {
 
 #[test]
 fn plain_diffuse_frames_equal_the_general_path() {
-    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let mut plain_frames = 0;
     for i in 0..4000u32 {
         let (m, ng, ns, wo) = plain_case(i);
@@ -1393,34 +1392,7 @@ fn plain_diffuse_frames_equal_the_general_path() {
             plain: false,
             ..frame
         };
-        for k in 0..8 {
-            let wi = unit(rng_uniform4(91, i, 5 + k, 0));
-            for mode in [TransportMode::Radiance, TransportMode::Importance] {
-                assert_eq!(
-                    bits(frame.eval(wi, mode)),
-                    bits(general.eval(wi, mode)),
-                    "case {i}, eval at {wi}"
-                );
-            }
-            assert_eq!(
-                frame.pdf(wi).to_bits(),
-                general.pdf(wi).to_bits(),
-                "case {i}, pdf at {wi}"
-            );
-            let u = u3(92 + k, i);
-            let (a, b) = (
-                frame.sample(u, TransportMode::Radiance),
-                general.sample(u, TransportMode::Radiance),
-            );
-            assert_eq!(a.is_some(), b.is_some(), "case {i}, sample at {u}");
-            if let (Some(a), Some(b)) = (a, b) {
-                assert_eq!(
-                    (bits(a.wi), bits(a.weight), a.pdf.to_bits(), a.delta),
-                    (bits(b.wi), bits(b.weight), b.pdf.to_bits(), b.delta),
-                    "case {i}, sample at {u}"
-                );
-            }
-        }
+        assert_same_frames(&frame, &general, i, 97, 8);
     }
     assert!(plain_frames > 3900, "{plain_frames}");
     // Any other lobe, or no light scattered at all, takes the general path.
@@ -1477,7 +1449,6 @@ fn plain_diffuse_frames_equal_the_general_path() {
 /// directions on both sides.
 #[test]
 fn lambert_frames_equal_the_general_path() {
-    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let mut frames = 0;
     for i in 0..4000u32 {
         let (m, ng, ns, wo) = plain_case(i);
@@ -1500,42 +1471,55 @@ fn lambert_frames_equal_the_general_path() {
             ..general
         };
         frames += 1;
-        assert_eq!(
-            lambert.albedo_estimate.to_bits(),
-            general.albedo_estimate.to_bits(),
-            "case {i}"
-        );
-        for k in 0..8 {
-            let wi = unit(rng_uniform4(93, i, k, 0));
-            for mode in [TransportMode::Radiance, TransportMode::Importance] {
-                assert_eq!(
-                    bits(VertexBsdf::eval(&lambert, wi, mode)),
-                    bits(general.eval(wi, mode)),
-                    "case {i}, eval at {wi}"
-                );
-                let (a, b) = (
-                    VertexBsdf::sample(&lambert, u3(94 + k, i), mode),
-                    general.sample(u3(94 + k, i), mode),
-                );
-                assert_eq!(
-                    a.map(|a| (bits(a.wi), bits(a.weight), a.pdf.to_bits(), a.delta)),
-                    b.map(|b| (bits(b.wi), bits(b.weight), b.pdf.to_bits(), b.delta)),
-                    "case {i}, sample {k}"
-                );
-            }
-            assert_eq!(
-                lambert.pdf(wi).to_bits(),
-                general.pdf(wi).to_bits(),
-                "case {i}, pdf at {wi}"
-            );
-            assert_eq!(
-                lambert.cos_theta(wi).to_bits(),
-                general.cos_theta(wi).to_bits(),
-                "case {i}, cos at {wi}"
-            );
-        }
+        assert_same_frames(&lambert, &general, i, 93, 8);
     }
     assert!(frames > 3400, "{frames}");
+}
+
+/// Two frames of case `i` give the same albedo estimate and, at `directions` directions and
+/// samples drawn from `seed` and `seed + 1 + k`, the same eval (both transport modes), sample,
+/// pdf and cosine, bit for bit.
+fn assert_same_frames(
+    a: &impl VertexBsdf,
+    b: &impl VertexBsdf,
+    i: u32,
+    seed: u32,
+    directions: u32,
+) {
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    let sampled =
+        |s: Option<BsdfSample>| s.map(|s| (bits(s.wi), bits(s.weight), s.pdf.to_bits(), s.delta));
+    assert_eq!(
+        a.albedo_estimate().to_bits(),
+        b.albedo_estimate().to_bits(),
+        "case {i}"
+    );
+    for k in 0..directions {
+        let wi = unit(rng_uniform4(seed, i, k, 0));
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            assert_eq!(
+                bits(a.eval(wi, mode)),
+                bits(b.eval(wi, mode)),
+                "case {i}, eval at {wi}"
+            );
+            let u = u3(seed + 1 + k, i);
+            assert_eq!(
+                sampled(a.sample(u, mode)),
+                sampled(b.sample(u, mode)),
+                "case {i}, sample {k}"
+            );
+        }
+        assert_eq!(
+            a.pdf(wi).to_bits(),
+            b.pdf(wi).to_bits(),
+            "case {i}, pdf at {wi}"
+        );
+        assert_eq!(
+            a.cos_theta(wi).to_bits(),
+            b.cos_theta(wi).to_bits(),
+            "case {i}, cos at {wi}"
+        );
+    }
 }
 
 /// `ShadingFrame` (light tracing, BDPT) is the plain frame exactly where the material is plain,
@@ -1544,7 +1528,6 @@ fn lambert_frames_equal_the_general_path() {
 /// diffuse transmission, sheen, coat).
 #[test]
 fn shading_frames_are_the_general_frames() {
-    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let mut kinds = [0; 2];
     for i in 0..2000u32 {
         let (mut m, ng, ns, wo) = plain_case(i);
@@ -1571,40 +1554,7 @@ fn shading_frames_are_the_general_frames() {
         let lambert = matches!(frame, ShadingFrame::Lambert(_));
         assert_eq!(lambert, material_is_plain(&m), "case {i}");
         kinds[lambert as usize] += 1;
-        assert_eq!(
-            frame.albedo_estimate().to_bits(),
-            general.albedo_estimate.to_bits(),
-            "case {i}"
-        );
-        for k in 0..4 {
-            let wi = unit(rng_uniform4(95, i, k, 0));
-            for mode in [TransportMode::Radiance, TransportMode::Importance] {
-                assert_eq!(
-                    bits(frame.eval(wi, mode)),
-                    bits(general.eval(wi, mode)),
-                    "case {i}, eval at {wi}"
-                );
-                let (a, b) = (
-                    frame.sample(u3(96 + k, i), mode),
-                    general.sample(u3(96 + k, i), mode),
-                );
-                assert_eq!(
-                    a.map(|a| (bits(a.wi), bits(a.weight), a.pdf.to_bits(), a.delta)),
-                    b.map(|b| (bits(b.wi), bits(b.weight), b.pdf.to_bits(), b.delta)),
-                    "case {i}, sample {k}"
-                );
-            }
-            assert_eq!(
-                frame.pdf(wi).to_bits(),
-                general.pdf(wi).to_bits(),
-                "case {i}"
-            );
-            assert_eq!(
-                frame.cos_theta(wi).to_bits(),
-                general.cos_theta(wi).to_bits(),
-                "case {i}"
-            );
-        }
+        assert_same_frames(&frame, &general, i, 95, 4);
     }
     assert!(kinds[0] > 900 && kinds[1] > 900, "{kinds:?}");
 }
