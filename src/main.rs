@@ -181,7 +181,7 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
 }
 
 /// The GPU render's wall time outside its kernels (`RenderStats::host_seconds`), in words.
-fn host_phases(stats: &wavetrace::render::RenderStats) -> Option<String> {
+fn host_phases(stats: &RenderStats) -> Option<String> {
     if stats.host_seconds.is_empty() {
         return None;
     }

@@ -928,6 +928,7 @@ pub const HOST_PHASES: [&str; 3] = ["film setup", "between batches", "film read-
 impl RenderStats {
     /// Adds `seconds` to the host phase `name` (one of `HOST_PHASES`).
     pub fn add_host(&mut self, name: &str, seconds: f64) {
+        debug_assert!(HOST_PHASES.contains(&name), "{name}");
         match self.host_seconds.iter_mut().find(|(n, _)| n == name) {
             Some((_, s)) => *s += seconds,
             None => self.host_seconds.push((name.to_string(), seconds)),
