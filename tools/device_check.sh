@@ -5,7 +5,7 @@
 # lent one spends it measuring rather than setting up.
 #
 #   tools/device_check.sh prepare [--mitsuba] [--tests]   here: fills .device/ and .gl/ (ignored)
-#   run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=560)
+#   run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=600)
 #   run(command="bash tools/device_check.sh run --tests twins surface_twins", ...)  those alone
 #   tools/device_check.sh run --quick                     here, on lavapipe: the same steps,
 #                                           small (PYTHON=python3.12 for the Mitsuba step)
@@ -128,7 +128,7 @@ for line in sys.stdin:
     fi
     echo "what travels (carry .device and .gl; the repository's tracked files come too):"
     du -sh .device .gl
-    echo 'run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=560)'
+    echo 'run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=600)'
 }
 
 # unpack ARCHIVE: into /tmp, with tar or, where xz is missing, Python's tarfile.
@@ -257,11 +257,11 @@ run() {
         fi
         [ $quick = 1 ] && [ ${#only[@]} -eq 0 ] && tests=(/tmp/pack/tests/twins /tmp/pack/tests/verify)
         # The tool's call ends at 600 s: every test binary must end by the run's
-        # DEVICE_CHECK_END-th second (590); one with under 30 s left is not started but named
+        # DEVICE_CHECK_END-th second (580); one with under 30 s left is not started but named
         # for a `run --tests` call of its own.
         local skipped=() left
         for t in "${tests[@]}"; do
-            left=$((${DEVICE_CHECK_END:-590} - SECONDS))
+            left=$((${DEVICE_CHECK_END:-580} - SECONDS))
             if [ $left -lt 30 ]; then
                 skipped+=("$(basename "$t")")
                 continue
