@@ -326,7 +326,7 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
         .unwrap_or_else(|e| panic!("{e:#}"));
     let gpu_out: Vec<Vec4> = bytemuck::pod_collect_to_vec(&result[1]);
 
-    let mut failures = Vec::new();
+    let mut failures = common::Disagreements::default();
     let mut skipped = 0;
     for i in 0..CASES as usize {
         let input = |k: usize| inputs[i * INPUTS_PER_CASE + k];
@@ -352,8 +352,10 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
             || lambda.abs() < 1e-3;
         let g = |slot: usize| gpu_out[i * OUTPUTS_PER_CASE + slot];
         let mut check = |slot: usize, what: &str, cpu: Vec4, tol: f32| {
-            if !close(g(slot), cpu, tol) && failures.len() < 20 {
-                failures.push(format!("{what}, case {i}: GPU {} vs CPU {cpu}", g(slot)));
+            if !close(g(slot), cpu, tol) {
+                failures.add(what, || {
+                    format!("{what}, case {i}: GPU {} vs CPU {cpu}", g(slot))
+                });
             }
         };
         if any_level_borderline {
@@ -542,7 +544,7 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
         );
         // Alpha tests read level 0: a coordinate on a texel boundary or an alpha on the cutoff
         // may flip.
-        if g(8).w != if present { 1.0 } else { 0.0 } && failures.len() < 20 {
+        if g(8).w != if present { 1.0 } else { 0.0 } {
             let tv = s.triangle_vertices[tri_index as usize];
             let tm = &s.materials[tri.material_index() as usize];
             let near = tm.base_color_texture != NO_TEXTURE && {
@@ -551,15 +553,17 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
                 on_boundary(t, texture_ref_uv(r, sp.uv), t.width, t.height)
             };
             if !near {
-                failures.push(format!(
-                    "triangle_present, case {i} (flags {}): GPU {} vs CPU {present}",
-                    tv.w,
-                    g(8).w
-                ));
+                failures.add("triangle_present", || {
+                    format!(
+                        "triangle_present, case {i} (flags {}): GPU {} vs CPU {present}",
+                        tv.w,
+                        g(8).w
+                    )
+                });
             }
         }
     }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    failures.assert_none(CASES as usize, "texture and surface twins disagree");
     // The boundary skips are rare; a run that skipped most cases would test nothing.
     assert!(
         skipped < CASES / 10,

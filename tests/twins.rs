@@ -227,18 +227,20 @@ fn glsl_functions_equal_their_rust_twins() {
         .unwrap_or_else(|e| panic!("{e:#}"));
     let gpu_out: Vec<Vec4> = bytemuck::pod_collect_to_vec(&result[1]);
 
-    let mut failures = Vec::new();
+    let mut failures = common::Disagreements::default();
     for (i, c) in cases.iter().enumerate() {
         let g = |slot: usize| gpu_out[i * OUTPUTS_PER_CASE + slot];
         let mut check = |slot: usize, what: &str, cpu: Vec4, ok: &dyn Fn(Vec4, Vec4) -> bool| {
-            if !ok(g(slot), cpu) && failures.len() < 20 {
-                failures.push(format!(
-                    "{what}, case {i} (u = {}, n = {}, wo = {}): GPU {} vs CPU {cpu}",
-                    c.u,
-                    c.n,
-                    c.wo,
-                    g(slot)
-                ));
+            if !ok(g(slot), cpu) {
+                failures.add(what, || {
+                    format!(
+                        "{what}, case {i} (u = {}, n = {}, wo = {}): GPU {} vs CPU {cpu}",
+                        c.u,
+                        c.n,
+                        c.wo,
+                        g(slot)
+                    )
+                });
             }
         };
         let rng = rng_uniform4(c.key.x, c.key.y, c.key.z, c.key.w);
@@ -607,9 +609,5 @@ fn glsl_functions_equal_their_rust_twins() {
             &|a, b| close(a, b, 1e-4),
         );
     }
-    assert!(
-        failures.is_empty(),
-        "GLSL and Rust twins disagree:\n{}",
-        failures.join("\n")
-    );
+    failures.assert_none(cases.len(), "GLSL and Rust twins disagree");
 }

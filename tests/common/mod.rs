@@ -344,3 +344,40 @@ pub fn batch_tiles(
             .collect(),
     )
 }
+
+/// The disagreements of a twin test (GPU function against its Rust twin): every one counted by
+/// what disagreed, the first 20 written out. A device whose arithmetic differs from lavapipe's
+/// (fused multiply-adds, its own division and transcendentals) shows in the counts whether a
+/// check fails in a borderline case or in many.
+#[derive(Default)]
+pub struct Disagreements {
+    shown: Vec<String>,
+    counts: std::collections::BTreeMap<String, usize>,
+}
+
+impl Disagreements {
+    pub fn add(&mut self, what: &str, message: impl FnOnce() -> String) {
+        *self.counts.entry(what.to_string()).or_default() += 1;
+        if self.shown.len() < 20 {
+            self.shown.push(message());
+        }
+    }
+
+    /// Panics with the counts and the first disagreements, if there are any, of `cases` cases.
+    pub fn assert_none(&self, cases: usize, title: &str) {
+        if self.counts.is_empty() {
+            return;
+        }
+        let counts: Vec<String> = self
+            .counts
+            .iter()
+            .map(|(what, n)| format!("  {what}: {n} of {cases} cases"))
+            .collect();
+        panic!(
+            "{title}:\n{}\nthe first {}:\n{}",
+            counts.join("\n"),
+            self.shown.len(),
+            self.shown.join("\n")
+        );
+    }
+}
