@@ -3,9 +3,7 @@
 //! random numbers, so that a disagreement between the two integrators points at one stage.
 
 use crate::bsdf::volume::{transmittance, volume_sigma};
-use crate::bsdf::{
-    fresnel_coat, material_is_plain, BsdfFrame, LambertFrame, TransportMode, VertexBsdf,
-};
+use crate::bsdf::{fresnel_coat, ShadingFrame, TransportMode, VertexBsdf};
 use crate::bvh::Ray;
 use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
 use crate::layout::LIGHT_SAMPLER_BVH;
@@ -388,19 +386,13 @@ fn shade(
         ng,
         mat,
     };
-    if material_is_plain(raw) {
-        match LambertFrame::new(mat, ng, ns, wo) {
-            Some(bsdf) => scatter(&vertex, &bsdf, throughput, state, class),
-            None => (None, None),
-        }
-    } else {
-        // Borrowed where it was built: moving the 280-byte frame out of its Option copied it
-        // (callgrind: a memcpy per vertex).
-        let frame_at = BsdfFrame::new_shading(mat, ng, ns, wo);
-        match frame_at.as_ref() {
-            Some(bsdf) => scatter(&vertex, bsdf, throughput, state, class),
-            None => (None, None),
-        }
+    // One `scatter` per kind of frame, each with its frame's own calls; the frame borrowed where
+    // it was built (moving the 280-byte general frame out of its Option copied it — callgrind: a
+    // memcpy per vertex).
+    match &ShadingFrame::new_shading(mat, ng, ns, wo) {
+        Some(ShadingFrame::Lambert(bsdf)) => scatter(&vertex, bsdf, throughput, state, class),
+        Some(ShadingFrame::General(bsdf)) => scatter(&vertex, bsdf, throughput, state, class),
+        None => (None, None),
     }
 }
 
