@@ -864,7 +864,7 @@ fn devices() -> Result<()> {
             if d.usable {
                 ""
             } else {
-                " — not usable: needs Vulkan 1.2 with a compute queue and subgroup votes in compute shaders"
+                " — not usable: needs Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic in compute shaders"
             }
         );
     }

@@ -25,7 +25,8 @@
 # logged and the next one runs. The steps, figures first:
 #   1. nvidia-smi, and `render --device auto` of the Cornell box, which must choose the GPU;
 #   2. `bench --gpu-only` of the Cornell box (1024², 64 spp, depth 8): samples/s, rays/s and
-#      per-kernel ms;
+#      per-kernel ms, with its ratio to the H200's figures of 4 December 2026
+#      (tools/bench-h200.json; steps 2 and 3);
 #   3. `bench --gpu-only --environment 1` of TransmissionTest (129k triangles),
 #      MetalRoughSpheresNoTextures (1M) and a 2M-triangle terrain (tools/gen_large.py): the
 #      issue's ≥ 1 G rays/s, extension + shadow (the uniform environment gives the unlit
@@ -165,9 +166,10 @@ figures() {
     step "render --device auto" 120 "$wt" render scenes/cornell-box.gltf --width 256 --height 256 \
         --spp 16 --stats -o "$out/cornell-box.png"
     step "bench cornell-box" 120 "$wt" bench --gpu-only --width $size --height $size --spp $spp \
-        --json "$out/bench-cornell.json" scenes/cornell-box.gltf
+        --json "$out/bench-cornell.json" --baseline tools/bench-h200.json scenes/cornell-box.gltf
     step "bench large scenes" 240 "$wt" bench --gpu-only --width $size --height $size --spp $spp \
-        --environment 1 --json "$out/bench-large.json" "${scenes[@]}"
+        --environment 1 --json "$out/bench-large.json" --baseline tools/bench-h200.json \
+        "${scenes[@]}"
     if [ -f .device/site.tar.xz ] && unpack .device/site.tar.xz; then
         local variant=cuda_ad_rgb
         [ $quick = 1 ] && variant=scalar_rgb

@@ -109,7 +109,7 @@ void queue_camera_join(ShadowRay shadow, vec3 contribution, uint path, bool acce
     if (!(max_component(contribution) > 0.0) || !accepted) return;
     shadow.contribution = contribution;
     shadow.path = path;
-    shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+    shadow_rays[queue_push_slot(COUNTER_SHADOW)] = shadow;
 }
 
 // Adds c to pixel's splat sums of the batch's pass `slot` (the sample index less the batch's

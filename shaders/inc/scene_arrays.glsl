@@ -34,15 +34,21 @@ uint scene_fetches = 0u;
     (scene_fetches += 1u,                                                                       \
      texelFetch(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT), 0))
 
-// With frame.count_fetches (render --stats): adds this invocation's fetches to its kernel's
+#ifdef KERNEL_INDEX
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#endif
+// With frame.count_fetches (render --stats): adds the subgroup's fetches to its kernel's
 // 64-bit count, counters[COUNTER_FETCHES + 2 KERNEL_INDEX] (low word) and the next (high word;
-// src/layout.rs, counter::FETCHES). Every kernel's main ends with it.
+// src/layout.rs, counter::FETCHES), one atomicAdd per subgroup rather than per lane (the same
+// integer total). Every kernel's main ends with it, where its lanes have reconverged.
 void count_scene_fetches() {
 #ifdef KERNEL_INDEX
-    if (frame.count_fetches == 0u || scene_fetches == 0u) return;
+    if (frame.count_fetches == 0u) return;
+    uint fetched = subgroupAdd(scene_fetches);
+    if (!subgroupElect() || fetched == 0u) return;
     uint slot = COUNTER_FETCHES + 2u * KERNEL_INDEX;
-    uint before = atomicAdd(counters[slot], scene_fetches);
-    if (before + scene_fetches < before) atomicAdd(counters[slot + 1u], 1u);
+    uint before = atomicAdd(counters[slot], fetched);
+    if (before + fetched < before) atomicAdd(counters[slot + 1u], 1u);
 #endif
 }
 

@@ -133,7 +133,7 @@ void kernel_main() {
     shadow.path = path;
     shadow.contribution = c * weight;
     shadow.pad = target;
-    shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+    shadow_rays[queue_push_slot(COUNTER_SHADOW)] = shadow;
 }
 
 void main() {

@@ -117,7 +117,7 @@ void kernel_main() {
     ray.path = i;
     ray.dir = dir;
     ray.pad = 0u;
-    rays[atomicAdd(counters[COUNTER_RAYS_0], 1u)] = ray;
+    rays[queue_push_slot(COUNTER_RAYS_0)] = ray;
 }
 
 void main() {

@@ -242,7 +242,7 @@ void kernel_main() {
                 vec3 tr = transmittance(max(volume_sigma(mat, ng, ls.wi), ls.medium), shadow.t_max);
                 shadow.contribution = state.throughput * f * bsdf_frame_cos(bsdf, ls.wi) * ls.radiance * tr * (w / ls.pdf);
                 shadow.pad = 0u;
-                shadow_rays[atomicAdd(counters[COUNTER_SHADOW], 1u)] = shadow;
+                shadow_rays[queue_push_slot(COUNTER_SHADOW)] = shadow;
             }
         }
     }
@@ -292,7 +292,7 @@ void kernel_main() {
     next.dir = wi;
     next.pad = 0u;
     uint next_queue = queue ^ 1u;
-    rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+    rays[next_queue * params.batch_size + queue_push_slot(next_queue)] = next;
 }
 
 void main() {

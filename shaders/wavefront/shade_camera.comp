@@ -110,7 +110,7 @@ void kernel_main() {
     next.dir = wi;
     next.pad = 0u;
     uint next_queue = queue ^ 1u;
-    rays[next_queue * params.batch_size + atomicAdd(counters[next_queue], 1u)] = next;
+    rays[next_queue * params.batch_size + queue_push_slot(next_queue)] = next;
 }
 
 void main() {

@@ -23,7 +23,8 @@ pub struct DeviceInfo {
     pub kind: String,
     pub api_version: String,
     pub driver: String,
-    /// Vulkan 1.2+ with a compute queue and subgroup votes in compute shaders.
+    /// Vulkan 1.2+ with a compute queue and subgroup votes, ballots and arithmetic in compute
+    /// shaders.
     pub usable: bool,
 }
 
@@ -151,8 +152,10 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         )
         .trim()
         .to_owned(),
-        // The kernels' BVH walks vote across a subgroup (subgroupAll, qbvh.glsl): Vulkan 1.1
-        // makes subgroups core, and every GPU driver and lavapipe offer votes in compute.
+        // The kernels' BVH walks vote across a subgroup (subgroupAll, qbvh.glsl) and their queue
+        // pushes and counts go one atomic per subgroup (ballot, arithmetic; bindings.glsl):
+        // Vulkan 1.1 makes subgroups core, and every GPU driver and lavapipe offer these three
+        // in compute.
         usable: v >= vk::API_VERSION_1_2
             && has_compute
             && subgroup
@@ -160,7 +163,11 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
                 .contains(vk::ShaderStageFlags::COMPUTE)
             && subgroup
                 .supported_operations
-                .contains(vk::SubgroupFeatureFlags::VOTE),
+                .contains(
+                    vk::SubgroupFeatureFlags::VOTE
+                        | vk::SubgroupFeatureFlags::BALLOT
+                        | vk::SubgroupFeatureFlags::ARITHMETIC,
+                ),
     }
 }
 
@@ -230,7 +237,7 @@ impl Context {
                 };
                 if !info.usable {
                     bail!(
-                        "Vulkan device {i} ({}) lacks Vulkan 1.2, a compute queue or subgroup votes in compute shaders",
+                        "Vulkan device {i} ({}) lacks Vulkan 1.2, a compute queue or subgroup votes, ballots and arithmetic in compute shaders",
                         info.name
                     );
                 }
@@ -251,7 +258,7 @@ impl Context {
                         bail!("no Vulkan device was found: {INSTALL_HINT}")
                     }
                     None => bail!(
-                        "no Vulkan device supports Vulkan 1.2 with a compute queue and subgroup votes: {INSTALL_HINT}"
+                        "no Vulkan device supports Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic: {INSTALL_HINT}"
                     ),
                 }
             }
