@@ -20,14 +20,39 @@ float iridescence_schlick(float f0, float cos_theta) {
     return f0 + (1.0 - f0) * m * m * m * m * m;
 }
 
+// cos x for the film's phases, by the same additions and products as src/bsdf/iridescence.rs:
+// x less its nearest whole turns (Cody & Waite: 2 pi as 6.28125, exact in multiples, plus the
+// rest), then cos's Taylor series to x^18 by Horner's rule. Vulkan holds a device's own cos to
+// nothing outside [-pi, pi] (and to 2^-11 inside).
+float film_cos(float x) {
+    const float TURN = 2.0 * PI;
+    float k = floor(x * (1.0 / TURN) + 0.5);
+    float r = (x - k * 6.28125) - k * 1.935307169e-03;
+    float r2 = r * r;
+    float p = -1.561920681e-16;
+    p = p * r2 + 4.779477256e-14;
+    p = p * r2 - 1.147074536e-11;
+    p = p * r2 + 2.087675588e-09;
+    p = p * r2 - 2.755731998e-07;
+    p = p * r2 + 2.480158764e-05;
+    p = p * r2 - 1.388888923e-03;
+    p = p * r2 + 4.166666791e-02;
+    p = p * r2 - 5.000000000e-01;
+    return p * r2 + 1.0;
+}
+
+vec3 film_cos(vec3 x) {
+    return vec3(film_cos(x.x), film_cos(x.y), film_cos(x.z));
+}
+
 // The XYZ matching functions' response to optical path difference opd (nm), in linear Rec. 709.
 vec3 eval_sensitivity(float opd, vec3 shift) {
     float phase = 2.0 * PI * opd * 1.0e-9;
     vec3 val = vec3(5.4856e-13, 4.4201e-13, 5.2481e-13);
     vec3 pos = vec3(1.6810e+06, 1.7953e+06, 2.2084e+06);
     vec3 var = vec3(4.3278e+09, 9.3046e+09, 6.6121e+09);
-    vec3 xyz = val * sqrt(2.0 * PI * var) * cos(pos * phase + shift) * exp(-phase * phase * var);
-    xyz.x += 9.7470e-14 * sqrt(2.0 * PI * 4.5282e+09) * cos(2.2399e+06 * phase + shift.x)
+    vec3 xyz = val * sqrt(2.0 * PI * var) * film_cos(pos * phase + shift) * exp(-phase * phase * var);
+    xyz.x += 9.7470e-14 * sqrt(2.0 * PI * 4.5282e+09) * film_cos(2.2399e+06 * phase + shift.x)
            * exp(-4.5282e+09 * phase * phase);
     xyz /= 1.0685e-7;
     return vec3(3.2404542 * xyz.x - 1.5371385 * xyz.y - 0.4985314 * xyz.z,

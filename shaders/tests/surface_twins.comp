@@ -60,7 +60,7 @@ void main() {
     outputs[o + 0u] = sample_texture_ref(ref_index, uv0, uv1, lod);
     outputs[o + 1u] = texture_sample_level(t, min(level, t.levels - 1u), uv0, linear);
     outputs[o + 2u] = vec4(texture_lod(t, r, lod.x), reduce_coordinate(uv0.x, t.wrap_s),
-                           float(wrap_texel(int(floor(uv0.y * 7.0)), 5, t.wrap_t)),
+                           float(wrap_texel(int(i % 20u) - 5, 5, t.wrap_t)),
                            texture_ref_uv(r, uv0, uv1).x);
 
     GpuTriangle tri = triangle_at(tri_index);

@@ -161,13 +161,11 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
             && subgroup
                 .supported_stages
                 .contains(vk::ShaderStageFlags::COMPUTE)
-            && subgroup
-                .supported_operations
-                .contains(
-                    vk::SubgroupFeatureFlags::VOTE
-                        | vk::SubgroupFeatureFlags::BALLOT
-                        | vk::SubgroupFeatureFlags::ARITHMETIC,
-                ),
+            && subgroup.supported_operations.contains(
+                vk::SubgroupFeatureFlags::VOTE
+                    | vk::SubgroupFeatureFlags::BALLOT
+                    | vk::SubgroupFeatureFlags::ARITHMETIC,
+            ),
     }
 }
 
