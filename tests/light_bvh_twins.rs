@@ -132,9 +132,11 @@ fn light_bvh_functions_equal_their_rust_twins() {
         ]);
     }
     let outputs = vec![Vec4::ZERO; CASES as usize * OUTPUTS_PER_CASE];
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::test_kernels() else {
+        return;
+    };
     let result = gpu
-        .run_test_kernel(
+        .run(
             "light_bvh_twins",
             CASES,
             &[

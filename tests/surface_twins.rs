@@ -306,9 +306,11 @@ fn texture_and_surface_functions_equal_their_rust_twins() {
         ]);
     }
     let outputs = vec![Vec4::ZERO; CASES as usize * OUTPUTS_PER_CASE];
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::test_kernels() else {
+        return;
+    };
     let result = gpu
-        .run_test_kernel(
+        .run(
             "surface_twins",
             CASES,
             &[

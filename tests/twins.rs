@@ -239,9 +239,11 @@ fn glsl_functions_equal_their_rust_twins() {
     let quant = WideBvh::collapse(&scene.bvh.nodes, &[0]).quantized();
     let outputs = vec![Vec4::ZERO; cases.len() * OUTPUTS_PER_CASE];
     let frames = twin_frames();
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::test_kernels() else {
+        return;
+    };
     let result = gpu
-        .run_test_kernel(
+        .run(
             "twins",
             CASES,
             &[

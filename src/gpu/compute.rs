@@ -2,23 +2,43 @@
 //! wavefront loop (the GLSL-twin tests): bind buffers 0..n, push a u32 invocation count,
 //! dispatch, read every buffer back.
 
-use super::memory::{barrier, Buffer, Location};
+use super::context::{Context, DeviceInfo};
+use super::memory::{barrier, Buffer, Commands, Location};
 use super::resources::SUBMIT_TIMEOUT_S;
-use super::GpuRenderer;
 use crate::kernels::TEST_KERNELS;
 use crate::layout::WORKGROUP_SIZE;
 use anyhow::{anyhow, Context as _, Result};
 use ash::vk;
 
-impl GpuRenderer {
+/// A Vulkan device that runs the GLSL-twin test kernels: its context and one command buffer,
+/// without the renderer's pipelines and their 42 storage-buffer bindings, so that a device
+/// which cannot hold those (SwiftShader binds at most 30) still checks its arithmetic against
+/// the Rust twins.
+pub struct TestKernels {
+    commands: Commands,
+    ctx: Context,
+}
+
+impl TestKernels {
+    /// The device `device_index` (else the preferred usable one), with the validation layer
+    /// where asked and installed.
+    pub fn new(device_index: Option<usize>, validation: bool) -> Result<TestKernels> {
+        let ctx = Context::new(device_index, validation)?;
+        let commands = Commands::new(&ctx)?;
+        Ok(TestKernels { commands, ctx })
+    }
+
+    pub fn device(&self) -> &DeviceInfo {
+        &self.ctx.info
+    }
+
+    pub fn validating(&self) -> bool {
+        self.ctx.validating()
+    }
+
     /// Runs test kernel `name` for `count` invocations with `buffers` bound as storage buffers
     /// 0, 1, ... and returns their contents afterwards.
-    pub fn run_test_kernel(
-        &self,
-        name: &str,
-        count: u32,
-        buffers: &[Vec<u8>],
-    ) -> Result<Vec<Vec<u8>>> {
+    pub fn run(&self, name: &str, count: u32, buffers: &[Vec<u8>]) -> Result<Vec<Vec<u8>>> {
         let ctx = &self.ctx;
         let device = &ctx.device;
         let (_, bytes) = TEST_KERNELS

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use wavetrace::film::Film;
+use wavetrace::gpu::compute::TestKernels;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings};
 use wavetrace::scene::Scene;
@@ -51,6 +52,43 @@ pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
         Some(Mutex::new(r))
     });
     gpu.as_ref()
+        .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
+}
+
+/// The test binary's device for the GLSL-twin kernels: a Vulkan context without the renderer's
+/// pipelines, so that a device whose limits cannot hold the renderer (SwiftShader, which
+/// `.ci/run` also runs the twin tests on) still checks its arithmetic. Skips as [`gpu`] does.
+pub fn test_kernels() -> Option<MutexGuard<'static, TestKernels>> {
+    static KERNELS: OnceLock<Option<Mutex<TestKernels>>> = OnceLock::new();
+    let kernels = KERNELS.get_or_init(|| {
+        if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
+            eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
+            return None;
+        }
+        let k = TestKernels::new(None, true).unwrap_or_else(|e| panic!("no Vulkan device: {e:#}"));
+        // WAVETRACE_TWINS_DEVICE=NAME: the run is meant for that device (`.ci/run` names
+        // SwiftShader), so another one is an error rather than a second run on the first.
+        if let Ok(want) = std::env::var("WAVETRACE_TWINS_DEVICE") {
+            assert!(
+                k.device().name.contains(&want),
+                "WAVETRACE_TWINS_DEVICE={want}, but the Vulkan device is {}",
+                k.device().name
+            );
+        }
+        eprintln!(
+            "GPU twin kernels on {} ({}), validation layer {}",
+            k.device().name,
+            k.device().driver,
+            if k.validating() {
+                "on"
+            } else {
+                "not installed"
+            }
+        );
+        Some(Mutex::new(k))
+    });
+    kernels
+        .as_ref()
         .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
 }
 
