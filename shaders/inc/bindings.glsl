@@ -85,17 +85,22 @@ layout(set = 0, binding = 53) uniform utexture2D light_image;
 layout(push_constant) uniform Push { DispatchParams params; };
 
 #extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 // A slot of the queue whose length is counters[counter], for each lane that calls this
-// together (with the same counter): one atomicAdd per subgroup for all its pushing lanes, each
-// lane then taking its rank among them (warp-aggregated atomics, as the queues of Laine et al.
-// 2013, "Megakernels Considered Harmful", §4.2, are pushed). A lane per atomic would send every
-// lane of a GPU's wide dispatch to one address; which ray lands in which slot was never fixed
-// (the lanes' atomics come in any order) and nothing depends on it: each ray names its path.
+// together (with the same counter): one atomicAdd per subgroup for all its pushing lanes, made
+// by the first of them, each lane then taking its rank among them (warp-aggregated atomics, as
+// the queues of Laine et al. 2013, "Megakernels Considered Harmful", §4.2, are pushed). A lane
+// per atomic would send every lane of a GPU's wide dispatch to one address; which ray lands in
+// which slot was never fixed (the lanes' atomics come in any order) and nothing depends on it:
+// each ray names its path. (The rank is an exclusive sum and the first lane the one of rank 0,
+// where subgroupElect and subgroupBallotBitCount would do: naga, which validates every kernel,
+// reads scans and broadcasts but not those two.)
 uint queue_push_slot(uint counter) {
-    uvec4 pushing = subgroupBallot(true);
+    uint rank = subgroupExclusiveAdd(1u);
+    uint pushing = subgroupAdd(1u);
     uint first = 0u;
-    if (subgroupElect()) first = atomicAdd(counters[counter], subgroupBallotBitCount(pushing));
-    return subgroupBroadcastFirst(first) + subgroupBallotExclusiveBitCount(pushing);
+    if (rank == 0u) first = atomicAdd(counters[counter], pushing);
+    return subgroupBroadcastFirst(first) + rank;
 }
 
 #endif

@@ -45,7 +45,8 @@ void count_scene_fetches() {
 #ifdef KERNEL_INDEX
     if (frame.count_fetches == 0u) return;
     uint fetched = subgroupAdd(scene_fetches);
-    if (!subgroupElect() || fetched == 0u) return;
+    // The subgroup's first lane (naga reads an exclusive sum, not subgroupElect).
+    if (subgroupExclusiveAdd(1u) != 0u || fetched == 0u) return;
     uint slot = COUNTER_FETCHES + 2u * KERNEL_INDEX;
     uint before = atomicAdd(counters[slot], fetched);
     if (before + fetched < before) atomicAdd(counters[slot + 1u], 1u);
