@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use wavetrace::film::Film;
 use wavetrace::gpu::compute::TestKernels;
-use wavetrace::gpu::{GpuOptions, GpuRenderer};
+use wavetrace::gpu::{DeviceInfo, GpuOptions, GpuRenderer};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings};
 use wavetrace::scene::Scene;
 use wavetrace::stats::compare_films;
@@ -27,11 +27,7 @@ pub fn prepared(name: &str) -> PreparedScene {
 /// installs lavapipe), unless WAVETRACE_SKIP_GPU=1 says to skip them; then this returns None.
 pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
     static GPU: OnceLock<Option<Mutex<GpuRenderer>>> = OnceLock::new();
-    let gpu = GPU.get_or_init(|| {
-        if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
-            eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
-            return None;
-        }
+    one_device(&GPU, "GPU tests", || {
         let r = GpuRenderer::new(&GpuOptions {
             device_index: None,
             validation: true,
@@ -39,20 +35,9 @@ pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
             count_fetches: false,
         })
         .unwrap_or_else(|e| panic!("no GPU renderer: {e:#}"));
-        eprintln!(
-            "GPU tests on {} ({}), validation layer {}",
-            r.device().name,
-            r.device().driver,
-            if r.validating() {
-                "on"
-            } else {
-                "not installed"
-            }
-        );
-        Some(Mutex::new(r))
-    });
-    gpu.as_ref()
-        .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
+        let (device, validating) = (r.device().clone(), r.validating());
+        (r, device, validating)
+    })
 }
 
 /// The test binary's device for the GLSL-twin kernels: a Vulkan context without the renderer's
@@ -60,11 +45,7 @@ pub fn gpu() -> Option<MutexGuard<'static, GpuRenderer>> {
 /// `.ci/run` also runs the twin tests on) still checks its arithmetic. Skips as [`gpu`] does.
 pub fn test_kernels() -> Option<MutexGuard<'static, TestKernels>> {
     static KERNELS: OnceLock<Option<Mutex<TestKernels>>> = OnceLock::new();
-    let kernels = KERNELS.get_or_init(|| {
-        if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
-            eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
-            return None;
-        }
+    one_device(&KERNELS, "GPU twin kernels", || {
         let k = TestKernels::new(None, true).unwrap_or_else(|e| panic!("no Vulkan device: {e:#}"));
         // WAVETRACE_TWINS_DEVICE=NAME: the run is meant for that device (`.ci/run` names
         // SwiftShader), so another one is an error rather than a second run on the first.
@@ -75,20 +56,32 @@ pub fn test_kernels() -> Option<MutexGuard<'static, TestKernels>> {
                 k.device().name
             );
         }
+        let (device, validating) = (k.device().clone(), k.validating());
+        (k, device, validating)
+    })
+}
+
+/// The one `T` of a test binary, made by `open` on first use and named on stderr with its
+/// device, or none where WAVETRACE_SKIP_GPU=1.
+fn one_device<T>(
+    cell: &'static OnceLock<Option<Mutex<T>>>,
+    what: &str,
+    open: impl FnOnce() -> (T, DeviceInfo, bool),
+) -> Option<MutexGuard<'static, T>> {
+    let made = cell.get_or_init(|| {
+        if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
+            eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
+            return None;
+        }
+        let (t, device, validating) = open();
+        let layer = if validating { "on" } else { "not installed" };
         eprintln!(
-            "GPU twin kernels on {} ({}), validation layer {}",
-            k.device().name,
-            k.device().driver,
-            if k.validating() {
-                "on"
-            } else {
-                "not installed"
-            }
+            "{what} on {} ({}), validation layer {layer}",
+            device.name, device.driver
         );
-        Some(Mutex::new(k))
+        Some(Mutex::new(t))
     });
-    kernels
-        .as_ref()
+    made.as_ref()
         .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()))
 }
 
