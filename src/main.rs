@@ -315,7 +315,7 @@ pub(crate) fn resolve_device(kind: DeviceKind, gpu_index: Option<usize>) -> Devi
         return DeviceKind::Gpu;
     }
     match wavetrace::gpu::list_devices() {
-        Ok(devices) => match devices.iter().find(|d| d.usable && d.kind != "cpu") {
+        Ok(devices) => match devices.iter().find(|d| d.renders() && d.kind != "cpu") {
             Some(d) => {
                 eprintln!("device auto: gpu ({})", d.name);
                 DeviceKind::Gpu
@@ -323,7 +323,7 @@ pub(crate) fn resolve_device(kind: DeviceKind, gpu_index: Option<usize>) -> Devi
             None => {
                 let cpu_drivers: Vec<&str> = devices
                     .iter()
-                    .filter(|d| d.usable)
+                    .filter(|d| d.renders())
                     .map(|d| d.name.as_str())
                     .collect();
                 eprintln!(
@@ -720,7 +720,7 @@ fn multi_gpu(index: &Option<crate::cli::GpuIndex>) -> Option<Result<Vec<usize>>>
             Some(wavetrace::gpu::list_devices().and_then(|devices| {
                 let usable: Vec<usize> = devices
                     .iter()
-                    .filter(|d| d.usable)
+                    .filter(|d| d.renders())
                     .map(|d| d.index)
                     .collect();
                 if usable.is_empty() {
@@ -861,10 +861,16 @@ fn devices() -> Result<()> {
             d.kind,
             d.api_version,
             d.driver,
-            if d.usable {
-                ""
+            if !d.usable {
+                " — not usable: needs Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic in compute shaders".to_owned()
+            } else if !d.renders() {
+                format!(
+                    " — cannot render: binds at most {} storage buffers per kernel, the wavefront kernels bind {} (it runs the twin tests' kernels)",
+                    d.max_storage_buffers,
+                    wavetrace::gpu::pipelines::STORAGE_BUFFERS
+                )
             } else {
-                " — not usable: needs Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic in compute shaders"
+                String::new()
             }
         );
     }

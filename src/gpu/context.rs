@@ -26,6 +26,16 @@ pub struct DeviceInfo {
     /// Vulkan 1.2+ with a compute queue and subgroup votes, ballots and arithmetic in compute
     /// shaders.
     pub usable: bool,
+    /// Storage buffers a kernel may bind (`maxPerStageDescriptorStorageBuffers`).
+    pub max_storage_buffers: u32,
+}
+
+impl DeviceInfo {
+    /// Whether the renderer runs on it: usable, and able to bind the wavefront kernels'
+    /// storage buffers (SwiftShader binds 30 of their 42: it runs the twin tests' kernels only).
+    pub fn renders(&self) -> bool {
+        self.usable && self.max_storage_buffers >= super::pipelines::STORAGE_BUFFERS
+    }
 }
 
 pub struct Context {
@@ -156,6 +166,7 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         // pushes and counts go one atomic per subgroup (ballot, arithmetic; bindings.glsl):
         // Vulkan 1.1 makes subgroups core, and every GPU driver and lavapipe offer these three
         // in compute.
+        max_storage_buffers: p.limits.max_per_stage_descriptor_storage_buffers,
         usable: v >= vk::API_VERSION_1_2
             && has_compute
             && subgroup
@@ -242,12 +253,16 @@ impl Context {
                 i
             }
             None => {
+                // A device that renders before one that runs test kernels only, then by kind.
                 let best = (0..physicals.len())
                     .filter(|&i| infos[i].usable)
                     .min_by_key(|&i| {
-                        preference(
-                            unsafe { instance.get_physical_device_properties(physicals[i]) }
-                                .device_type,
+                        (
+                            !infos[i].renders(),
+                            preference(
+                                unsafe { instance.get_physical_device_properties(physicals[i]) }
+                                    .device_type,
+                            ),
                         )
                     });
                 match best {
@@ -389,5 +404,30 @@ impl Drop for Context {
             }
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A device renders when it is usable and binds the wavefront kernels' storage buffers;
+    /// SwiftShader (30) and an unusable device do not, and `devices` and `--device auto` say so.
+    #[test]
+    fn a_device_renders_only_with_room_for_the_kernels_buffers() {
+        let device = |usable, max_storage_buffers| DeviceInfo {
+            index: 0,
+            name: "test".into(),
+            kind: "cpu".into(),
+            api_version: "1.3.0".into(),
+            driver: String::new(),
+            usable,
+            max_storage_buffers,
+        };
+        let needed = crate::gpu::pipelines::STORAGE_BUFFERS;
+        assert!(device(true, needed).renders());
+        assert!(!device(true, needed - 1).renders());
+        assert!(!device(true, 30).renders());
+        assert!(!device(false, u32::MAX).renders());
     }
 }

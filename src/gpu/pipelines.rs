@@ -401,12 +401,16 @@ pub struct Pipelines {
     pipelines: Mutex<HashMap<(&'static str, u32), vk::Pipeline>>,
 }
 
+/// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer
+/// and the scene images.
+pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 1 - SceneImage::ALL.len()) as u32;
+
 impl Pipelines {
     /// The descriptor set and the layout of kernels specialised for scenes laid over their
     /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
     pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
         let device = &ctx.device;
-        let storage = (Binding::ALL.len() - 1 - SceneImage::ALL.len()) as u32;
+        let storage = STORAGE_BUFFERS;
         let limit = ctx
             .properties
             .limits
