@@ -862,13 +862,12 @@ fn devices() -> Result<()> {
             d.api_version,
             d.driver,
             if !d.usable {
-                " — not usable: needs Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic in compute shaders".to_owned()
-            } else if !d.renders() {
                 format!(
-                    " — cannot render: binds at most {} storage buffers per kernel, the wavefront kernels bind {} (it runs the twin tests' kernels)",
-                    d.max_storage_buffers,
-                    wavetrace::gpu::pipelines::STORAGE_BUFFERS
+                    " — not usable: needs {}",
+                    wavetrace::gpu::context::REQUIREMENTS
                 )
+            } else if let Some(shortfall) = d.storage_shortfall() {
+                format!(" — cannot render: {shortfall} (it runs the twin tests' kernels)")
             } else {
                 String::new()
             }

@@ -207,10 +207,7 @@ fn close_within(a: Vec4, b: Vec4, tol: f32, envelope: Vec4) -> bool {
 }
 
 fn close(a: Vec4, b: Vec4, tol: f32) -> bool {
-    (a - b)
-        .abs()
-        .cmple(Vec4::splat(tol) * b.abs().max(Vec4::ONE))
-        .all()
+    close_within(a, b, tol, Vec4::ZERO)
 }
 
 #[test]

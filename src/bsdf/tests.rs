@@ -1487,12 +1487,11 @@ fn lambert_frames_equal_the_general_path() {
         } else {
             wo
         };
-        let (lambert, general) = (
+        let Some((lambert, general)) = both_frames(
             LambertFrame::new(&m, ng, ns, wo),
             BsdfFrame::new_shading(&m, ng, ns, wo),
-        );
-        assert_eq!(lambert.is_some(), general.is_some(), "case {i}");
-        let (Some(lambert), Some(general)) = (lambert, general) else {
+            i,
+        ) else {
             continue;
         };
         let general = BsdfFrame {
@@ -1503,6 +1502,13 @@ fn lambert_frames_equal_the_general_path() {
         assert_same_frames(&lambert, &general, i, 93, 8);
     }
     assert!(frames > 3400, "{frames}");
+}
+
+/// Both frames of case `i`, where the two constructors agree that there is one (else the
+/// case fails): none at a vertex either refuses.
+fn both_frames<A, B>(a: Option<A>, b: Option<B>, i: u32) -> Option<(A, B)> {
+    assert_eq!(a.is_some(), b.is_some(), "case {i}");
+    a.zip(b)
 }
 
 /// Two frames of case `i` give the same albedo estimate and, at `directions` directions and
@@ -1572,12 +1578,11 @@ fn shading_frames_are_the_general_frames() {
                 _ => m.clearcoat = 0.5,
             }
         }
-        let (frame, general) = (
+        let Some((frame, general)) = both_frames(
             ShadingFrame::new_shading(&m, ng, ns, wo),
             BsdfFrame::new_shading(&m, ng, ns, wo),
-        );
-        assert_eq!(frame.is_some(), general.is_some(), "case {i}");
-        let (Some(frame), Some(general)) = (frame, general) else {
+            i,
+        ) else {
             continue;
         };
         let lambert = matches!(frame, ShadingFrame::Lambert(_));

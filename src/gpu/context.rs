@@ -30,11 +30,26 @@ pub struct DeviceInfo {
     pub max_storage_buffers: u32,
 }
 
+/// What a usable device offers (`DeviceInfo::usable`), as the messages say it.
+pub const REQUIREMENTS: &str =
+    "Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic in compute shaders";
+
 impl DeviceInfo {
     /// Whether the renderer runs on it: usable, and able to bind the wavefront kernels'
     /// storage buffers (SwiftShader binds 30 of their 42: it runs the twin tests' kernels only).
     pub fn renders(&self) -> bool {
-        self.usable && self.max_storage_buffers >= super::pipelines::STORAGE_BUFFERS
+        self.usable && self.storage_shortfall().is_none()
+    }
+
+    /// Why the wavefront kernels' storage buffers do not fit its limit, if they do not.
+    pub fn storage_shortfall(&self) -> Option<String> {
+        let needed = super::pipelines::STORAGE_BUFFERS;
+        (self.max_storage_buffers < needed).then(|| {
+            format!(
+                "binds at most {} storage buffers per kernel; wavetrace needs {needed}",
+                self.max_storage_buffers
+            )
+        })
     }
 }
 
@@ -246,7 +261,7 @@ impl Context {
                 };
                 if !info.usable {
                     bail!(
-                        "Vulkan device {i} ({}) lacks Vulkan 1.2, a compute queue or subgroup votes, ballots and arithmetic in compute shaders",
+                        "Vulkan device {i} ({}) is not usable: wavetrace needs {REQUIREMENTS}",
                         info.name
                     );
                 }
@@ -270,9 +285,7 @@ impl Context {
                     None if physicals.is_empty() => {
                         bail!("no Vulkan device was found: {INSTALL_HINT}")
                     }
-                    None => bail!(
-                        "no Vulkan device supports Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic: {INSTALL_HINT}"
-                    ),
+                    None => bail!("no Vulkan device offers {REQUIREMENTS}: {INSTALL_HINT}"),
                 }
             }
         };

@@ -160,10 +160,11 @@ impl GpuRenderer {
     /// The default number of paths in flight: smaller on CPU devices, bounded by the storage
     /// range of one binding (the ray queues hold two rays per path) and by 65535 workgroups.
     /// A GPU with 8 GiB of device memory or more gets 2^21 for the path tracer (about 0.9 GiB
-    /// of buffers; `setup` keeps light tracing and BDPT at 2^20): on an
-    /// H200 the Cornell box at 1024², 64 spp ran at 144, 199 and 216 M samples/s with 2^18,
-    /// 2^20 and 2^21 paths in flight, each batch's last bounces being short dispatches.
-    pub fn default_wavefront(&self) -> u32 {
+    /// of buffers): on an H200 the Cornell box at 1024², 64 spp ran at 144, 199 and 216 M
+    /// samples/s with 2^18, 2^20 and 2^21 paths in flight, each batch's last bounces being
+    /// short dispatches. Light tracing and BDPT keep 2^20 there: 2^21 paths of BDPT's subpath
+    /// vertices would take 3.8 GB at depth 8, and 2^21 was measured for the path tracer only.
+    pub fn default_wavefront(&self, integrator: crate::cpu::Integrator) -> u32 {
         let memory = &self.ctx.memory_properties;
         let device_local = memory.memory_heaps[..memory.memory_heap_count as usize]
             .iter()
@@ -171,7 +172,8 @@ impl GpuRenderer {
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
-        let preferred = match (self.ctx.is_cpu(), device_local >= 8 << 30) {
+        let large = device_local >= 8 << 30 && integrator == crate::cpu::Integrator::Path;
+        let preferred = match (self.ctx.is_cpu(), large) {
             (true, _) => 1 << 17,
             (false, false) => 1 << 20,
             (false, true) => 1 << 21,
@@ -303,12 +305,7 @@ impl GpuRenderer {
         active_list: bool,
     ) -> Result<Setup> {
         let ctx = &self.ctx;
-        // (BDPT keeps 2^20 on large GPUs too: 2^21 paths of its subpaths' vertices would take
-        // 3.8 GB at depth 8, and 2^21 was measured for the path tracer only.)
-        let capacity = wavefront.unwrap_or_else(|| match settings.integrator {
-            crate::cpu::Integrator::Path => self.default_wavefront(),
-            _ => self.default_wavefront().min(1 << 20),
-        });
+        let capacity = wavefront.unwrap_or_else(|| self.default_wavefront(settings.integrator));
         if capacity == 0 || capacity > self.max_wavefront() {
             bail!(
                 "--wavefront {capacity}: this device takes 1 to {} paths in flight",

@@ -410,16 +410,8 @@ impl Pipelines {
     /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
     pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
         let device = &ctx.device;
-        let storage = STORAGE_BUFFERS;
-        let limit = ctx
-            .properties
-            .limits
-            .max_per_stage_descriptor_storage_buffers;
-        if storage > limit {
-            bail!(
-                "{} binds at most {limit} storage buffers per kernel; wavetrace needs {storage}",
-                ctx.info.name
-            );
+        if let Some(shortfall) = ctx.info.storage_shortfall() {
+            bail!("{} {shortfall}", ctx.info.name);
         }
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = Binding::ALL
             .iter()
@@ -457,7 +449,7 @@ impl Pipelines {
                 .descriptor_count(1),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(storage),
+                .descriptor_count(STORAGE_BUFFERS),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::SAMPLED_IMAGE)
                 .descriptor_count(SceneImage::ALL.len() as u32),
