@@ -32,17 +32,24 @@ impl IncludeHandler for IncludeDir {
 }
 
 /// Compiles one kernel; `kernel_index` (a wavefront kernel's place in `KERNELS`) is defined as
-/// `KERNEL_INDEX` after the `#version` line, `#line 2` keeping the file's line numbers.
+/// `KERNEL_INDEX` after the `#version` line, with `SCENE_ONE_BINDING` where `one_binding`,
+/// `#line 2` keeping the file's line numbers.
 fn compile(
     compiler: &Compiler,
     path: &Path,
     include_dir: &Path,
     kernel_index: Option<usize>,
+    one_binding: bool,
 ) -> Result<Vec<u32>, String> {
     let mut text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     if let Some(k) = kernel_index {
         let end = text.find('\n').map_or(text.len(), |i| i + 1);
-        text.insert_str(end, &format!("#define KERNEL_INDEX {k}u\n#line 2\n"));
+        let one = if one_binding {
+            "#define SCENE_ONE_BINDING\n"
+        } else {
+            ""
+        };
+        text.insert_str(end, &format!("#define KERNEL_INDEX {k}u\n{one}#line 2\n"));
     }
     let source = ShaderSource::from(text);
     let options = CompilerOptions {
@@ -94,6 +101,12 @@ fn main() {
     for (constant, dir, doc) in [
         ("KERNELS", &kernel_dir, "Every wavefront kernel"),
         (
+            "KERNELS_ONE_BINDING",
+            &kernel_dir,
+            "Every wavefront kernel without the scene arrays' further bindings (SCENE_ONE_BINDING), \
+             for devices that bind fewer storage buffers",
+        ),
+        (
             "TEST_KERNELS",
             &test_dir,
             "Kernels that run GLSL twins of Rust functions for the tests",
@@ -101,12 +114,18 @@ fn main() {
     ] {
         writeln!(table, "/// {doc}: (name, SPIR-V bytes).").unwrap();
         writeln!(table, "pub const {constant}: &[(&str, &[u8])] = &[").unwrap();
+        let one_binding = constant == "KERNELS_ONE_BINDING";
         for (k, path) in comp_files(dir).into_iter().enumerate() {
             let name = path.file_stem().unwrap().to_str().unwrap().to_owned();
-            let index = (constant == "KERNELS").then_some(k);
-            match compile(compiler, &path, &include_dir, index) {
+            let index = constant.starts_with("KERNELS").then_some(k);
+            match compile(compiler, &path, &include_dir, index, one_binding) {
                 Ok(words) => {
-                    let spv = out.join(format!("{name}.spv"));
+                    let file = if one_binding {
+                        format!("{name}.one_binding.spv")
+                    } else {
+                        format!("{name}.spv")
+                    };
+                    let spv = out.join(file);
                     std::fs::write(&spv, words_to_bytes(&words)).unwrap();
                     writeln!(
                         table,

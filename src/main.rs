@@ -868,6 +868,13 @@ fn devices() -> Result<()> {
                 )
             } else if let Some(shortfall) = d.storage_shortfall() {
                 format!(" — cannot render: {shortfall} (it runs the twin tests' kernels)")
+            } else if !d.splits_scene_arrays() {
+                format!(
+                    " — renders scenes whose arrays each fit one storage binding (it binds {} \
+                     storage buffers per kernel, not {})",
+                    d.max_storage_buffers,
+                    wavetrace::gpu::pipelines::STORAGE_BUFFERS
+                )
             } else {
                 String::new()
             }

@@ -281,8 +281,22 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
     gpu.set_scene_images(false);
     let split = gpu.scene_split(&scene).unwrap();
     let out = gpu.render(&scene, &settings, None);
+    // The kernels of one binding per array (a device of fewer storage buffers) refuse it, by name.
+    gpu.set_one_binding(true).unwrap();
+    let refused = gpu.render(&scene, &settings, None);
+    gpu.set_one_binding(false).unwrap();
     gpu.set_binding_limits(None);
     gpu.set_scene_images(true);
+    let refused = format!(
+        "{:#}",
+        refused
+            .err()
+            .expect("one binding per array refuses a split scene")
+    );
+    assert!(
+        refused.contains("take more than one storage binding"),
+        "{refused}"
+    );
     assert!(!split.images);
     drop(gpu);
     for k in 0..5 {
@@ -431,12 +445,24 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
             gpu.set_specialise(false);
             let general = gpu.render(scene, &settings, None);
             gpu.set_specialise(true);
+            // The kernels a device of fewer storage buffers renders with (SwiftShader), which
+            // declare one binding per scene array: the same image.
+            gpu.set_one_binding(true).unwrap();
+            let one_binding = gpu.render(scene, &settings, None);
+            gpu.set_one_binding(false).unwrap();
             drop(gpu);
             let general = general.unwrap_or_else(|e| panic!("{name}: render failed: {e:#}"));
             common::assert_same_bits(
                 &specialised.film,
                 &general.film,
                 &format!("{name}, {integrator:?}: kernels for its features vs every feature"),
+            );
+            let one_binding =
+                one_binding.unwrap_or_else(|e| panic!("{name}: one-binding render failed: {e:#}"));
+            common::assert_same_bits(
+                &specialised.film,
+                &one_binding.film,
+                &format!("{name}, {integrator:?}: kernels of one binding per array vs all"),
             );
         }
     }

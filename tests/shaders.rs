@@ -6,8 +6,8 @@
 use ash::vk;
 use naga::{AddressSpace, ImageClass, ImageDimension, Module, ScalarKind, TypeInner};
 use std::collections::BTreeSet;
-use wavetrace::gpu::pipelines::{kernel_spirv, Binding};
-use wavetrace::kernels::{KERNELS, TEST_KERNELS};
+use wavetrace::gpu::pipelines::{kernel_spirv, Binding, STORAGE_BUFFERS_ONE_BINDING};
+use wavetrace::kernels::{KERNELS, KERNELS_ONE_BINDING, TEST_KERNELS};
 use wavetrace::layout::STRUCT_LAYOUTS;
 
 /// The module with its specialisation constants made plain constants of their default values,
@@ -32,9 +32,14 @@ fn with_default_constants(mut words: Vec<u32>) -> Vec<u32> {
 }
 
 fn parse(name: &str) -> Module {
+    parse_of(name, false)
+}
+
+/// A test kernel, or a wavefront kernel of the set `one_binding` names (`kernels`).
+fn parse_of(name: &str, one_binding: bool) -> Module {
     let words = match TEST_KERNELS.iter().find(|(n, _)| *n == name) {
         Some((_, bytes)) => ash::util::read_spv(&mut std::io::Cursor::new(bytes)).unwrap(),
-        None => kernel_spirv(name).unwrap(),
+        None => kernel_spirv(name, one_binding).unwrap(),
     };
     let words = with_default_constants(words);
     naga::front::spv::parse_u8_slice(
@@ -51,14 +56,73 @@ fn every_kernel_parses_and_validates() {
         "expected the six wavefront kernels, found {}",
         KERNELS.len()
     );
-    for (name, _) in KERNELS.iter().chain(TEST_KERNELS) {
-        let module = parse(name);
+    let names: Vec<(&str, bool)> = KERNELS
+        .iter()
+        .chain(TEST_KERNELS)
+        .map(|(n, _)| (*n, false))
+        .chain(KERNELS_ONE_BINDING.iter().map(|(n, _)| (*n, true)))
+        .collect();
+    for (name, one_binding) in names {
+        let module = parse_of(name, one_binding);
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::all(),
         )
         .validate(&module)
-        .unwrap_or_else(|e| panic!("naga rejects kernel {name}: {e:?}"));
+        .unwrap_or_else(|e| {
+            panic!("naga rejects kernel {name} (one binding: {one_binding}): {e:?}")
+        });
+    }
+}
+
+/// The kernels built with SCENE_ONE_BINDING are the same kernels, bound alike, less the split
+/// arrays' further chunks: within the storage buffers a device of [`STORAGE_BUFFERS_ONE_BINDING`]
+/// binds (SwiftShader's 30).
+#[test]
+fn one_binding_kernels_leave_out_the_further_chunks() {
+    let names = |set: &[(&str, &[u8])]| set.iter().map(|(n, _)| n.to_string()).collect::<Vec<_>>();
+    assert_eq!(names(KERNELS), names(KERNELS_ONE_BINDING));
+    let bindings = |module: &Module| -> BTreeSet<u32> {
+        module
+            .global_variables
+            .iter()
+            .filter_map(|(_, var)| var.binding.as_ref().map(|rb| rb.binding))
+            .collect()
+    };
+    for (name, _) in KERNELS {
+        let (all, one) = (
+            bindings(&parse_of(name, false)),
+            bindings(&parse_of(name, true)),
+        );
+        let further: BTreeSet<u32> = Binding::ALL
+            .iter()
+            .filter(|b| b.is_further_chunk())
+            .map(|&b| b as u32)
+            .collect();
+        assert!(
+            one.is_disjoint(&further),
+            "{name} declares a further chunk: {one:?}"
+        );
+        assert_eq!(
+            all.difference(&further).copied().collect::<BTreeSet<u32>>(),
+            one,
+            "{name}: the one-binding build binds otherwise"
+        );
+        let storage = one
+            .iter()
+            .filter(|&&b| {
+                Binding::ALL
+                    .iter()
+                    .find(|x| **x as u32 == b)
+                    .unwrap()
+                    .descriptor_type()
+                    == vk::DescriptorType::STORAGE_BUFFER
+            })
+            .count() as u32;
+        assert!(
+            storage <= STORAGE_BUFFERS_ONE_BINDING,
+            "{name} binds {storage} storage buffers"
+        );
     }
 }
 

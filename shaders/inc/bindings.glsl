@@ -49,7 +49,11 @@ layout(std430, set = 0, binding = 26) readonly buffer PathDfa { uint path_dfa[];
 // --integrator bdpt: both subpaths of every path of the batch (bdpt.glsl).
 layout(std430, set = 0, binding = 27) buffer BdptVertices { BdptVertex bdpt_vertices[]; };
 // Further bindings of the five large scene arrays, for scenes larger than one binding holds
-// (scene_arrays.glsl): chunks 1 to 3 of each, chunk 0 being the binding above.
+// (scene_arrays.glsl): chunks 1 to 3 of each, chunk 0 being the binding above. Not declared in
+// the kernels built with SCENE_ONE_BINDING (build.rs: KERNELS_ONE_BINDING), for devices that
+// bind fewer storage buffers than all of these (SwiftShader: 30), rendering scenes whose arrays
+// each fit one binding.
+#ifndef SCENE_ONE_BINDING
 layout(std430, set = 0, binding = 28) readonly buffer BvhNodes1 { BvhNode bvh_nodes1[]; };
 layout(std430, set = 0, binding = 29) readonly buffer BvhNodes2 { BvhNode bvh_nodes2[]; };
 layout(std430, set = 0, binding = 30) readonly buffer BvhNodes3 { BvhNode bvh_nodes3[]; };
@@ -65,6 +69,7 @@ layout(std430, set = 0, binding = 39) readonly buffer Vertices3 { GpuVertex vert
 layout(std430, set = 0, binding = 40) readonly buffer Texels1 { uint texels1[]; };
 layout(std430, set = 0, binding = 41) readonly buffer Texels2 { uint texels2[]; };
 layout(std430, set = 0, binding = 42) readonly buffer Texels3 { uint texels3[]; };
+#endif
 // The read-only scene arrays as RGBA32UI images (records of 16-byte texels, row after row),
 // read instead of the buffers above where the specialization constant SCENE_IMAGES is 1
 // (scene_arrays.glsl; src/gpu/pipelines.rs, SceneImage). The kernel enables

@@ -277,6 +277,11 @@ GpuTriangle triangle_image_at(uint i) {
 // rather than named: an expression of specialization constants alone would compile to
 // OpSpecConstantOp, which naga does not read. The driver folds it all the same once the
 // function is inlined with the constant.)
+#ifdef SCENE_ONE_BINDING
+#define SPLIT_READ(T, name, split_name, SHIFT, a0, a1, a2, a3) \
+    T split_name(uint i, uint shift) { return a0[i]; }     \
+    T name(uint i) { return split_name(i, SHIFT); }
+#else
 #define SPLIT_READ(T, name, split_name, SHIFT, a0, a1, a2, a3) \
     T split_name(uint i, uint shift) {                     \
         if (shift >= 32u) return a0[i];                    \
@@ -289,6 +294,7 @@ GpuTriangle triangle_image_at(uint i) {
         }                                                  \
     }                                                      \
     T name(uint i) { return split_name(i, SHIFT); }
+#endif
 SPLIT_READ(BvhNode, bvh_node_buffer_at, bvh_node_split, BVH_NODE_SHIFT, bvh_nodes, bvh_nodes1,
            bvh_nodes2, bvh_nodes3)
 SPLIT_READ(GpuTriangle, triangle_buffer_at, triangle_split, TRIANGLE_SHIFT, triangles, triangles1,

@@ -35,15 +35,21 @@ pub const REQUIREMENTS: &str =
     "Vulkan 1.2 with a compute queue and subgroup votes, ballots and arithmetic in compute shaders";
 
 impl DeviceInfo {
-    /// Whether the renderer runs on it: usable, and able to bind the wavefront kernels'
-    /// storage buffers (SwiftShader binds 30 of their 42: it runs the twin tests' kernels only).
+    /// Whether the renderer runs on it: usable, and able to bind the storage buffers of the
+    /// wavefront kernels that declare one binding per scene array (27; SwiftShader binds 30).
     pub fn renders(&self) -> bool {
         self.usable && self.storage_shortfall().is_none()
     }
 
+    /// Whether it renders scenes whose arrays take more than one storage binding each: it
+    /// binds all the kernels' storage buffers (42).
+    pub fn splits_scene_arrays(&self) -> bool {
+        self.renders() && self.max_storage_buffers >= super::pipelines::STORAGE_BUFFERS
+    }
+
     /// Why the wavefront kernels' storage buffers do not fit its limit, if they do not.
     pub fn storage_shortfall(&self) -> Option<String> {
-        let needed = super::pipelines::STORAGE_BUFFERS;
+        let needed = super::pipelines::STORAGE_BUFFERS_ONE_BINDING;
         (self.max_storage_buffers < needed).then(|| {
             format!(
                 "binds at most {} storage buffers per kernel; wavetrace needs {needed}",
@@ -437,10 +443,17 @@ mod tests {
             usable,
             max_storage_buffers,
         };
-        let needed = crate::gpu::pipelines::STORAGE_BUFFERS;
-        assert!(device(true, needed).renders());
-        assert!(!device(true, needed - 1).renders());
-        assert!(!device(true, 30).renders());
+        let (all, one) = (
+            crate::gpu::pipelines::STORAGE_BUFFERS,
+            crate::gpu::pipelines::STORAGE_BUFFERS_ONE_BINDING,
+        );
+        assert_eq!((all, one), (42, 27));
+        assert!(device(true, all).splits_scene_arrays());
+        assert!(!device(true, all - 1).splits_scene_arrays());
+        // SwiftShader's 30: scenes whose arrays fit one binding each.
+        assert!(device(true, 30).renders() && !device(true, 30).splits_scene_arrays());
+        assert!(device(true, one).renders());
+        assert!(!device(true, one - 1).renders());
         assert!(!device(false, u32::MAX).renders());
     }
 }

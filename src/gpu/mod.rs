@@ -56,6 +56,9 @@ pub struct GpuRenderer {
     scene_images: bool,
     /// Whether kernels are specialised for each scene's features (else made with them all).
     specialise: bool,
+    /// Whether the kernels that declare one binding per scene array render also where the
+    /// device binds them all (`Pipelines::with_kernels`).
+    one_binding: bool,
 }
 
 impl GpuRenderer {
@@ -72,6 +75,7 @@ impl GpuRenderer {
             // WAVETRACE_SCENE_IMAGES=0 reads them from storage buffers, to measure the two.
             scene_images: std::env::var("WAVETRACE_SCENE_IMAGES").map_or(true, |v| v != "0"),
             specialise: true,
+            one_binding: false,
             commands,
             pipelines,
             ctx,
@@ -102,6 +106,18 @@ impl GpuRenderer {
     /// buffers. Results do not depend on it.
     pub fn set_scene_images(&mut self, images: bool) {
         self.scene_images = images;
+    }
+
+    /// Renders with the kernels that declare one binding per scene array (what a device that
+    /// binds fewer storage buffers, such as SwiftShader, renders with) also where the device
+    /// binds them all, or not; scenes whose arrays need more than one binding are then refused.
+    /// Results do not depend on it.
+    pub fn set_one_binding(&mut self, one_binding: bool) -> Result<()> {
+        if one_binding != self.one_binding {
+            self.pipelines = Pipelines::with_kernels(&self.ctx, &SceneSplit::NONE, one_binding)?;
+            self.one_binding = one_binding;
+        }
+        Ok(())
     }
 
     /// Makes each scene's kernels without the code of features it lacks (the default,
@@ -354,7 +370,7 @@ impl GpuRenderer {
         let split = self.scene_split(scene)?;
         let pipelines = match split == SceneSplit::NONE {
             true => None,
-            false => Some(Pipelines::new(ctx, &split)?),
+            false => Some(Pipelines::with_kernels(ctx, &split, self.one_binding)?),
         };
         let features = match self.specialise {
             true => scene.gpu_features(settings),

@@ -2,7 +2,7 @@
 //! compute pipeline per embedded SPIR-V module.
 
 use super::context::Context;
-use crate::kernels::KERNELS;
+use crate::kernels::{KERNELS, KERNELS_ONE_BINDING};
 use crate::layout::DispatchParams;
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
@@ -137,6 +137,12 @@ impl Binding {
         Binding::TextureRefImage,
         Binding::LightImage,
     ];
+    /// Chunks 1 to 3 of a split scene array: bindings the kernels built with SCENE_ONE_BINDING
+    /// (`KERNELS_ONE_BINDING`) do not declare.
+    pub const fn is_further_chunk(self) -> bool {
+        self as u32 >= Binding::BvhNodes1 as u32 && self as u32 <= Binding::Texels3 as u32
+    }
+
     pub fn descriptor_type(self) -> vk::DescriptorType {
         match self {
             Binding::Frame => vk::DescriptorType::UNIFORM_BUFFER,
@@ -377,9 +383,19 @@ impl SceneSplit {
     }
 }
 
-/// SPIR-V words of an embedded kernel.
-pub fn kernel_spirv(name: &str) -> Result<Vec<u32>> {
-    let (_, bytes) = KERNELS
+/// The embedded wavefront kernels: all bindings, or without the split arrays' further chunks
+/// (`SCENE_ONE_BINDING`).
+pub fn kernels(one_binding: bool) -> &'static [(&'static str, &'static [u8])] {
+    if one_binding {
+        KERNELS_ONE_BINDING
+    } else {
+        KERNELS
+    }
+}
+
+/// SPIR-V words of an embedded kernel, of the set [`kernels`] names.
+pub fn kernel_spirv(name: &str, one_binding: bool) -> Result<Vec<u32>> {
+    let (_, bytes) = kernels(one_binding)
         .iter()
         .find(|(n, _)| *n == name)
         .ok_or_else(|| anyhow!("no kernel named {name}"))?;
@@ -399,22 +415,61 @@ pub struct Pipelines {
     constants: Vec<u32>,
     /// The pipelines created, by kernel and scene features (`layout::FEATURE_*`).
     pipelines: Mutex<HashMap<(&'static str, u32), vk::Pipeline>>,
+    /// The kernels are built without the split arrays' further chunks
+    /// (`KERNELS_ONE_BINDING`): the device binds fewer than [`STORAGE_BUFFERS`], and every
+    /// scene array fits its first binding.
+    pub one_binding: bool,
 }
 
 /// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer
 /// and the scene images.
 pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 1 - SceneImage::ALL.len()) as u32;
 
+/// Storage buffers the kernels built with SCENE_ONE_BINDING bind: all but the further chunks.
+pub const STORAGE_BUFFERS_ONE_BINDING: u32 = STORAGE_BUFFERS - further_chunks();
+
+const fn further_chunks() -> u32 {
+    let (mut n, mut i) = (0, 0);
+    while i < Binding::ALL.len() {
+        n += Binding::ALL[i].is_further_chunk() as u32;
+        i += 1;
+    }
+    n
+}
+
 impl Pipelines {
     /// The descriptor set and the layout of kernels specialised for scenes laid over their
     /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
     pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
+        Pipelines::with_kernels(ctx, split, false)
+    }
+
+    /// [`Pipelines::new`], with the kernels that declare one binding per scene array
+    /// (`KERNELS_ONE_BINDING`) also where the device binds them all, if `one_binding`.
+    pub fn with_kernels(ctx: &Context, split: &SceneSplit, one_binding: bool) -> Result<Pipelines> {
         let device = &ctx.device;
         if let Some(shortfall) = ctx.info.storage_shortfall() {
             bail!("{} {shortfall}", ctx.info.name);
         }
+        // A device that binds fewer than all the buffers renders with the kernels that
+        // declare one binding per scene array, where the scene's arrays each fit one.
+        let one_binding = one_binding || !ctx.info.splits_scene_arrays();
+        if one_binding {
+            if let Some(k) = split.shifts.iter().position(|&shift| shift < 32) {
+                bail!(
+                    "{}: this scene's {} take more than one storage binding, which takes kernels of \
+                     {STORAGE_BUFFERS} storage buffers, and these kernels declare one binding per \
+                     scene array (the device binds at most {} storage buffers per kernel); render \
+                     it on another device (wavetrace devices) or with --device cpu",
+                    ctx.info.name,
+                    SplitArray::ALL[k].what(),
+                    ctx.info.max_storage_buffers
+                );
+            }
+        }
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = Binding::ALL
             .iter()
+            .filter(|b| !(one_binding && b.is_further_chunk()))
             .map(|&b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b as u32)
@@ -449,7 +504,11 @@ impl Pipelines {
                 .descriptor_count(1),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(STORAGE_BUFFERS),
+                .descriptor_count(if one_binding {
+                    STORAGE_BUFFERS_ONE_BINDING
+                } else {
+                    STORAGE_BUFFERS
+                }),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::SAMPLED_IMAGE)
                 .descriptor_count(SceneImage::ALL.len() as u32),
@@ -486,6 +545,7 @@ impl Pipelines {
             set,
             constants,
             pipelines: Mutex::new(HashMap::new()),
+            one_binding,
         })
     }
 
@@ -545,7 +605,7 @@ impl Pipelines {
         let specialization = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(bytemuck::cast_slice(&constants));
-        let words = kernel_spirv(name)?;
+        let words = kernel_spirv(name, self.one_binding)?;
         let module = unsafe {
             device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
         }
@@ -581,8 +641,14 @@ impl Pipelines {
             .unwrap_or_else(|| panic!("kernel {name} is not in its integrator's list"))
     }
 
-    /// Points every binding at its buffer (whole range).
+    /// Points every binding at its buffer (whole range); with [`Pipelines::one_binding`], the
+    /// further chunks, which its layout lacks, are passed by.
     pub fn bind_buffers(&self, buffers: &[(Binding, vk::Buffer)]) {
+        let buffers: Vec<(Binding, vk::Buffer)> = buffers
+            .iter()
+            .copied()
+            .filter(|(b, _)| !(self.one_binding && b.is_further_chunk()))
+            .collect();
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
             .map(|(_, b)| {
