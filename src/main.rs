@@ -718,11 +718,20 @@ fn multi_gpu(index: &Option<crate::cli::GpuIndex>) -> Option<Result<Vec<usize>>>
         Some(crate::cli::GpuIndex::List(list)) => Some(Ok(list.clone())),
         Some(crate::cli::GpuIndex::All) => {
             Some(wavetrace::gpu::list_devices().and_then(|devices| {
-                let usable: Vec<usize> = devices
-                    .iter()
-                    .filter(|d| d.renders())
-                    .map(|d| d.index)
-                    .collect();
+                // Devices that render every scene; those that render only scenes of one
+                // binding per array (SwiftShader, 45 times slower than lavapipe) where there
+                // is no other.
+                let pick = |full: bool| -> Vec<usize> {
+                    devices
+                        .iter()
+                        .filter(|d| d.renders() && (!full || d.splits_scene_arrays()))
+                        .map(|d| d.index)
+                        .collect()
+                };
+                let mut usable = pick(true);
+                if usable.is_empty() {
+                    usable = pick(false);
+                }
                 if usable.is_empty() {
                     bail!(
                         "--gpu-index all: no usable Vulkan device ({})",

@@ -274,12 +274,15 @@ impl Context {
                 i
             }
             None => {
-                // A device that renders before one that runs test kernels only, then by kind.
+                // A device that renders before one that runs test kernels only, one that renders
+                // every scene before one that renders only scenes of one binding per array
+                // (SwiftShader: lavapipe first where both are installed), then by kind.
                 let best = (0..physicals.len())
                     .filter(|&i| infos[i].usable)
                     .min_by_key(|&i| {
                         (
                             !infos[i].renders(),
+                            !infos[i].splits_scene_arrays(),
                             preference(
                                 unsafe { instance.get_physical_device_properties(physicals[i]) }
                                     .device_type,
