@@ -98,34 +98,34 @@ fn main() {
     let compiler = Compiler::acquire().expect("glslang initialises");
     let mut table = String::new();
     let mut failures = Vec::new();
-    for (constant, dir, doc) in [
-        ("KERNELS", &kernel_dir, "Every wavefront kernel"),
+    // (constant, folder, doc, wavefront kernels (KERNEL_INDEX defined), SCENE_ONE_BINDING)
+    for (constant, dir, doc, wavefront, one_binding) in [
+        ("KERNELS", &kernel_dir, "Every wavefront kernel", true, false),
         (
             "KERNELS_ONE_BINDING",
             &kernel_dir,
             "Every wavefront kernel without the scene arrays' further bindings (SCENE_ONE_BINDING), \
              for devices that bind fewer storage buffers",
+            true,
+            true,
         ),
         (
             "TEST_KERNELS",
             &test_dir,
             "Kernels that run GLSL twins of Rust functions for the tests",
+            false,
+            false,
         ),
     ] {
         writeln!(table, "/// {doc}: (name, SPIR-V bytes).").unwrap();
         writeln!(table, "pub const {constant}: &[(&str, &[u8])] = &[").unwrap();
-        let one_binding = constant == "KERNELS_ONE_BINDING";
+        let suffix = if one_binding { ".one_binding" } else { "" };
         for (k, path) in comp_files(dir).into_iter().enumerate() {
             let name = path.file_stem().unwrap().to_str().unwrap().to_owned();
-            let index = constant.starts_with("KERNELS").then_some(k);
+            let index = wavefront.then_some(k);
             match compile(compiler, &path, &include_dir, index, one_binding) {
                 Ok(words) => {
-                    let file = if one_binding {
-                        format!("{name}.one_binding.spv")
-                    } else {
-                        format!("{name}.spv")
-                    };
-                    let spv = out.join(file);
+                    let spv = out.join(format!("{name}{suffix}.spv"));
                     std::fs::write(&spv, words_to_bytes(&words)).unwrap();
                     writeln!(
                         table,

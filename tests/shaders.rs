@@ -89,16 +89,16 @@ fn one_binding_kernels_leave_out_the_further_chunks() {
             .filter_map(|(_, var)| var.binding.as_ref().map(|rb| rb.binding))
             .collect()
     };
+    let further: BTreeSet<u32> = Binding::ALL
+        .iter()
+        .filter(|b| b.is_further_chunk())
+        .map(|&b| b as u32)
+        .collect();
     for (name, _) in KERNELS {
         let (all, one) = (
             bindings(&parse_of(name, false)),
             bindings(&parse_of(name, true)),
         );
-        let further: BTreeSet<u32> = Binding::ALL
-            .iter()
-            .filter(|b| b.is_further_chunk())
-            .map(|&b| b as u32)
-            .collect();
         assert!(
             one.is_disjoint(&further),
             "{name} declares a further chunk: {one:?}"

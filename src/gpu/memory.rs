@@ -146,7 +146,8 @@ impl Buffer {
     /// Host buffers only: the first `len` bytes as a vector of `T`, copied once (the film's
     /// read-back is tens of MiB: a byte vector cast after would copy it twice), on every core:
     /// a fresh vector faults its pages in as it is first written (about 2 µs a page on this VM,
-    /// 16 ms for a 1024² film), which one thread would pay alone.
+    /// 16 ms for a 1024² film), which one thread would pay alone. Reads of one chunk or less
+    /// stay on the calling thread.
     pub fn read_pod<T: bytemuck::Pod + Send + Sync>(&self, len: usize) -> Vec<T> {
         use rayon::prelude::*;
         /// Items per task: a 4 KiB page's worth of bytes 64 times over.
@@ -154,6 +155,8 @@ impl Buffer {
         assert!(!self.mapped.is_null() && len as u64 <= self.size);
         let bytes = unsafe { std::slice::from_raw_parts(self.mapped, len) };
         match bytemuck::try_cast_slice::<u8, T>(bytes) {
+            // The counters after every batch: no work for other threads.
+            Ok(items) if len <= CHUNK_BYTES => items.to_vec(),
             Ok(items) => {
                 // Zeroed memory from the allocator (lazily mapped pages), not written here.
                 let mut out: Vec<T> = bytemuck::zeroed_vec(items.len());

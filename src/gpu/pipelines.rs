@@ -143,6 +143,11 @@ impl Binding {
         self as u32 >= Binding::BvhNodes1 as u32 && self as u32 <= Binding::Texels3 as u32
     }
 
+    /// Whether the kernels of the set `one_binding` names declare it (the layout holds it).
+    pub const fn declared(self, one_binding: bool) -> bool {
+        !(one_binding && self.is_further_chunk())
+    }
+
     pub fn descriptor_type(self) -> vk::DescriptorType {
         match self {
             Binding::Frame => vk::DescriptorType::UNIFORM_BUFFER,
@@ -469,7 +474,7 @@ impl Pipelines {
         }
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = Binding::ALL
             .iter()
-            .filter(|b| !(one_binding && b.is_further_chunk()))
+            .filter(|b| b.declared(one_binding))
             .map(|&b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b as u32)
@@ -498,21 +503,18 @@ impl Pipelines {
             )
         }
         .context("creating the pipeline layout")?;
-        let sizes = [
-            vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::UNIFORM_BUFFER)
-                .descriptor_count(1),
-            vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(if one_binding {
-                    STORAGE_BUFFERS_ONE_BINDING
-                } else {
-                    STORAGE_BUFFERS
-                }),
-            vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::SAMPLED_IMAGE)
-                .descriptor_count(SceneImage::ALL.len() as u32),
-        ];
+        // One descriptor of each type per binding of the layout.
+        let sizes =
+            [
+                vk::DescriptorType::UNIFORM_BUFFER,
+                vk::DescriptorType::STORAGE_BUFFER,
+                vk::DescriptorType::SAMPLED_IMAGE,
+            ]
+            .map(|ty| {
+                vk::DescriptorPoolSize::default().ty(ty).descriptor_count(
+                    bindings.iter().filter(|b| b.descriptor_type == ty).count() as u32,
+                )
+            });
         let pool = unsafe {
             device.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
@@ -647,7 +649,7 @@ impl Pipelines {
         let buffers: Vec<(Binding, vk::Buffer)> = buffers
             .iter()
             .copied()
-            .filter(|(b, _)| !(self.one_binding && b.is_further_chunk()))
+            .filter(|(b, _)| b.declared(self.one_binding))
             .collect();
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
