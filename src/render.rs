@@ -660,7 +660,8 @@ impl PreparedScene {
         )
     }
 
-    /// The any-hit test of both traversals (`surface::triangle_present`).
+    /// The any-hit test of both traversals (`surface::triangle_present`), inlined into them.
+    #[inline(always)]
     pub fn present(
         &self,
         data: &TextureData,

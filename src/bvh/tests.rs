@@ -695,3 +695,58 @@ fn slab4_equals_bvh_slab_per_lane() {
     }
     assert!((10_000..190_000).contains(&hits), "{hits} hits");
 }
+
+/// `WideRay::new`'s one vector division and compare give `SlabRay::new`'s terms bit for bit:
+/// the origin, the inverse direction (0 on still axes) and which axes are still, for
+/// directions with zero, negative-zero, subnormal, tiny, huge, infinite and NaN components.
+#[test]
+fn wide_ray_equals_slab_ray() {
+    let specials = [
+        0.0,
+        -0.0,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        f32::MIN_POSITIVE / 2.0,
+        -f32::MIN_POSITIVE / 3.0,
+        1e-30,
+        -3e-38,
+        1e30,
+        -f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1.0,
+        -0.3,
+    ];
+    let mut rng = Pcg::new(7);
+    let bits = |v: f32| if v.is_nan() { u32::MAX } else { v.to_bits() };
+    for i in 0..20_000 {
+        let mut pick = |k: u32| {
+            if (i + k) % 3 == 0 {
+                specials[rng.below(specials.len() as u32) as usize]
+            } else {
+                rng.range(-2.0, 2.0)
+            }
+        };
+        let dir = Vec3::new(pick(0), pick(1), pick(2));
+        let ray = Ray {
+            origin: Vec3::new(
+                rng.range(-9.0, 9.0),
+                rng.range(-9.0, 9.0),
+                rng.range(-9.0, 9.0),
+            ),
+            dir,
+        };
+        let slab = SlabRay::new(&ray);
+        let (origin, inv_dir, still) = wide::WideRay::new(&ray).terms();
+        for a in 0..3 {
+            assert_eq!(
+                origin[a].to_bits(),
+                slab.origin[a].to_bits(),
+                "{ray:?} axis {a}"
+            );
+            assert_eq!(bits(inv_dir[a]), bits(slab.inv_dir[a]), "{ray:?} axis {a}");
+            assert_eq!(still[a], slab.still.test(a), "{ray:?} axis {a}");
+        }
+    }
+}

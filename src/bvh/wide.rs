@@ -17,10 +17,10 @@
 //! level of `tlas.rs` share one node array, and each root the collapse was given has its own
 //! wide root.
 
-use super::{pop_entered, Hierarchy, Ray, SlabRay, SLAB_SLACK};
+use super::{pop_entered, Hierarchy, Ray, SLAB_SLACK};
 use crate::layout::BvhNode;
 use arrayvec::ArrayVec;
-use glam::{BVec3, Vec4};
+use glam::Vec4;
 
 /// Children per wide node.
 pub const WIDTH: usize = 4;
@@ -392,7 +392,9 @@ impl<N: WideSlots> WideBvh<N> {
     #[inline]
     pub fn root(&self, root: u32) -> Option<u32> {
         match self.roots.as_slice() {
-            [(r, w)] => (*r == root).then_some(*w),
+            // A scene without instancing has two roots (the top level's and the one bottom
+            // level's): a scan, where the search's loop cost every ray ~20 instructions.
+            roots if roots.len() <= 4 => roots.iter().find(|(r, _)| *r == root).map(|(_, w)| *w),
             roots => roots
                 .binary_search_by_key(&root, |&(r, _)| r)
                 .ok()
@@ -422,23 +424,42 @@ impl<N: WideSlots> WideBvh<N> {
     }
 }
 
-/// A ray prepared for [`slab4`]: [`SlabRay`]'s terms, each splatted across four lanes.
+/// A ray prepared for [`slab4`]: [`super::SlabRay`]'s terms, each splatted across four lanes. Made
+/// with one vector division and compare for the three axes (the same IEEE quotients as
+/// [`super::SlabRay::new`]'s: test `wide_ray_equals_slab_ray`); per axis in scalar code it took about
+/// 60 instructions of every ray's walk.
 pub(super) struct WideRay {
     origin: [Vec4; 3],
     inv_dir: [Vec4; 3],
-    still: BVec3,
+    /// Bit a set: axis a is still ([`super::SlabRay`]'s `still`).
+    still: u32,
     moving: bool,
 }
 
 impl WideRay {
+    #[inline(always)]
     pub(super) fn new(ray: &Ray) -> WideRay {
-        let s = SlabRay::new(ray);
+        // The fourth lane is 1, so its quotient is finite and never still.
+        let d = ray.dir.extend(1.0);
+        let still = d.abs().cmplt(Vec4::splat(f32::MIN_POSITIVE));
+        let inv = Vec4::select(still, Vec4::ZERO, d.recip());
+        let still = still.bitmask();
         WideRay {
-            origin: [0, 1, 2].map(|a| Vec4::splat(s.origin[a])),
-            inv_dir: [0, 1, 2].map(|a| Vec4::splat(s.inv_dir[a])),
-            still: s.still,
-            moving: s.moving,
+            origin: [ray.origin.x, ray.origin.y, ray.origin.z].map(Vec4::splat),
+            inv_dir: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+            still,
+            moving: still == 0,
         }
+    }
+
+    /// The ray's terms as [`super::SlabRay`] holds them (for tests).
+    #[cfg(test)]
+    pub(super) fn terms(&self) -> ([f32; 3], [f32; 3], [bool; 3]) {
+        (
+            [0, 1, 2].map(|a| self.origin[a].x),
+            [0, 1, 2].map(|a| self.inv_dir[a].x),
+            [0, 1, 2].map(|a| self.still & (1 << a) != 0),
+        )
     }
 }
 
@@ -467,7 +488,7 @@ pub(super) fn slab4(node: &impl WideSlots, ray: &WideRay, t_min: f32, t_max: f32
     } else {
         // A still axis admits every t if the origin lies within the slab, none otherwise.
         let axis = |a: usize| {
-            if ray.still.test(a) {
+            if ray.still & (1 << a) != 0 {
                 let (lo, hi) = (bounds[0][a] - o[a], bounds[1][a] - o[a]);
                 let outside = lo.max(-hi).cmpgt(Vec4::ZERO);
                 let near = Vec4::select(outside, Vec4::splat(f32::MAX), Vec4::splat(-f32::MAX));
@@ -567,6 +588,19 @@ impl<N: WideSlots> Hierarchy for WideBvh<N> {
                         self.prefetch(node, mask, &prefetch_leaf);
                     }
                     let t = t_enter.to_array();
+                    let rest = mask & (mask - 1);
+                    if rest & (rest - 1) == 0 {
+                        // Two children (most multi-child steps): by_distance's order without
+                        // its general sort — the nearer first, the lower slot on a tie.
+                        let (a, b) = (
+                            mask.trailing_zeros() as usize,
+                            rest.trailing_zeros() as usize,
+                        );
+                        let (near, far) = if t[a] > t[b] { (b, a) } else { (a, b) };
+                        stack.push((node.entry(far), t[far]));
+                        at = node.entry(near);
+                        continue;
+                    }
                     let order = by_distance(mask, &t);
                     for &s in order[1..].iter().rev() {
                         stack.push((node.entry(s), t[s]));
