@@ -343,6 +343,8 @@ pub struct LightBvh {
 struct BuildLight {
     bounds: LightBounds,
     centroid: Vec3,
+    /// The light as a cluster of one, its cones' angles taken once for the whole build.
+    cluster: Cluster,
     index: u32,
 }
 
@@ -364,18 +366,48 @@ fn cone_union(a_w: Vec3, a_cos: f32, b_w: Vec3, b_cos: f32) -> (Vec3, f32) {
     if a_w == b_w {
         return (a_w, a_cos.min(b_cos));
     }
-    let theta_a = a_cos.clamp(-1.0, 1.0).acos();
-    let theta_b = b_cos.clamp(-1.0, 1.0).acos();
+    let (w, cos, _) = cone_union_with(a_w, a_cos, theta_of(a_cos), b_w, b_cos, theta_of(b_cos));
+    (w, cos)
+}
+
+/// A cone's half-angle from its cosine, as [`cone_union`] takes it.
+fn theta_of(cos: f32) -> f32 {
+    cos.clamp(-1.0, 1.0).acos()
+}
+
+/// [`cone_union`] of cones whose half-angles ([`theta_of`] their cosines) are known, and the
+/// half-angle of the union ([`theta_of`] its cosine): the binning of [`split`] unites every
+/// light with a bucket three times per level, and most unions return one of the two cones, whose
+/// angle it then need not take again. The same floats as `cone_union` (one function, the angles
+/// passed in are the values it would compute).
+fn cone_union_with(
+    a_w: Vec3,
+    a_cos: f32,
+    theta_a: f32,
+    b_w: Vec3,
+    b_cos: f32,
+    theta_b: f32,
+) -> (Vec3, f32, f32) {
+    if a_w == b_w {
+        // cone_union's min, which returns one of its operands: that operand's angle.
+        let cos = a_cos.min(b_cos);
+        let theta = if cos.to_bits() == a_cos.to_bits() {
+            theta_a
+        } else {
+            theta_b
+        };
+        return (a_w, cos, theta);
+    }
     let theta_d = angle_between(a_w, b_w);
     if (theta_d + theta_b).min(PI) <= theta_a {
-        return (a_w, a_cos);
+        return (a_w, a_cos, theta_a);
     }
     if (theta_d + theta_a).min(PI) <= theta_b {
-        return (b_w, b_cos);
+        return (b_w, b_cos, theta_b);
     }
     let theta_o = (theta_a + theta_d + theta_b) * 0.5;
     if theta_o >= PI {
-        return (Vec3::Z, -1.0);
+        return (Vec3::Z, -1.0, theta_of(-1.0));
     }
     let theta_r = theta_o - theta_a;
     // Rotate a's axis by θr towards b's in their plane: along the unit v ⟂ a in that plane
@@ -391,7 +423,8 @@ fn cone_union(a_w: Vec3, a_cos: f32, b_w: Vec3, b_cos: f32) -> (Vec3, f32) {
     };
     let (sin_r, cos_r) = theta_r.sin_cos();
     let w = (a_w * cos_r + v * sin_r).normalize();
-    (w, theta_o.cos())
+    let cos = theta_o.cos();
+    (w, cos, theta_of(cos))
 }
 
 /// Bounds of two clusters together (pbrt-v4 `Union(LightBounds, LightBounds)`).
@@ -408,18 +441,67 @@ fn union(a: &LightBounds, b: &LightBounds) -> LightBounds {
     }
 }
 
-fn union_option(a: Option<LightBounds>, b: &LightBounds) -> Option<LightBounds> {
-    Some(match a {
-        None => *b,
-        Some(a) => union(&a, b),
-    })
+/// A cluster of [`split`]'s binning (a bucket, or the buckets below or above a boundary): the
+/// union of its lights and the half-angles of its cones, θo and θe ([`theta_of`] its
+/// `cos_theta_o` and `cos_theta_e`), which [`saoh_cost`] and every union take: carried with the
+/// cluster instead of taken again from the cosines (the same values; `acos` was most of the
+/// build's time).
+#[derive(Clone, Copy)]
+struct Cluster {
+    bounds: LightBounds,
+    theta_o: f32,
+    theta_e: f32,
 }
 
-fn union_options(a: Option<LightBounds>, b: Option<LightBounds>) -> Option<LightBounds> {
+impl Cluster {
+    fn of(bounds: &LightBounds) -> Cluster {
+        Cluster {
+            bounds: *bounds,
+            theta_o: theta_of(bounds.cos_theta_o),
+            theta_e: theta_of(bounds.cos_theta_e),
+        }
+    }
+
+    /// [`union`] of two clusters, with the angles of its cones.
+    fn union(&self, other: &Cluster) -> Cluster {
+        let (a, b) = (&self.bounds, &other.bounds);
+        let (w, cos_theta_o, theta_o) = cone_union_with(
+            a.w,
+            a.cos_theta_o,
+            self.theta_o,
+            b.w,
+            b.cos_theta_o,
+            other.theta_o,
+        );
+        // union's min of the two cosines returns one of them: that one's angle.
+        let cos_theta_e = a.cos_theta_e.min(b.cos_theta_e);
+        let theta_e = if cos_theta_e.to_bits() == a.cos_theta_e.to_bits() {
+            self.theta_e
+        } else {
+            other.theta_e
+        };
+        Cluster {
+            bounds: LightBounds {
+                bounds_min: a.bounds_min.min(b.bounds_min),
+                bounds_max: a.bounds_max.max(b.bounds_max),
+                phi: a.phi + b.phi,
+                w,
+                cos_theta_o,
+                cos_theta_e,
+                two_sided: a.two_sided || b.two_sided,
+            },
+            theta_o,
+            theta_e,
+        }
+    }
+}
+
+/// `a` and `b` united; either may be empty.
+fn cluster_union(a: Option<Cluster>, b: Option<Cluster>) -> Option<Cluster> {
     match (a, b) {
         (None, b) => b,
         (a, None) => a,
-        (Some(a), Some(b)) => Some(union(&a, &b)),
+        (Some(a), Some(b)) => Some(a.union(&b)),
     }
 }
 
@@ -427,9 +509,8 @@ fn union_options(a: Option<LightBounds>, b: Option<LightBounds>) -> Option<Light
 /// pbrt-v4 `EvaluateCost`): phi · M_Ω · surface area · Kr, with M_Ω the orientation measure of
 /// the cone (θo, θe) and Kr = the node's longest extent over its extent along `dim`, which
 /// penalises thin slices.
-fn saoh_cost(b: &LightBounds, node_diagonal: Vec3, dim: usize) -> f32 {
-    let theta_o = b.cos_theta_o.clamp(-1.0, 1.0).acos();
-    let theta_e = b.cos_theta_e.clamp(-1.0, 1.0).acos();
+fn saoh_cost(cluster: &Cluster, node_diagonal: Vec3, dim: usize) -> f32 {
+    let (b, theta_o, theta_e) = (&cluster.bounds, cluster.theta_o, cluster.theta_e);
     let theta_w = (theta_o + theta_e).min(PI);
     let sin_theta_o = safe_sqrt(1.0 - b.cos_theta_o * b.cos_theta_o);
     let m_omega = 2.0 * PI * (1.0 - b.cos_theta_o)
@@ -466,41 +547,27 @@ impl LightBvh {
             .map(|(i, b)| BuildLight {
                 bounds: *b,
                 centroid: b.centroid(),
+                cluster: Cluster::of(b),
                 index: i as u32,
             })
             .collect();
-        let mut bvh = LightBvh {
-            nodes: Vec::with_capacity(2 * build.len()),
-            trails: vec![NO_LIGHT_TRAIL; lights.len()],
-            power_alike: !build.is_empty()
-                && build
-                    .windows(2)
-                    .all(|w| w[0].bounds.same_reach(&w[1].bounds)),
-        };
+        let power_alike = !build.is_empty()
+            && build
+                .windows(2)
+                .all(|w| w[0].bounds.same_reach(&w[1].bounds));
+        // Every light has a leaf of its own, so a subtree of n lights is exactly 2n − 1 nodes:
+        // each child's place is known before its sibling is built, and the two children of a
+        // large node are built on separate threads into their own parts of the array.
+        let mut nodes = vec![GpuLightNode::default(); (2 * build.len()).saturating_sub(1)];
         if !build.is_empty() {
-            bvh.build_node(&mut build, 0, 0);
+            build_subtree(&mut nodes, 0, &mut build, 0);
         }
-        bvh
-    }
-
-    /// Appends the subtree of `lights` (at `depth`, reached by `trail`) and returns its bounds.
-    fn build_node(&mut self, lights: &mut [BuildLight], depth: u32, trail: u32) -> LightBounds {
-        let index = self.nodes.len();
-        if let [light] = lights {
-            self.nodes
-                .push(GpuLightNode::leaf(&light.bounds, light.index));
-            self.trails[light.index as usize] = trail;
-            return light.bounds;
+        let trails = leaf_trails(&nodes, lights.len());
+        LightBvh {
+            nodes,
+            trails,
+            power_alike,
         }
-        self.nodes.push(GpuLightNode::default());
-        let mid = split(lights, depth);
-        let (first, second) = lights.split_at_mut(mid);
-        let a = self.build_node(first, depth + 1, trail);
-        let second_index = self.nodes.len() as u32;
-        let b = self.build_node(second, depth + 1, trail | (1 << depth));
-        let bounds = union(&a, &b);
-        self.nodes[index] = GpuLightNode::interior(&bounds, second_index);
-        bounds
     }
 
     /// Depth of the deepest leaf (root = 0); 0 for an empty tree.
@@ -521,6 +588,67 @@ impl LightBvh {
         }
         deepest
     }
+}
+
+/// Subtrees of at least this many lights build their two children in parallel (smaller ones
+/// cost less than handing them to another thread).
+const PARALLEL_MIN_LIGHTS: usize = 2048;
+
+/// Builds the subtree of `lights` (at `depth`) into `nodes` (exactly its 2n − 1 nodes, the
+/// first at absolute index `base`) and returns its bounds. The same splits and unions, in the
+/// same order, whichever thread builds a subtree: the tree does not depend on the thread count
+/// (test `parallel_build_equals_sequential_build`).
+fn build_subtree(
+    nodes: &mut [GpuLightNode],
+    base: u32,
+    lights: &mut [BuildLight],
+    depth: u32,
+) -> LightBounds {
+    debug_assert_eq!(nodes.len(), 2 * lights.len() - 1);
+    if let [light] = lights {
+        nodes[0] = GpuLightNode::leaf(&light.bounds, light.index);
+        return light.bounds;
+    }
+    let n = lights.len();
+    let mid = split(lights, depth);
+    let (first, second) = lights.split_at_mut(mid);
+    let (node, rest) = nodes.split_first_mut().expect("a subtree has a node");
+    let (first_nodes, second_nodes) = rest.split_at_mut(2 * mid - 1);
+    let second_base = base + 2 * mid as u32;
+    let mut build_first = move || build_subtree(first_nodes, base + 1, first, depth + 1);
+    let mut build_second = move || build_subtree(second_nodes, second_base, second, depth + 1);
+    let (a, b) = if n >= PARALLEL_MIN_LIGHTS {
+        rayon::join(build_first, build_second)
+    } else {
+        (build_first(), build_second())
+    };
+    let bounds = union(&a, &b);
+    *node = GpuLightNode::interior(&bounds, second_base);
+    bounds
+}
+
+/// Per light (of `count`), the trail to its leaf in `nodes` (bit d set where the path takes the
+/// second child at depth d), [`NO_LIGHT_TRAIL`] for lights without one.
+fn leaf_trails(nodes: &[GpuLightNode], count: usize) -> Vec<u32> {
+    let mut trails = vec![NO_LIGHT_TRAIL; count];
+    let mut stack = Vec::new();
+    if !nodes.is_empty() {
+        stack.push((0usize, 0u32, 0u32));
+    }
+    while let Some((i, depth, trail)) = stack.pop() {
+        let node = &nodes[i];
+        if node.is_leaf() {
+            trails[node.child_or_light as usize] = trail;
+        } else {
+            stack.push((
+                node.child_or_light as usize,
+                depth + 1,
+                trail | (1 << depth),
+            ));
+            stack.push((i + 1, depth + 1, trail));
+        }
+    }
+    trails
 }
 
 /// Reorders `lights` (two or more) into two nonempty groups for the children of a node at
@@ -544,7 +672,7 @@ fn split(lights: &mut [BuildLight], depth: u32) -> usize {
     }
     let diagonal = bounds_max - bounds_min;
 
-    let mut buckets = [[None::<LightBounds>; SAOH_BUCKETS]; 3];
+    let mut buckets = [[None::<Cluster>; SAOH_BUCKETS]; 3];
     let mut counts = [[0usize; SAOH_BUCKETS]; 3];
     let axes: Vec<usize> = (0..3)
         .filter(|&d| centroid_max[d] > centroid_min[d])
@@ -552,7 +680,7 @@ fn split(lights: &mut [BuildLight], depth: u32) -> usize {
     for l in lights.iter() {
         for &d in &axes {
             let b = bucket(l.centroid[d], centroid_min[d], centroid_max[d]);
-            buckets[d][b] = union_option(buckets[d][b], &l.bounds);
+            buckets[d][b] = cluster_union(buckets[d][b], Some(l.cluster));
             counts[d][b] += 1;
         }
     }
@@ -561,16 +689,16 @@ fn split(lights: &mut [BuildLight], depth: u32) -> usize {
     let mut best: Option<(f32, usize, usize, usize)> = None;
     for &d in &axes {
         // Clusters below and above each of the 11 bucket boundaries, by prefix and suffix.
-        let mut below = [None::<LightBounds>; SAOH_BUCKETS];
+        let mut below = [None::<Cluster>; SAOH_BUCKETS];
         let mut acc = None;
         for i in 0..SAOH_BUCKETS {
-            acc = union_options(acc, buckets[d][i]);
+            acc = cluster_union(acc, buckets[d][i]);
             below[i] = acc;
         }
-        let mut above = [None::<LightBounds>; SAOH_BUCKETS];
+        let mut above = [None::<Cluster>; SAOH_BUCKETS];
         acc = None;
         for i in (0..SAOH_BUCKETS).rev() {
-            acc = union_options(acc, buckets[d][i]);
+            acc = cluster_union(acc, buckets[d][i]);
             above[i] = acc;
         }
         let mut count_below = 0;

@@ -419,7 +419,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let b = &prepared.bvh.stats;
     println!(
-        "{}: {} triangles stored, {} placements, {} emitting{}, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms",
+        "{}: {} triangles stored, {} placements, {} emitting{}, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms{}",
         path.display(),
         prepared.triangles.len(),
         prepared.instances.len(),
@@ -443,7 +443,16 @@ fn render(args: &RenderArgs) -> Result<()> {
         b.nodes,
         b.max_depth,
         b.sah_cost,
-        b.build_time.as_secs_f64() * 1e3
+        b.build_time.as_secs_f64() * 1e3,
+        if prepared.light_nodes.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; light BVH {} nodes, built in {:.2} ms",
+                prepared.light_nodes.len(),
+                prepared.light_bvh_time.as_secs_f64() * 1e3
+            )
+        }
     );
     let how = match &progressive {
         None if plan.target.len() == settings.spp && plan.partial.is_none() => {

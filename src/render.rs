@@ -179,6 +179,8 @@ pub struct PreparedScene {
     pub light_trails: Vec<u32>,
     /// The table's CDF at its last bounded entry (`FrameParams::light_bounded_cdf`).
     pub light_bounded_cdf: f32,
+    /// How long the light BVH took to build (`render` prints it beside the BVH's).
+    pub light_bvh_time: std::time::Duration,
     /// Per BVH-ordered triangle: its vertices (xyz) and `TRIANGLE_*` flags (w).
     pub triangle_vertices: Vec<UVec4>,
     /// The scene's vertices and, last, one without attributes (`NO_VERTEX` corners).
@@ -504,6 +506,7 @@ impl PreparedScene {
             &scene.punctual,
             radius,
         );
+        let light_bvh_start = std::time::Instant::now();
         let (light_bvh, light_trails, light_bounded_cdf) = build_light_bvh(
             &lights,
             light_power as f32,
@@ -527,6 +530,7 @@ impl PreparedScene {
             light_power_alike: light_bvh.power_alike,
             light_trails,
             light_bounded_cdf,
+            light_bvh_time: light_bvh_start.elapsed(),
             lights,
             light_power: light_power as f32,
             radius,

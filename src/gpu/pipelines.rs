@@ -504,17 +504,16 @@ impl Pipelines {
         }
         .context("creating the pipeline layout")?;
         // One descriptor of each type per binding of the layout.
-        let sizes =
-            [
-                vk::DescriptorType::UNIFORM_BUFFER,
-                vk::DescriptorType::STORAGE_BUFFER,
-                vk::DescriptorType::SAMPLED_IMAGE,
-            ]
-            .map(|ty| {
-                vk::DescriptorPoolSize::default().ty(ty).descriptor_count(
+        let sizes = [
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::STORAGE_BUFFER,
+            vk::DescriptorType::SAMPLED_IMAGE,
+        ]
+        .map(|ty| {
+            vk::DescriptorPoolSize::default().ty(ty).descriptor_count(
                     bindings.iter().filter(|b| b.descriptor_type == ty).count() as u32,
                 )
-            });
+        });
         let pool = unsafe {
             device.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()

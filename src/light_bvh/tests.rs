@@ -615,3 +615,74 @@ fn lights_of_one_box_and_cone_get_their_power_share() {
     turned[1].two_sided = true;
     assert!(!LightBvh::build(&turned).power_alike);
 }
+
+/// The tree as one thread builds it, written out: each node pushed before its subtrees, the
+/// second child's index where the first's subtree ends, each leaf's trail set on the way down.
+fn sequential_build(lights: &[LightBounds]) -> (Vec<GpuLightNode>, Vec<u32>) {
+    fn node(
+        nodes: &mut Vec<GpuLightNode>,
+        trails: &mut [u32],
+        lights: &mut [BuildLight],
+        depth: u32,
+        trail: u32,
+    ) -> LightBounds {
+        let index = nodes.len();
+        if let [light] = lights {
+            nodes.push(GpuLightNode::leaf(&light.bounds, light.index));
+            trails[light.index as usize] = trail;
+            return light.bounds;
+        }
+        nodes.push(GpuLightNode::default());
+        let mid = split(lights, depth);
+        let (first, second) = lights.split_at_mut(mid);
+        let a = node(nodes, trails, first, depth + 1, trail);
+        let second_index = nodes.len() as u32;
+        let b = node(nodes, trails, second, depth + 1, trail | (1 << depth));
+        let bounds = union(&a, &b);
+        nodes[index] = GpuLightNode::interior(&bounds, second_index);
+        bounds
+    }
+    let mut build: Vec<BuildLight> = lights
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.is_valid())
+        .map(|(i, b)| BuildLight {
+            bounds: *b,
+            centroid: b.centroid(),
+            cluster: Cluster::of(b),
+            index: i as u32,
+        })
+        .collect();
+    let (mut nodes, mut trails) = (Vec::new(), vec![NO_LIGHT_TRAIL; lights.len()]);
+    if !build.is_empty() {
+        node(&mut nodes, &mut trails, &mut build, 0, 0);
+    }
+    (nodes, trails)
+}
+
+/// Built with its large subtrees on separate threads, on pools of 1, 2 and 5 threads, the tree
+/// is the one-thread tree bit for bit: the same nodes in the same places, the same trails.
+#[test]
+fn parallel_build_equals_sequential_build() {
+    for (count, seed) in [(1, 3), (2, 4), (2047, 5), (2048, 6), (9000, 7)] {
+        let (_, mut lights) = random_scene(count, seed);
+        // Some lights powerless: left out of the tree, with no trail.
+        for l in lights.iter_mut().step_by(17) {
+            l.phi = 0.0;
+        }
+        let (want_nodes, want_trails) = sequential_build(&lights);
+        for threads in [1, 2, 5] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let bvh = pool.install(|| LightBvh::build(&lights));
+            assert_eq!(
+                bytemuck::cast_slice::<_, u8>(&bvh.nodes),
+                bytemuck::cast_slice::<_, u8>(&want_nodes),
+                "{count} lights, {threads} threads: nodes differ"
+            );
+            assert_eq!(bvh.trails, want_trails, "{count} lights, {threads} threads");
+        }
+    }
+}
