@@ -341,10 +341,9 @@ pub struct LightBvh {
 /// A light while the tree is built.
 #[derive(Clone, Copy)]
 struct BuildLight {
-    bounds: LightBounds,
-    centroid: Vec3,
-    /// The light as a cluster of one, its cones' angles taken once for the whole build.
+    /// The light's bounds as a cluster of one, its cones' angles taken once for the whole build.
     cluster: Cluster,
+    centroid: Vec3,
     index: u32,
 }
 
@@ -545,16 +544,15 @@ impl LightBvh {
             .enumerate()
             .filter(|(_, b)| b.is_valid())
             .map(|(i, b)| BuildLight {
-                bounds: *b,
-                centroid: b.centroid(),
                 cluster: Cluster::of(b),
+                centroid: b.centroid(),
                 index: i as u32,
             })
             .collect();
         let power_alike = !build.is_empty()
             && build
                 .windows(2)
-                .all(|w| w[0].bounds.same_reach(&w[1].bounds));
+                .all(|w| w[0].cluster.bounds.same_reach(&w[1].cluster.bounds));
         // Every light has a leaf of its own, so a subtree of n lights is exactly 2n − 1 nodes:
         // each child's place is known before its sibling is built, and the two children of a
         // large node are built on separate threads into their own parts of the array.
@@ -606,8 +604,8 @@ fn build_subtree(
 ) -> LightBounds {
     debug_assert_eq!(nodes.len(), 2 * lights.len() - 1);
     if let [light] = lights {
-        nodes[0] = GpuLightNode::leaf(&light.bounds, light.index);
-        return light.bounds;
+        nodes[0] = GpuLightNode::leaf(&light.cluster.bounds, light.index);
+        return light.cluster.bounds;
     }
     let n = lights.len();
     let mid = split(lights, depth);
@@ -665,8 +663,8 @@ fn split(lights: &mut [BuildLight], depth: u32) -> usize {
     let mut centroid_min = Vec3::splat(f32::INFINITY);
     let mut centroid_max = Vec3::splat(f32::NEG_INFINITY);
     for l in lights.iter() {
-        bounds_min = bounds_min.min(l.bounds.bounds_min);
-        bounds_max = bounds_max.max(l.bounds.bounds_max);
+        bounds_min = bounds_min.min(l.cluster.bounds.bounds_min);
+        bounds_max = bounds_max.max(l.cluster.bounds.bounds_max);
         centroid_min = centroid_min.min(l.centroid);
         centroid_max = centroid_max.max(l.centroid);
     }

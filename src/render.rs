@@ -492,9 +492,12 @@ impl PreparedScene {
             refs: &scene.textures.refs,
             texels: &scene.textures.texels,
         };
+        // Per triangle, independent: on every core (16 texture taps each; a tenth of the
+        // preparation of a million emitting triangles on one).
+        use rayon::prelude::*;
         let scales: Vec<f32> = triangles[..baked_triangles]
-            .iter()
-            .zip(&triangle_vertices)
+            .par_iter()
+            .zip(&triangle_vertices[..baked_triangles])
             .map(|(tri, &tv)| {
                 emissive_texture_scale(&data, &materials, &emitting, tri, tv, &vertices)
             })

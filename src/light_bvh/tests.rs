@@ -628,9 +628,9 @@ fn sequential_build(lights: &[LightBounds]) -> (Vec<GpuLightNode>, Vec<u32>) {
     ) -> LightBounds {
         let index = nodes.len();
         if let [light] = lights {
-            nodes.push(GpuLightNode::leaf(&light.bounds, light.index));
+            nodes.push(GpuLightNode::leaf(&light.cluster.bounds, light.index));
             trails[light.index as usize] = trail;
-            return light.bounds;
+            return light.cluster.bounds;
         }
         nodes.push(GpuLightNode::default());
         let mid = split(lights, depth);
@@ -647,9 +647,8 @@ fn sequential_build(lights: &[LightBounds]) -> (Vec<GpuLightNode>, Vec<u32>) {
         .enumerate()
         .filter(|(_, b)| b.is_valid())
         .map(|(i, b)| BuildLight {
-            bounds: *b,
-            centroid: b.centroid(),
             cluster: Cluster::of(b),
+            centroid: b.centroid(),
             index: i as u32,
         })
         .collect();
