@@ -365,10 +365,57 @@ static SRGB_UNORM8_THRESHOLDS: std::sync::LazyLock<[f32; 255]> = std::sync::Lazy
     })
 });
 
-/// unorm8(linear_to_srgb(x)), the byte an sRGB mip level stores for linear `x`, as the number of
-/// thresholds at or below x: eight comparisons instead of a `powf` per channel.
+/// Linear values below this encode to byte 0: the first threshold lies above it (checked where
+/// the buckets are made).
+const SRGB_ENCODE_LOW: f32 = 1.0 / 16384.0;
+
+/// The floats in [[`SRGB_ENCODE_LOW`], 1) fall into buckets by their bits above this one: their
+/// exponent and top seven mantissa bits, 1 792 buckets each less than 1 % wide, where neighbouring
+/// thresholds lie at least 0.9 % apart, so a bucket holds at most two.
+const SRGB_BUCKET_SHIFT: u32 = 16;
+
+/// The thresholds, and per bucket how many of them lie at or below its least float.
+struct SrgbEncode {
+    thresholds: [f32; 255],
+    below: Vec<u8>,
+}
+
+static SRGB_ENCODE: std::sync::LazyLock<SrgbEncode> = std::sync::LazyLock::new(|| {
+    let thresholds = *SRGB_UNORM8_THRESHOLDS;
+    assert!(thresholds[0] > SRGB_ENCODE_LOW && thresholds[254] <= 1.0);
+    let (lo, hi) = (
+        SRGB_ENCODE_LOW.to_bits() >> SRGB_BUCKET_SHIFT,
+        1f32.to_bits() >> SRGB_BUCKET_SHIFT,
+    );
+    let below = (lo..hi)
+        .map(|k| {
+            let least = f32::from_bits(k << SRGB_BUCKET_SHIFT);
+            thresholds.partition_point(|&t| t <= least) as u8
+        })
+        .collect();
+    SrgbEncode { thresholds, below }
+});
+
+/// unorm8(linear_to_srgb(x)), the byte an sRGB mip level stores for linear `x`: the number of
+/// thresholds at or below x — those at or below the least float of x's bucket, read from a
+/// table, and the bucket's own (at most two) counted. A binary search over the thresholds took
+/// eight dependent loads and comparisons per channel, most of the mip chain of a large texture.
 fn srgb_unorm8(x: f32) -> u8 {
-    SRGB_UNORM8_THRESHOLDS.partition_point(|&t| t <= x) as u8
+    if x >= 1.0 {
+        return 255;
+    }
+    // Negative, NaN (which no threshold is at or below) and tiny values.
+    if !(x >= SRGB_ENCODE_LOW) {
+        return 0;
+    }
+    let e = &*SRGB_ENCODE;
+    let bucket =
+        (x.to_bits() >> SRGB_BUCKET_SHIFT) - (SRGB_ENCODE_LOW.to_bits() >> SRGB_BUCKET_SHIFT);
+    let mut count = e.below[bucket as usize] as usize;
+    while count < 255 && e.thresholds[count] <= x {
+        count += 1;
+    }
+    count as u8
 }
 
 /// The source indices of destination index `i` of `n` when halving a side of `size` (a range:
@@ -403,8 +450,26 @@ mod tests {
                     .par_iter()
                     .flat_map_iter(|t| t.to_bits() - 2..=t.to_bits() + 2),
             )
+            // Each bucket's least float and its neighbours.
+            .chain(
+                (SRGB_ENCODE_LOW.to_bits() >> SRGB_BUCKET_SHIFT
+                    ..=1f32.to_bits() >> SRGB_BUCKET_SHIFT)
+                    .into_par_iter()
+                    .flat_map_iter(|k| (k << SRGB_BUCKET_SHIFT) - 1..=(k << SRGB_BUCKET_SHIFT) + 1),
+            )
             .map(f32::from_bits)
-            .chain([-1.0, 2.0, f32::NAN, f32::INFINITY].into_par_iter())
+            .chain(
+                [
+                    -1.0,
+                    -0.0,
+                    2.0,
+                    f32::NAN,
+                    f32::INFINITY,
+                    f32::NEG_INFINITY,
+                    SRGB_ENCODE_LOW,
+                ]
+                .into_par_iter(),
+            )
             .find_any(|&x| srgb_unorm8(x) != unorm8(linear_to_srgb(x)));
         assert_eq!(bad, None);
         for (x, byte) in [(0.0, 0), (1.0, 255), (0.5, 188), (0.0031308, 10)] {
