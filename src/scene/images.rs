@@ -257,16 +257,25 @@ impl<'a> TextureBuilder<'a> {
             .map_err(|e| anyhow!("cannot decode the {format:?} data: {e}"))?
             .into_rgba8();
         drop(bytes);
-        let level0: Vec<u32> = decoded.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
-        drop(decoded);
-        self.options.budget.release(texels_level0 * 16);
         let texels = std::sync::Arc::make_mut(&mut self.set.texels);
         let first = texels.len();
         if first as u64 + texels_level0 * 2 > u32::MAX as u64 {
             bail!("the scene's textures exceed 2³² texels");
         }
-        let mean = mean_texel(&level0, srgb);
-        let levels = push_mip_chain(texels, level0, width, height, srgb);
+        // Level 0 straight from the decoded bytes into its place (RGBA8 is a texel's bytes).
+        let levels = push_mip_chain_with(texels, width, height, srgb, |level0| {
+            level0
+                .par_chunks_mut(ROWS_TEXELS)
+                .zip(decoded.as_raw().par_chunks(ROWS_TEXELS * 4))
+                .for_each(|(dst, src)| {
+                    for (t, p) in dst.iter_mut().zip(src.chunks_exact(4)) {
+                        *t = u32::from_le_bytes([p[0], p[1], p[2], p[3]]);
+                    }
+                });
+        });
+        drop(decoded);
+        self.options.budget.release(texels_level0 * 16);
+        let mean = mean_texel(&texels[first..first + texels_level0 as usize], srgb);
         Ok(([first as u32, width, height, levels], mean))
     }
 }
@@ -283,7 +292,11 @@ fn mean_texel(texels: &[u32], srgb: bool) -> [f32; 4] {
     sum.map(|s| (s / texels.len().max(1) as f64) as f32)
 }
 
+/// Texels per parallel piece of a level-0 copy.
+const ROWS_TEXELS: usize = 1 << 16;
+
 /// Appends level 0 and every smaller level down to 1 × 1; returns the number of levels.
+#[cfg(test)]
 pub(crate) fn push_mip_chain(
     out: &mut Vec<u32>,
     level0: Vec<u32>,
@@ -291,25 +304,45 @@ pub(crate) fn push_mip_chain(
     height: u32,
     srgb: bool,
 ) -> u32 {
-    let (mut w, mut h) = (width, height);
-    let mut level = level0;
-    let mut levels = 1;
-    loop {
-        out.extend_from_slice(&level);
-        if w == 1 && h == 1 {
-            return levels;
-        }
-        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
-        let decode = |t: u32| {
-            let v = crate::texture::unpack_texel(t, srgb);
-            [v.x, v.y, v.z, v.w]
-        };
-        let encode = |v: [f32; 4]| {
-            let c = |x: f32| if srgb { srgb_unorm8(x) } else { unorm8(x) };
-            u32::from_le_bytes([c(v[0]), c(v[1]), c(v[2]), unorm8(v[3])])
-        };
+    push_mip_chain_with(out, width, height, srgb, |dst| dst.copy_from_slice(&level0))
+}
+
+/// Appends a `width` × `height` level 0, which `fill_level0` writes in its place, and every
+/// smaller level down to 1 × 1, each made from the one before where it lies; returns the number
+/// of levels. The whole chain is sized once: a level made apart and then appended was written
+/// twice and faulted in twice, and the appends reallocated the texels.
+fn push_mip_chain_with(
+    out: &mut Vec<u32>,
+    width: u32,
+    height: u32,
+    srgb: bool,
+    fill_level0: impl FnOnce(&mut [u32]),
+) -> u32 {
+    let mut sizes = vec![(width, height)];
+    while let Some(&(w, h)) = sizes.last().filter(|&&(w, h)| w > 1 || h > 1) {
+        sizes.push(((w / 2).max(1), (h / 2).max(1)));
+    }
+    let total: usize = sizes.iter().map(|&(w, h)| (w * h) as usize).sum();
+    let first = out.len();
+    // Zeroed on every core: a fresh page costs ~2 µs to fault in on this VM, and a 8192² chain
+    // is 90 000 pages, which `resize`'s one memset faulted in on one thread.
+    out.par_extend(rayon::iter::repeat_n(0u32, total));
+    let (level, mut rest) = out[first..].split_at_mut((width * height) as usize);
+    fill_level0(level);
+    let mut level: &mut [u32] = level;
+    let decode = |t: u32| {
+        let v = crate::texture::unpack_texel(t, srgb);
+        [v.x, v.y, v.z, v.w]
+    };
+    let encode = |v: [f32; 4]| {
+        let c = |x: f32| if srgb { srgb_unorm8(x) } else { unorm8(x) };
+        u32::from_le_bytes([c(v[0]), c(v[1]), c(v[2]), unorm8(v[3])])
+    };
+    for pair in sizes.windows(2) {
+        let [(w, h), (nw, nh)] = [pair[0], pair[1]];
+        let (next, tail) = rest.split_at_mut((nw * nh) as usize);
+        let source: &[u32] = level;
         // Rows in parallel: each destination texel is a function of its source texels alone.
-        let mut next = vec![0u32; (nw * nh) as usize];
         next.par_chunks_mut(nw as usize)
             .enumerate()
             .for_each(|(y, row)| {
@@ -321,7 +354,7 @@ pub(crate) fn push_mip_chain(
                     let mut sum = [0f32; 4];
                     for sy in ys.clone() {
                         for sx in xs.clone() {
-                            let v = decode(level[(sy * w + sx) as usize]);
+                            let v = decode(source[(sy * w + sx) as usize]);
                             for k in 0..4 {
                                 sum[k] += v[k];
                             }
@@ -332,10 +365,9 @@ pub(crate) fn push_mip_chain(
                 }
             });
         level = next;
-        w = nw;
-        h = nh;
-        levels += 1;
+        rest = tail;
     }
+    sizes.len() as u32
 }
 
 /// An 8-bit channel of `x` (clamped to [0, 1]): round(x·255) with halves away from zero, as
