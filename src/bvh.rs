@@ -536,8 +536,10 @@ pub fn gpu_triangles(
         materials.is_empty() || materials.len() == triangles.len(),
         "one material per triangle"
     );
+    use rayon::prelude::*;
+    // In BVH order, on every core (a collect keeps the order).
     order
-        .iter()
+        .par_iter()
         .map(|&i| {
             let [p0, p1, p2] = triangles[i as usize];
             let (e1, e2) = (p1 - p0, p2 - p0);

@@ -1033,7 +1033,15 @@ fn bench(args: &BenchArgs) -> Result<()> {
     );
     let mut json_rows = Vec::new();
     for path in &scenes {
-        let (_, prepared) = load(path)?;
+        // Loading (glTF, buffers, images and their mip chains) and preparing (BVH, emitter
+        // table, light BVH) timed apart: for a real file they can take longer than its render.
+        let start = std::time::Instant::now();
+        let scene = Scene::load_with(path, &LoadOptions::default())?;
+        let load_ms = start.elapsed().as_secs_f64() * 1e3;
+        let start = std::time::Instant::now();
+        let prepared = PreparedScene::new(&scene);
+        let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+        drop(scene);
         let name = path
             .file_stem()
             .and_then(|s| s.to_str())
@@ -1082,6 +1090,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "submissions": s.submissions,
                 "kernel_fetches_per_ray": s.kernel_seconds.iter().filter_map(|(k, _)| Some((k.clone(), serde_json::json!(fetches_per_ray(&s, k)?.0)))).collect::<serde_json::Map<_, _>>(),
                 "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
+                "light_bvh_build_ms": prepared.light_bvh_time.as_secs_f64() * 1e3,
+                "load_ms": load_ms,
+                "prepare_ms": prepare_ms,
                 "triangles": prepared.triangles.len(),
             }));
             if !s.kernel_seconds.is_empty() {
@@ -1099,6 +1110,13 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 }
             }
         }
+        println!(
+            "{:<20} {:<6} loaded in {load_ms:.1} ms, prepared in {prepare_ms:.1} ms (BVH {:.1} ms, light BVH {:.1} ms)",
+            "",
+            "",
+            prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
+            prepared.light_bvh_time.as_secs_f64() * 1e3
+        );
     }
     if let Some(file) = &args.json {
         let doc = serde_json::json!({

@@ -411,31 +411,42 @@ impl PreparedScene {
             .collect();
         let mut add_blas = |nodes: &mut Vec<crate::layout::BvhNode>,
                             tris: &[crate::scene::Triangle]| {
-            let positions: Vec<[Vec3; 3]> = tris.iter().map(|t| t.p).collect();
-            let material_ids: Vec<u32> = tris.iter().map(|t| t.material).collect();
+            // Each pass over the triangles on every core (the collects keep their order).
+            use rayon::prelude::*;
+            let positions: Vec<[Vec3; 3]> = tris.par_iter().map(|t| t.p).collect();
+            let material_ids: Vec<u32> = tris.par_iter().map(|t| t.material).collect();
             let bvh = Bvh::build(&positions);
             let root = append_blas(nodes, &bvh, triangles.len() as u32);
             // The any-hit tests ride in the material's top bits (`TRIANGLE_TEST_*`).
-            triangles.extend(
-                gpu_triangles(&positions, &material_ids, &bvh.order)
-                    .into_iter()
-                    .zip(&bvh.order)
-                    .map(|(mut g, &i)| {
-                        let t = &tris[i as usize];
-                        if t.flags & TRIANGLE_ALPHA != 0 {
-                            g.material |= TRIANGLE_TEST_ALPHA;
-                        }
-                        if cull.get(t.material as usize).copied().unwrap_or(false) {
-                            g.material |= TRIANGLE_TEST_CULL;
-                        }
-                        g
-                    }),
-            );
-            triangle_vertices.extend(bvh.order.iter().map(|&i| {
+            let mut ordered = gpu_triangles(&positions, &material_ids, &bvh.order);
+            ordered.par_iter_mut().zip(&bvh.order).for_each(|(g, &i)| {
                 let t = &tris[i as usize];
-                let [a, b, c] = t.vertices.map(|v| if v == NO_VERTEX { blank } else { v });
-                UVec4::new(a, b, c, t.flags & (TRIANGLE_FLAT | TRIANGLE_PLAIN))
-            }));
+                if t.flags & TRIANGLE_ALPHA != 0 {
+                    g.material |= TRIANGLE_TEST_ALPHA;
+                }
+                if cull.get(t.material as usize).copied().unwrap_or(false) {
+                    g.material |= TRIANGLE_TEST_CULL;
+                }
+            });
+            if triangles.is_empty() {
+                triangles = ordered;
+            } else {
+                triangles.append(&mut ordered);
+            }
+            let corners: Vec<UVec4> = bvh
+                .order
+                .par_iter()
+                .map(|&i| {
+                    let t = &tris[i as usize];
+                    let [a, b, c] = t.vertices.map(|v| if v == NO_VERTEX { blank } else { v });
+                    UVec4::new(a, b, c, t.flags & (TRIANGLE_FLAT | TRIANGLE_PLAIN))
+                })
+                .collect();
+            if triangle_vertices.is_empty() {
+                triangle_vertices = corners;
+            } else {
+                triangle_vertices.extend_from_slice(&corners);
+            }
             (root, bvh)
         };
         let mut nodes = Vec::new();
