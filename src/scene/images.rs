@@ -254,26 +254,32 @@ impl<'a> TextureBuilder<'a> {
         reader.limits(limits);
         let decoded = reader
             .decode()
-            .map_err(|e| anyhow!("cannot decode the {format:?} data: {e}"))?
-            .into_rgba8();
+            .map_err(|e| anyhow!("cannot decode the {format:?} data: {e}"))?;
         drop(bytes);
+        // RGB8 and RGBA8 (nearly every glTF image) are read as they are; other layouts are
+        // converted to RGBA8 first. An RGB8 texel gets alpha 255, as `into_rgba8` gives it.
+        let (raw, channels) = match decoded {
+            image::DynamicImage::ImageRgb8(rgb) => (rgb.into_raw(), 3),
+            other => (other.into_rgba8().into_raw(), 4),
+        };
         let texels = std::sync::Arc::make_mut(&mut self.set.texels);
         let first = texels.len();
         if first as u64 + texels_level0 * 2 > u32::MAX as u64 {
             bail!("the scene's textures exceed 2³² texels");
         }
-        // Level 0 straight from the decoded bytes into its place (RGBA8 is a texel's bytes).
+        // Level 0 straight from the decoded bytes into its place, on every core.
         let levels = push_mip_chain_with(texels, width, height, srgb, |level0| {
             level0
                 .par_chunks_mut(ROWS_TEXELS)
-                .zip(decoded.as_raw().par_chunks(ROWS_TEXELS * 4))
+                .zip(raw.par_chunks(ROWS_TEXELS * channels))
                 .for_each(|(dst, src)| {
-                    for (t, p) in dst.iter_mut().zip(src.chunks_exact(4)) {
-                        *t = u32::from_le_bytes([p[0], p[1], p[2], p[3]]);
+                    for (t, p) in dst.iter_mut().zip(src.chunks_exact(channels)) {
+                        let alpha = if channels == 4 { p[3] } else { 255 };
+                        *t = u32::from_le_bytes([p[0], p[1], p[2], alpha]);
                     }
                 });
         });
-        drop(decoded);
+        drop(raw);
         self.options.budget.release(texels_level0 * 16);
         let mean = mean_texel(&texels[first..first + texels_level0 as usize], srgb);
         Ok(([first as u32, width, height, levels], mean))
@@ -514,6 +520,52 @@ mod tests {
                 unorm8(x + 0.5 / 255.0),
                 ((x + 0.5 / 255.0).min(1.0) * 255.0).round() as u8
             );
+        }
+    }
+
+    /// An RGB8 image (read as it is, alpha 255) and the same image as RGBA8 with alpha 255 (read
+    /// through `into_rgba8`'s layout) decode to the same texels, mip chain and mean, in sRGB and
+    /// linear; a grey image (converted) too.
+    #[test]
+    fn rgb_and_rgba_images_decode_to_the_same_texels() {
+        let (w, h) = (7u32, 5u32);
+        let rgb = image::RgbImage::from_fn(w, h, |x, y| {
+            image::Rgb([(x * 37 + y * 11) as u8, (x * 5 + 200) as u8, (y * 51) as u8])
+        });
+        let rgba = image::RgbaImage::from_fn(w, h, |x, y| {
+            let p = rgb.get_pixel(x, y).0;
+            image::Rgba([p[0], p[1], p[2], 255])
+        });
+        let grey = image::GrayImage::from_fn(w, h, |x, y| image::Luma([(x * 30 + y) as u8]));
+        let grey_rgba = image::RgbaImage::from_fn(w, h, |x, y| {
+            let v = grey.get_pixel(x, y).0[0];
+            image::Rgba([v, v, v, 255])
+        });
+        let png = |img: image::DynamicImage| {
+            let mut bytes = Vec::new();
+            img.write_to(
+                &mut std::io::Cursor::new(&mut bytes),
+                image::ImageFormat::Png,
+            )
+            .unwrap();
+            bytes
+        };
+        let options = LoadOptions::default();
+        for srgb in [false, true] {
+            for (a, b) in [
+                (rgb.clone().into(), rgba.clone().into()),
+                (grey.clone().into(), grey_rgba.clone().into()),
+            ] {
+                let decode = |img: image::DynamicImage| {
+                    let mut builder = TextureBuilder::new(&[], Path::new("."), &options);
+                    let info = builder.decode(png(img), None, srgb).unwrap();
+                    (info, builder.set.texels.as_slice().to_vec())
+                };
+                let (got, want) = (decode(a), decode(b));
+                assert_eq!(got.0 .0, want.0 .0, "srgb {srgb}");
+                assert_eq!(got.0 .1.map(f32::to_bits), want.0 .1.map(f32::to_bits));
+                assert_eq!(got.1, want.1, "srgb {srgb}");
+            }
         }
     }
 
