@@ -539,16 +539,7 @@ impl LightBvh {
             lights.len() as u64 <= 1 << MAX_LIGHT_BVH_DEPTH,
             "a light BVH holds at most 2^31 lights"
         );
-        let mut build: Vec<BuildLight> = lights
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| b.is_valid())
-            .map(|(i, b)| BuildLight {
-                cluster: Cluster::of(b),
-                centroid: b.centroid(),
-                index: i as u32,
-            })
-            .collect();
+        let mut build = build_lights(lights);
         let power_alike = !build.is_empty()
             && build
                 .windows(2)
@@ -586,6 +577,21 @@ impl LightBvh {
         }
         deepest
     }
+}
+
+/// The lights that go into the tree (positive, finite power and bounds), as the build takes
+/// them, with their indices in `lights`.
+fn build_lights(lights: &[LightBounds]) -> Vec<BuildLight> {
+    lights
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.is_valid())
+        .map(|(i, b)| BuildLight {
+            cluster: Cluster::of(b),
+            centroid: b.centroid(),
+            index: i as u32,
+        })
+        .collect()
 }
 
 /// Subtrees of at least this many lights build their two children in parallel (smaller ones

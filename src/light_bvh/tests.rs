@@ -642,16 +642,7 @@ fn sequential_build(lights: &[LightBounds]) -> (Vec<GpuLightNode>, Vec<u32>) {
         nodes[index] = GpuLightNode::interior(&bounds, second_index);
         bounds
     }
-    let mut build: Vec<BuildLight> = lights
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| b.is_valid())
-        .map(|(i, b)| BuildLight {
-            cluster: Cluster::of(b),
-            centroid: b.centroid(),
-            index: i as u32,
-        })
-        .collect();
+    let mut build = build_lights(lights);
     let (mut nodes, mut trails) = (Vec::new(), vec![NO_LIGHT_TRAIL; lights.len()]);
     if !build.is_empty() {
         node(&mut nodes, &mut trails, &mut build, 0, 0);
