@@ -19,6 +19,7 @@
 use crate::layout::{BvhNode, GpuTriangle};
 use arrayvec::ArrayVec;
 use glam::{BVec3, Vec3};
+use rayon::prelude::*;
 use std::time::Duration;
 
 /// SAH bins on the longest centroid axis.
@@ -536,7 +537,6 @@ pub fn gpu_triangles(
         materials.is_empty() || materials.len() == triangles.len(),
         "one material per triangle"
     );
-    use rayon::prelude::*;
     // In BVH order, on every core (a collect keeps the order).
     order
         .par_iter()

@@ -388,13 +388,7 @@ fn cone_union_with(
     theta_b: f32,
 ) -> (Vec3, f32, f32) {
     if a_w == b_w {
-        // cone_union's min, which returns one of its operands: that operand's angle.
-        let cos = a_cos.min(b_cos);
-        let theta = if cos.to_bits() == a_cos.to_bits() {
-            theta_a
-        } else {
-            theta_b
-        };
+        let (cos, theta) = min_with_angle(a_cos, theta_a, b_cos, theta_b);
         return (a_w, cos, theta);
     }
     let theta_d = angle_between(a_w, b_w);
@@ -426,9 +420,28 @@ fn cone_union_with(
     (w, cos, theta_of(cos))
 }
 
+/// The lesser of two cosines (`f32::min`, which returns one of its operands) and that operand's
+/// angle.
+fn min_with_angle(a_cos: f32, theta_a: f32, b_cos: f32, theta_b: f32) -> (f32, f32) {
+    let cos = a_cos.min(b_cos);
+    (
+        cos,
+        if cos.to_bits() == a_cos.to_bits() {
+            theta_a
+        } else {
+            theta_b
+        },
+    )
+}
+
 /// Bounds of two clusters together (pbrt-v4 `Union(LightBounds, LightBounds)`).
 fn union(a: &LightBounds, b: &LightBounds) -> LightBounds {
     let (w, cos_theta_o) = cone_union(a.w, a.cos_theta_o, b.w, b.cos_theta_o);
+    union_with_cone(a, b, w, cos_theta_o)
+}
+
+/// [`union`] of `a` and `b` given the cone of directions holding both (axis `w`, `cos_theta_o`).
+fn union_with_cone(a: &LightBounds, b: &LightBounds, w: Vec3, cos_theta_o: f32) -> LightBounds {
     LightBounds {
         bounds_min: a.bounds_min.min(b.bounds_min),
         bounds_max: a.bounds_max.max(b.bounds_max),
@@ -472,23 +485,11 @@ impl Cluster {
             b.cos_theta_o,
             other.theta_o,
         );
-        // union's min of the two cosines returns one of them: that one's angle.
-        let cos_theta_e = a.cos_theta_e.min(b.cos_theta_e);
-        let theta_e = if cos_theta_e.to_bits() == a.cos_theta_e.to_bits() {
-            self.theta_e
-        } else {
-            other.theta_e
-        };
+        let bounds = union_with_cone(a, b, w, cos_theta_o);
+        let (_, theta_e) =
+            min_with_angle(a.cos_theta_e, self.theta_e, b.cos_theta_e, other.theta_e);
         Cluster {
-            bounds: LightBounds {
-                bounds_min: a.bounds_min.min(b.bounds_min),
-                bounds_max: a.bounds_max.max(b.bounds_max),
-                phi: a.phi + b.phi,
-                w,
-                cos_theta_o,
-                cos_theta_e,
-                two_sided: a.two_sided || b.two_sided,
-            },
+            bounds,
             theta_o,
             theta_e,
         }

@@ -31,6 +31,7 @@ use crate::tlas::{
     scene_intersect_closest,
 };
 use glam::{Mat4, UVec4, Vec3};
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// What to render and how.
@@ -320,6 +321,16 @@ fn emissive_texture_scale(
     (over_triangle / whole).max(1e-3)
 }
 
+/// `src` after `dst`'s elements; an empty `dst` takes `src` itself instead of a copy of it (the
+/// baked level is most of a scene's triangles).
+fn append_moved<T>(dst: &mut Vec<T>, mut src: Vec<T>) {
+    if dst.is_empty() {
+        *dst = src;
+    } else {
+        dst.append(&mut src);
+    }
+}
+
 /// The light BVH over the emitter table's bounded entries (emissive triangles, point and spot
 /// lights: the entries before the directional ones), each with its selection power; per
 /// triangle, the trail to its entry's leaf (empty when no triangle emits); and the table's CDF
@@ -412,7 +423,6 @@ impl PreparedScene {
         let mut add_blas = |nodes: &mut Vec<crate::layout::BvhNode>,
                             tris: &[crate::scene::Triangle]| {
             // Each pass over the triangles on every core (the collects keep their order).
-            use rayon::prelude::*;
             let positions: Vec<[Vec3; 3]> = tris.par_iter().map(|t| t.p).collect();
             let material_ids: Vec<u32> = tris.par_iter().map(|t| t.material).collect();
             let bvh = Bvh::build(&positions);
@@ -428,11 +438,7 @@ impl PreparedScene {
                     g.material |= TRIANGLE_TEST_CULL;
                 }
             });
-            if triangles.is_empty() {
-                triangles = ordered;
-            } else {
-                triangles.append(&mut ordered);
-            }
+            append_moved(&mut triangles, ordered);
             let corners: Vec<UVec4> = bvh
                 .order
                 .par_iter()
@@ -442,11 +448,7 @@ impl PreparedScene {
                     UVec4::new(a, b, c, t.flags & (TRIANGLE_FLAT | TRIANGLE_PLAIN))
                 })
                 .collect();
-            if triangle_vertices.is_empty() {
-                triangle_vertices = corners;
-            } else {
-                triangle_vertices.extend_from_slice(&corners);
-            }
+            append_moved(&mut triangle_vertices, corners);
             (root, bvh)
         };
         let mut nodes = Vec::new();
@@ -505,7 +507,6 @@ impl PreparedScene {
         };
         // Per triangle, independent: on every core (16 texture taps each; a tenth of the
         // preparation of a million emitting triangles on one).
-        use rayon::prelude::*;
         let scales: Vec<f32> = triangles[..baked_triangles]
             .par_iter()
             .zip(&triangle_vertices[..baked_triangles])

@@ -301,18 +301,6 @@ fn mean_texel(texels: &[u32], srgb: bool) -> [f32; 4] {
 /// Texels per parallel piece of a level-0 copy.
 const ROWS_TEXELS: usize = 1 << 16;
 
-/// Appends level 0 and every smaller level down to 1 × 1; returns the number of levels.
-#[cfg(test)]
-pub(crate) fn push_mip_chain(
-    out: &mut Vec<u32>,
-    level0: Vec<u32>,
-    width: u32,
-    height: u32,
-    srgb: bool,
-) -> u32 {
-    push_mip_chain_with(out, width, height, srgb, |dst| dst.copy_from_slice(&level0))
-}
-
 /// Appends a `width` × `height` level 0, which `fill_level0` writes in its place, and every
 /// smaller level down to 1 × 1, each made from the one before where it lies; returns the number
 /// of levels. The whole chain is sized once: a level made apart and then appended was written
@@ -333,9 +321,9 @@ fn push_mip_chain_with(
     // Zeroed on every core: a fresh page costs ~2 µs to fault in on this VM, and a 8192² chain
     // is 90 000 pages, which `resize`'s one memset faulted in on one thread.
     out.par_extend(rayon::iter::repeat_n(0u32, total));
-    let (level, mut rest) = out[first..].split_at_mut((width * height) as usize);
-    fill_level0(level);
-    let mut level: &mut [u32] = level;
+    let (level0, mut rest) = out[first..].split_at_mut((width * height) as usize);
+    fill_level0(level0);
+    let mut source: &[u32] = level0;
     let decode = |t: u32| {
         let v = crate::texture::unpack_texel(t, srgb);
         [v.x, v.y, v.z, v.w]
@@ -347,7 +335,6 @@ fn push_mip_chain_with(
     for pair in sizes.windows(2) {
         let [(w, h), (nw, nh)] = [pair[0], pair[1]];
         let (next, tail) = rest.split_at_mut((nw * nh) as usize);
-        let source: &[u32] = level;
         // Rows in parallel: each destination texel is a function of its source texels alone.
         next.par_chunks_mut(nw as usize)
             .enumerate()
@@ -370,7 +357,7 @@ fn push_mip_chain_with(
                     *out = encode(sum.map(|s| s / n));
                 }
             });
-        level = next;
+        source = next;
         rest = tail;
     }
     sizes.len() as u32
@@ -387,7 +374,7 @@ fn unorm8(x: f32) -> u8 {
 /// For each byte b in 1..=255 the least linear value x in [0, 1] with
 /// unorm8(linear_to_srgb(x)) ≥ b, found by bisection over the floats' bits (the encoding is
 /// monotone in x; test `srgb_unorm8_equals_the_transfer_function`).
-static SRGB_UNORM8_THRESHOLDS: std::sync::LazyLock<[f32; 255]> = std::sync::LazyLock::new(|| {
+fn srgb_unorm8_thresholds() -> [f32; 255] {
     std::array::from_fn(|k| {
         let b = k as u8 + 1;
         let (mut lo, mut hi) = (0u32, 1f32.to_bits());
@@ -401,7 +388,7 @@ static SRGB_UNORM8_THRESHOLDS: std::sync::LazyLock<[f32; 255]> = std::sync::Lazy
         }
         f32::from_bits(lo)
     })
-});
+}
 
 /// Linear values below this encode to byte 0: the first threshold lies above it (checked where
 /// the buckets are made).
@@ -419,7 +406,7 @@ struct SrgbEncode {
 }
 
 static SRGB_ENCODE: std::sync::LazyLock<SrgbEncode> = std::sync::LazyLock::new(|| {
-    let thresholds = *SRGB_UNORM8_THRESHOLDS;
+    let thresholds = srgb_unorm8_thresholds();
     assert!(thresholds[0] > SRGB_ENCODE_LOW && thresholds[254] <= 1.0);
     let (lo, hi) = (
         SRGB_ENCODE_LOW.to_bits() >> SRGB_BUCKET_SHIFT,
@@ -484,7 +471,8 @@ mod tests {
             .into_par_iter()
             .map(|k| k * 7)
             .chain(
-                SRGB_UNORM8_THRESHOLDS
+                SRGB_ENCODE
+                    .thresholds
                     .par_iter()
                     .flat_map_iter(|t| t.to_bits() - 2..=t.to_bits() + 2),
             )
@@ -576,7 +564,7 @@ mod tests {
             .map(|i| u32::from_le_bytes([(i * 17) as u8, 100, 200, 255]))
             .collect();
         let mut out = Vec::new();
-        let levels = push_mip_chain(&mut out, level0.clone(), w, h, false);
+        let levels = push_mip_chain_with(&mut out, w, h, false, |l| l.copy_from_slice(&level0));
         assert_eq!(levels, 3);
         assert_eq!(out.len(), 15 + 2 + 1);
         assert_eq!(&out[..15], &level0[..]);
@@ -587,7 +575,10 @@ mod tests {
             .map(|i| u32::from_le_bytes([(i * 13) as u8, 0, 0, 255]))
             .collect();
         let mut out = Vec::new();
-        assert_eq!(push_mip_chain(&mut out, level0.clone(), 4, 4, true), 3);
+        assert_eq!(
+            push_mip_chain_with(&mut out, 4, 4, true, |l| l.copy_from_slice(&level0)),
+            3
+        );
         let top = crate::texture::unpack_texel(out[20], true);
         let mean = mean_texel(&level0, true);
         assert!((top.x - mean[0]).abs() < 3.0 / 255.0, "{top} vs {mean:?}");
