@@ -173,6 +173,14 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
                     "  {f:>6.1} scene fetches per {rays} ray"
                 ))
             );
+            if let Some((_, statistics)) = stats.kernel_statistics.iter().find(|(k, _)| k == name)
+            {
+                println!(
+                    "  {:<17} driver: {}",
+                    "",
+                    wavetrace::render::statistics_line(statistics)
+                );
+            }
         }
         if let Some(host) = host_phases(stats) {
             println!("  outside the kernels: {host}");
@@ -1088,6 +1096,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "kernel_ms": s.kernel_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
                 "host_ms": s.host_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
                 "submissions": s.submissions,
+                "kernel_statistics": s.kernel_statistics.iter().map(|(k, list)| (k.clone(), serde_json::Value::Object(list.iter().map(|st| (st.name.clone(), st.value.to_json())).collect()))).collect::<serde_json::Map<_, _>>(),
                 "kernel_fetches_per_ray": s.kernel_seconds.iter().filter_map(|(k, _)| Some((k.clone(), serde_json::json!(fetches_per_ray(&s, k)?.0)))).collect::<serde_json::Map<_, _>>(),
                 "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
                 "light_bvh_build_ms": prepared.light_bvh_time.as_secs_f64() * 1e3,
@@ -1105,6 +1114,14 @@ fn bench(args: &BenchArgs) -> Result<()> {
                     })
                     .collect();
                 println!("{:<20} {:<6} per kernel: {}", "", "", kernels.join(", "));
+                for (k, statistics) in &s.kernel_statistics {
+                    println!(
+                        "{:<20} {:<6} {k}, driver: {}",
+                        "",
+                        "",
+                        wavetrace::render::statistics_line(statistics)
+                    );
+                }
                 if let Some(host) = host_phases(&s) {
                     println!("{:<20} {:<6} outside the kernels: {host}", "", "");
                 }

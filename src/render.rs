@@ -903,6 +903,59 @@ pub struct RenderStats {
     pub device_memory: Option<DeviceMemory>,
     /// GPU only: the features its kernels were made for (`PreparedScene::gpu_features`).
     pub kernel_features: Option<u32>,
+    /// GPU only, on a device that reports them: per kernel, the driver's statistics of its
+    /// compiled code (`VK_KHR_pipeline_executable_properties`).
+    pub kernel_statistics: Vec<(String, Vec<KernelStatistic>)>,
+}
+
+/// One statistic a Vulkan driver reports of a compiled kernel, named and described by the
+/// driver (NVIDIA's register count and local memory, Mesa's instruction counts, …).
+#[derive(Clone, Debug, PartialEq)]
+pub struct KernelStatistic {
+    pub name: String,
+    pub description: String,
+    pub value: StatisticValue,
+}
+
+/// A driver statistic's value, in the four forms Vulkan gives them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StatisticValue {
+    Bool(bool),
+    Int(i64),
+    Uint(u64),
+    Float(f64),
+}
+
+impl std::fmt::Display for StatisticValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StatisticValue::Bool(b) => write!(f, "{}", if *b { "yes" } else { "no" }),
+            StatisticValue::Int(v) => write!(f, "{v}"),
+            StatisticValue::Uint(v) => write!(f, "{v}"),
+            StatisticValue::Float(v) => write!(f, "{v:.3}"),
+        }
+    }
+}
+
+impl StatisticValue {
+    /// The value as JSON: a boolean or a number.
+    pub fn to_json(self) -> serde_json::Value {
+        match self {
+            StatisticValue::Bool(b) => b.into(),
+            StatisticValue::Int(v) => v.into(),
+            StatisticValue::Uint(v) => v.into(),
+            StatisticValue::Float(v) => v.into(),
+        }
+    }
+}
+
+/// A kernel's statistics in one line: `name value` pairs, comma-separated.
+pub fn statistics_line(statistics: &[KernelStatistic]) -> String {
+    statistics
+        .iter()
+        .map(|s| format!("{} {}", s.name, s.value))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The device memory of one GPU render, once its buffers exist and the scene is uploaded.

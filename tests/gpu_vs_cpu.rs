@@ -369,3 +369,37 @@ fn fetch_counts_are_deterministic_and_change_nothing() {
     // shade reads a triangle, its vertices and its material per hit.
     assert!(fetches("shade") >= counted.stats.extension_rays);
 }
+
+/// `render --stats` and `bench` show what the driver made of each kernel where the device
+/// reports it (`VK_KHR_pipeline_executable_properties`: NVIDIA's registers and local memory,
+/// for instance): then every kernel the path tracer dispatches has statistics, each named and
+/// each the same on a second render. lavapipe and SwiftShader report none; the test says so.
+#[test]
+fn kernel_statistics_cover_every_dispatched_kernel_where_the_driver_reports_them() {
+    let scene = prepared("cornell-box.gltf");
+    let Some(gpu) = common::gpu() else { return };
+    let offered = gpu.context().executable_properties.is_some();
+    let first = gpu.render(&scene, &small(12), None).unwrap();
+    let second = gpu.render(&scene, &small(13), None).unwrap();
+    let name = gpu.device().name.clone();
+    drop(gpu);
+    if !offered {
+        assert!(first.stats.kernel_statistics.is_empty());
+        println!("notice: {name} reports no kernel statistics; nothing to check");
+        return;
+    }
+    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::cpu::Integrator::Path);
+    let listed: Vec<&str> = first
+        .stats
+        .kernel_statistics
+        .iter()
+        .map(|(k, _)| k.as_str())
+        .collect();
+    assert_eq!(listed, kernels, "kernels with statistics");
+    for (kernel, statistics) in &first.stats.kernel_statistics {
+        println!("{kernel}: {}", wavetrace::render::statistics_line(statistics));
+        assert!(!statistics.is_empty(), "{kernel} has no statistics");
+        assert!(statistics.iter().all(|s| !s.name.is_empty()), "{kernel}: an unnamed statistic");
+    }
+    assert_eq!(first.stats.kernel_statistics, second.stats.kernel_statistics);
+}

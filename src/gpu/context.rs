@@ -77,6 +77,9 @@ pub struct Context {
     pub allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
     /// Error messages from the validation layer (boxed: the callback holds its address).
     validation_errors: Box<Mutex<Vec<String>>>,
+    /// The driver's statistics of a compiled kernel (registers, spills, instructions: whatever
+    /// it names), where the device offers `VK_KHR_pipeline_executable_properties`.
+    pub executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
 }
 
 unsafe extern "system" fn on_validation_message(
@@ -215,6 +218,22 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
     Ok(list)
 }
 
+/// Whether `physical` offers `VK_KHR_pipeline_executable_properties` with its
+/// `pipelineExecutableInfo` feature.
+fn offers_executable_info(instance: &ash::Instance, physical: vk::PhysicalDevice) -> bool {
+    let extensions =
+        unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
+    if !extensions.iter().any(|e| {
+        e.extension_name_as_c_str() == Ok(ash::khr::pipeline_executable_properties::NAME)
+    }) {
+        return false;
+    }
+    let mut feature = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
+    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut feature);
+    unsafe { instance.get_physical_device_features2(physical, &mut features) };
+    feature.pipeline_executable_info == vk::TRUE
+}
+
 fn preference(kind: vk::PhysicalDeviceType) -> u32 {
     match kind {
         vk::PhysicalDeviceType::DISCRETE_GPU => 0,
@@ -312,12 +331,26 @@ impl Context {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        // VK_KHR_pipeline_executable_properties, where offered, so that `--stats` and `bench`
+        // can show what the driver made of each kernel; it changes no kernel's code.
+        let executable_info = offers_executable_info(&instance, physical);
+        let extensions = [ash::khr::pipeline_executable_properties::NAME.as_ptr()];
+        let mut executable_feature =
+            vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
+                .pipeline_executable_info(true);
+        let mut device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        if executable_info {
+            device_info = device_info
+                .enabled_extension_names(&extensions)
+                .push_next(&mut executable_feature);
+        }
         let device = unsafe { instance.create_device(physical, &device_info, None) }
             .with_context(|| format!("creating a Vulkan device on {}", infos[chosen].name))?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let labels =
             has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let executable_properties = executable_info
+            .then(|| ash::khr::pipeline_executable_properties::Device::new(&instance, &device));
         // Blocks of 64 MiB (device) and 16 MiB (host) at first, growing to 256 MiB; a buffer
         // larger than a block gets a block of its own.
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -355,6 +388,7 @@ impl Context {
             info: infos[chosen].clone(),
             allocator,
             validation_errors,
+            executable_properties,
         })
     }
 

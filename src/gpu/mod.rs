@@ -59,12 +59,18 @@ pub struct GpuRenderer {
     /// Whether the kernels that declare one binding per scene array render also where the
     /// device binds them all (`Pipelines::with_kernels`).
     one_binding: bool,
+    /// Whether the kernels' driver statistics are captured and reported (on a device that
+    /// offers them: `Context::executable_properties`).
+    capture_statistics: bool,
 }
 
 impl GpuRenderer {
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer> {
         let ctx = Context::new(options.device_index, options.validation)?;
-        let pipelines = Pipelines::new(&ctx, &SceneSplit::NONE)?;
+        // Where the driver reports them: keeping a kernel's statistics changes none of its code.
+        let capture_statistics = ctx.executable_properties.is_some();
+        let pipelines =
+            Pipelines::with_kernels(&ctx, &SceneSplit::NONE, false, capture_statistics)?;
         let commands = Commands::new(&ctx)?;
         let timing = options.timing
             && ctx.timestamp_valid_bits > 0
@@ -81,6 +87,7 @@ impl GpuRenderer {
             ctx,
             timing,
             count_fetches: options.count_fetches,
+            capture_statistics,
         })
     }
 
@@ -114,7 +121,12 @@ impl GpuRenderer {
     /// Results do not depend on it.
     pub fn set_one_binding(&mut self, one_binding: bool) -> Result<()> {
         if one_binding != self.one_binding {
-            self.pipelines = Pipelines::with_kernels(&self.ctx, &SceneSplit::NONE, one_binding)?;
+            self.pipelines = Pipelines::with_kernels(
+                &self.ctx,
+                &SceneSplit::NONE,
+                one_binding,
+                self.capture_statistics,
+            )?;
             self.one_binding = one_binding;
         }
         Ok(())
@@ -124,6 +136,24 @@ impl GpuRenderer {
     /// `PreparedScene::gpu_features`), or with every feature. Results do not depend on it.
     pub fn set_specialise(&mut self, specialise: bool) {
         self.specialise = specialise;
+    }
+
+    /// The driver's statistics of each kernel `setup` renders an `integrator` with (in
+    /// `wavefront::kernels` order), where they are captured (`capture_statistics`).
+    fn kernel_statistics(
+        &self,
+        setup: &Setup,
+        integrator: crate::cpu::Integrator,
+    ) -> Vec<(String, Vec<crate::render::KernelStatistic>)> {
+        if !self.capture_statistics {
+            return Vec::new();
+        }
+        let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
+        wavefront::kernels(integrator)
+            .iter()
+            .map(|&name| (name.to_string(), pipelines.statistics(name, setup.features)))
+            .filter(|(_, statistics)| !statistics.is_empty())
+            .collect()
     }
 
     /// How `scene`'s large arrays are laid over this device's bindings.
@@ -297,6 +327,7 @@ impl GpuRenderer {
         let mut stats = RenderStats {
             device_memory: Some(self.device_memory(&setup)),
             kernel_features: Some(setup.features),
+            kernel_statistics: self.kernel_statistics(&setup, settings.integrator),
             ..RenderStats::default()
         };
         let start = Instant::now();
@@ -370,7 +401,12 @@ impl GpuRenderer {
         let split = self.scene_split(scene)?;
         let pipelines = match split == SceneSplit::NONE {
             true => None,
-            false => Some(Pipelines::with_kernels(ctx, &split, self.one_binding)?),
+            false => Some(Pipelines::with_kernels(
+                ctx,
+                &split,
+                self.one_binding,
+                self.capture_statistics,
+            )?),
         };
         let features = match self.specialise {
             true => scene.gpu_features(settings),
@@ -473,6 +509,7 @@ impl GpuRenderer {
         let mut stats = RenderStats {
             device_memory: Some(self.device_memory(setup)),
             kernel_features: Some(setup.features),
+            kernel_statistics: self.kernel_statistics(setup, settings.integrator),
             ..RenderStats::default()
         };
         let start = Instant::now();

@@ -4,6 +4,7 @@
 use super::context::Context;
 use crate::kernels::{KERNELS, KERNELS_ONE_BINDING};
 use crate::layout::DispatchParams;
+use crate::render::{KernelStatistic, StatisticValue};
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
 use rayon::prelude::*;
@@ -424,6 +425,8 @@ pub struct Pipelines {
     /// (`KERNELS_ONE_BINDING`): the device binds fewer than [`STORAGE_BUFFERS`], and every
     /// scene array fits its first binding.
     pub one_binding: bool,
+    /// Where the kernels' driver statistics are captured (`Pipelines::statistics`).
+    executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
 }
 
 /// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer
@@ -446,12 +449,19 @@ impl Pipelines {
     /// The descriptor set and the layout of kernels specialised for scenes laid over their
     /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
     pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
-        Pipelines::with_kernels(ctx, split, false)
+        Pipelines::with_kernels(ctx, split, false, false)
     }
 
     /// [`Pipelines::new`], with the kernels that declare one binding per scene array
-    /// (`KERNELS_ONE_BINDING`) also where the device binds them all, if `one_binding`.
-    pub fn with_kernels(ctx: &Context, split: &SceneSplit, one_binding: bool) -> Result<Pipelines> {
+    /// (`KERNELS_ONE_BINDING`) also where the device binds them all, if `one_binding`; with
+    /// `capture_statistics`, the driver keeps each kernel's statistics where it reports them
+    /// ([`Pipelines::statistics`]).
+    pub fn with_kernels(
+        ctx: &Context,
+        split: &SceneSplit,
+        one_binding: bool,
+        capture_statistics: bool,
+    ) -> Result<Pipelines> {
         let device = &ctx.device;
         if let Some(shortfall) = ctx.info.storage_shortfall() {
             bail!("{} {shortfall}", ctx.info.name);
@@ -547,6 +557,10 @@ impl Pipelines {
             constants,
             pipelines: Mutex::new(HashMap::new()),
             one_binding,
+            executable_properties: ctx
+                .executable_properties
+                .clone()
+                .filter(|_| capture_statistics),
         })
     }
 
@@ -616,13 +630,86 @@ impl Pipelines {
             .module(module)
             .name(c"main")
             .specialization_info(&specialization);
+        let flags = match self.executable_properties {
+            Some(_) => vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR,
+            None => vk::PipelineCreateFlags::empty(),
+        };
         let info = [vk::ComputePipelineCreateInfo::default()
+            .flags(flags)
             .stage(stage)
             .layout(self.layout)];
-        let created =
+        let mut created =
             unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        if created.is_err() && !flags.is_empty() {
+            // The statistics are a courtesy: a driver that cannot keep them still renders.
+            let plain = [info[0].flags(vk::PipelineCreateFlags::empty())];
+            created =
+                unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &plain, None) };
+        }
         unsafe { device.destroy_shader_module(module, None) };
         Ok(created.map_err(|(_, e)| anyhow!("creating the pipeline of kernel {name}: {e}"))?[0])
+    }
+
+    /// The driver's statistics of kernel `name` made for `features` (created by
+    /// [`Pipelines::prepare`]), where they were captured: empty otherwise. A pipeline of more
+    /// than one executable names each statistic after its executable.
+    pub fn statistics(&self, name: &'static str, features: u32) -> Vec<KernelStatistic> {
+        let Some(loader) = &self.executable_properties else {
+            return Vec::new();
+        };
+        let Some(&pipeline) = self.created().get(&(name, features)) else {
+            return Vec::new();
+        };
+        let text = |chars: &[std::ffi::c_char]| {
+            let bytes: Vec<u8> = chars
+                .iter()
+                .take_while(|&&c| c != 0)
+                .map(|&c| c as u8)
+                .collect();
+            String::from_utf8_lossy(&bytes).trim().to_string()
+        };
+        let info = vk::PipelineInfoKHR::default().pipeline(pipeline);
+        let executables = unsafe { loader.get_pipeline_executable_properties(&info) }
+            .unwrap_or_default();
+        let several = executables.len() > 1;
+        let mut out = Vec::new();
+        for (index, executable) in executables.iter().enumerate() {
+            let info = vk::PipelineExecutableInfoKHR::default()
+                .pipeline(pipeline)
+                .executable_index(index as u32);
+            let statistics = unsafe { loader.get_pipeline_executable_statistics(&info) }
+                .unwrap_or_default();
+            for s in statistics {
+                // SAFETY: the format says which member of the union the driver wrote.
+                let value = unsafe {
+                    match s.format {
+                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => {
+                            StatisticValue::Bool(s.value.b32 == vk::TRUE)
+                        }
+                        vk::PipelineExecutableStatisticFormatKHR::INT64 => {
+                            StatisticValue::Int(s.value.i64)
+                        }
+                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => {
+                            StatisticValue::Uint(s.value.u64)
+                        }
+                        vk::PipelineExecutableStatisticFormatKHR::FLOAT64 => {
+                            StatisticValue::Float(s.value.f64)
+                        }
+                        _ => continue,
+                    }
+                };
+                let name = match several {
+                    true => format!("{}: {}", text(&executable.name), text(&s.name)),
+                    false => text(&s.name),
+                };
+                out.push(KernelStatistic {
+                    name,
+                    description: text(&s.description),
+                    value,
+                });
+            }
+        }
+        out
     }
 
     fn created(&self) -> std::sync::MutexGuard<'_, HashMap<(&'static str, u32), vk::Pipeline>> {
