@@ -26,7 +26,8 @@
 #   1. nvidia-smi, and `render --device auto` of the Cornell box, which must choose the GPU;
 #   2. `bench --gpu-only` of the Cornell box (1024², 64 spp, depth 8): samples/s, rays/s and
 #      per-kernel ms, with its ratio to the H200's figures of 4 December 2026
-#      (tools/bench-h200.json; steps 2 and 3);
+#      (tools/bench-h200.json; steps 2 and 3), and the driver's statistics of each kernel
+#      (registers, local memory: what bounds the rays a multiprocessor keeps in flight);
 #   3. `bench --gpu-only --environment 1` of TransmissionTest (129k triangles),
 #      MetalRoughSpheresNoTextures (1M) and a 2M-triangle terrain (tools/gen_large.py): the
 #      issue's ≥ 1 G rays/s, extension + shadow (the uniform environment gives the unlit
