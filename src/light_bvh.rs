@@ -338,6 +338,13 @@ pub struct LightBvh {
     pub power_alike: bool,
 }
 
+/// Memory one light takes while its tree is built and kept: its bounds (`build_light_bvh`'s
+/// input), its build record, two nodes (a tree of n lights has 2n − 1) and its trail.
+pub const BYTES_PER_LIGHT: usize = std::mem::size_of::<LightBounds>()
+    + std::mem::size_of::<BuildLight>()
+    + 2 * std::mem::size_of::<GpuLightNode>()
+    + 4;
+
 /// A light while the tree is built.
 #[derive(Clone, Copy)]
 struct BuildLight {

@@ -21,6 +21,12 @@ pub const PREPARE_BYTES_PER_TRIANGLE: u64 = (size_of::<Triangle>()
     + size_of::<LightEntry>()
     + 4) as u64;
 
+/// Memory one emitting triangle takes in the light BVH besides [`PREPARE_BYTES_PER_TRIANGLE`]
+/// (`light_bvh::BYTES_PER_LIGHT`), and each triangle's trail to its leaf and emitter-selection
+/// scale, which every triangle gets once any emits.
+pub const PREPARE_BYTES_PER_EMITTER: u64 = crate::light_bvh::BYTES_PER_LIGHT as u64;
+pub const PREPARE_BYTES_PER_TRIANGLE_WITH_EMITTERS: u64 = 8;
+
 /// Memory one instance takes while prepared: its `GpuInstance`, its box in the top level's
 /// build (bounds and id), up to two top-level nodes and the order entry.
 pub const PREPARE_BYTES_PER_INSTANCE: u64 =

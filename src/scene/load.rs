@@ -26,7 +26,8 @@ use super::buffers::{check_image_uris, load_buffers, open_regular};
 use super::images::{TextureBuilder, TextureInfo, TextureUse};
 use super::json::{parse_value, split_container, typed_root, validation_message};
 use super::limits::{
-    format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_INSTANCE, PREPARE_BYTES_PER_TRIANGLE,
+    format_bytes, Budget, LoadOptions, PREPARE_BYTES_PER_EMITTER, PREPARE_BYTES_PER_INSTANCE,
+    PREPARE_BYTES_PER_TRIANGLE, PREPARE_BYTES_PER_TRIANGLE_WITH_EMITTERS,
 };
 use super::tangents::mikktspace_tangents;
 use super::validate::check_document;
@@ -258,6 +259,26 @@ fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scen
         (builder.triangles.len() + instanced_triangles) as u64 * PREPARE_BYTES_PER_TRIANGLE
             + builder.instances.len() as u64 * PREPARE_BYTES_PER_INSTANCE,
     )?;
+    // The light BVH over the emitting triangles (emitting meshes are always baked: the
+    // triangles above) and the punctual lights, which a scene whose every triangle emits makes
+    // as large as its BVH.
+    let emitters = builder
+        .triangles
+        .iter()
+        .filter(|t| builder.materials[t.material as usize].is_emissive())
+        .count()
+        + builder.punctual.len();
+    if emitters > 0 {
+        options.budget.reserve(
+            &format!(
+                "{}: the light BVH of {emitters} emitters",
+                label("scene", scene.index(), scene.name())
+            ),
+            emitters as u64 * PREPARE_BYTES_PER_EMITTER
+                + (builder.triangles.len() + instanced_triangles) as u64
+                    * PREPARE_BYTES_PER_TRIANGLE_WITH_EMITTERS,
+        )?;
+    }
     let notes = notes(&document, &builder);
     let bounds = super::scene_bounds(&builder.triangles, &builder.meshes, &builder.instances);
     let camera = builder
