@@ -390,6 +390,8 @@ def set_path(doc, path, value):
 
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    if len(sys.argv) > 2 or (len(sys.argv) == 2 and sys.argv[1].startswith("-")):
+        sys.exit(__doc__)
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "tests", "hostile")
     os.makedirs(os.path.join(out, "sub"), exist_ok=True)
     with open(os.path.join(out, "quad.bin"), "wb") as f:
