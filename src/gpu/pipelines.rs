@@ -448,13 +448,9 @@ const fn further_chunks() -> u32 {
 impl Pipelines {
     /// The descriptor set and the layout of kernels specialised for scenes laid over their
     /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
-    pub fn new(ctx: &Context, split: &SceneSplit) -> Result<Pipelines> {
-        Pipelines::with_kernels(ctx, split, false, false)
-    }
-
-    /// [`Pipelines::new`], with the kernels that declare one binding per scene array
-    /// (`KERNELS_ONE_BINDING`) also where the device binds them all, if `one_binding`; with
-    /// `capture_statistics`, the driver keeps each kernel's statistics where it reports them
+    /// With `one_binding`, the kernels that declare one binding per scene array
+    /// (`KERNELS_ONE_BINDING`) also where the device binds them all; with `capture_statistics`,
+    /// the driver keeps each kernel's statistics where it reports them
     /// ([`Pipelines::statistics`]).
     pub fn with_kernels(
         ctx: &Context,
@@ -660,13 +656,9 @@ impl Pipelines {
         let Some(&pipeline) = self.created().get(&(name, features)) else {
             return Vec::new();
         };
-        let text = |chars: &[std::ffi::c_char]| {
-            let bytes: Vec<u8> = chars
-                .iter()
-                .take_while(|&&c| c != 0)
-                .map(|&c| c as u8)
-                .collect();
-            String::from_utf8_lossy(&bytes).trim().to_string()
+        let text = |c: Result<&std::ffi::CStr, _>| {
+            c.map(|c| c.to_string_lossy().trim().to_string())
+                .unwrap_or_default()
         };
         let info = vk::PipelineInfoKHR::default().pipeline(pipeline);
         let executables = unsafe { loader.get_pipeline_executable_properties(&info) }
@@ -699,12 +691,16 @@ impl Pipelines {
                     }
                 };
                 let name = match several {
-                    true => format!("{}: {}", text(&executable.name), text(&s.name)),
-                    false => text(&s.name),
+                    true => format!(
+                        "{}: {}",
+                        text(executable.name_as_c_str()),
+                        text(s.name_as_c_str())
+                    ),
+                    false => text(s.name_as_c_str()),
                 };
                 out.push(KernelStatistic {
                     name,
-                    description: text(&s.description),
+                    description: text(s.description_as_c_str()),
                     value,
                 });
             }

@@ -433,6 +433,7 @@ fn push_mip_chain_with(
 /// An 8-bit channel of `x` (clamped to [0, 1]): round(x·255) with halves away from zero, as
 /// `f32::round` has them, without its libm call (9 % of loading DamagedHelmet). NaN gives 0.
 #[inline(always)]
+#[allow(clippy::manual_clamp)] // clamp keeps NaN, which the unchecked conversion must not see
 fn unorm8(x: f32) -> u8 {
     // max then min: NaN becomes 0, as `clamp` and `as u32` made it.
     let y = x.max(0.0).min(1.0) * 255.0;
