@@ -173,8 +173,7 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
                     "  {f:>6.1} scene fetches per {rays} ray"
                 ))
             );
-            if let Some((_, statistics)) = stats.kernel_statistics.iter().find(|(k, _)| k == name)
-            {
+            if let Some((_, statistics)) = stats.kernel_statistics.iter().find(|(k, _)| k == name) {
                 println!(
                     "  {:<17} driver: {}",
                     "",

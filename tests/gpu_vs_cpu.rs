@@ -397,9 +397,18 @@ fn kernel_statistics_cover_every_dispatched_kernel_where_the_driver_reports_them
         .collect();
     assert_eq!(listed, kernels, "kernels with statistics");
     for (kernel, statistics) in &first.stats.kernel_statistics {
-        println!("{kernel}: {}", wavetrace::render::statistics_line(statistics));
+        println!(
+            "{kernel}: {}",
+            wavetrace::render::statistics_line(statistics)
+        );
         assert!(!statistics.is_empty(), "{kernel} has no statistics");
-        assert!(statistics.iter().all(|s| !s.name.is_empty()), "{kernel}: an unnamed statistic");
+        assert!(
+            statistics.iter().all(|s| !s.name.is_empty()),
+            "{kernel}: an unnamed statistic"
+        );
     }
-    assert_eq!(first.stats.kernel_statistics, second.stats.kernel_statistics);
+    assert_eq!(
+        first.stats.kernel_statistics,
+        second.stats.kernel_statistics
+    );
 }

@@ -223,9 +223,10 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
 fn offers_executable_info(instance: &ash::Instance, physical: vk::PhysicalDevice) -> bool {
     let extensions =
         unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
-    if !extensions.iter().any(|e| {
-        e.extension_name_as_c_str() == Ok(ash::khr::pipeline_executable_properties::NAME)
-    }) {
+    if !extensions
+        .iter()
+        .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::pipeline_executable_properties::NAME))
+    {
         return false;
     }
     let mut feature = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();

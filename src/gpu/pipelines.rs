@@ -661,16 +661,16 @@ impl Pipelines {
                 .unwrap_or_default()
         };
         let info = vk::PipelineInfoKHR::default().pipeline(pipeline);
-        let executables = unsafe { loader.get_pipeline_executable_properties(&info) }
-            .unwrap_or_default();
+        let executables =
+            unsafe { loader.get_pipeline_executable_properties(&info) }.unwrap_or_default();
         let several = executables.len() > 1;
         let mut out = Vec::new();
         for (index, executable) in executables.iter().enumerate() {
             let info = vk::PipelineExecutableInfoKHR::default()
                 .pipeline(pipeline)
                 .executable_index(index as u32);
-            let statistics = unsafe { loader.get_pipeline_executable_statistics(&info) }
-                .unwrap_or_default();
+            let statistics =
+                unsafe { loader.get_pipeline_executable_statistics(&info) }.unwrap_or_default();
             for s in statistics {
                 // SAFETY: the format says which member of the union the driver wrote.
                 let value = unsafe {

@@ -19,8 +19,8 @@ use crate::layout::{
 };
 use crate::texture::linear_to_srgb;
 use anyhow::{anyhow, bail, Context, Result};
-use gltf::texture::{MagFilter, MinFilter, WrappingMode};
 use glam::Vec4;
+use gltf::texture::{MagFilter, MinFilter, WrappingMode};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
@@ -383,7 +383,12 @@ fn push_mip_chain_with(
     };
     let decode = |t: u32| {
         let byte = |k: u32| (t >> (8 * k)) as usize & 0xff;
-        Vec4::new(colour[byte(0)], colour[byte(1)], colour[byte(2)], alpha[byte(3)])
+        Vec4::new(
+            colour[byte(0)],
+            colour[byte(1)],
+            colour[byte(2)],
+            alpha[byte(3)],
+        )
     };
     let encode = |v: Vec4| {
         let c = |x: f32| if srgb { srgb_unorm8(x) } else { unorm8(x) };
@@ -709,7 +714,12 @@ mod tests {
                             let n = (xs.len() * ys.len()) as f32;
                             let v = sum.map(|s| s / n);
                             let c = |x: f32| if srgb { srgb_unorm8(x) } else { unorm8(x) };
-                            next.push(u32::from_le_bytes([c(v[0]), c(v[1]), c(v[2]), unorm8(v[3])]));
+                            next.push(u32::from_le_bytes([
+                                c(v[0]),
+                                c(v[1]),
+                                c(v[2]),
+                                unorm8(v[3]),
+                            ]));
                         }
                     }
                     expected.extend(&next);
