@@ -59,18 +59,12 @@ pub struct GpuRenderer {
     /// Whether the kernels that declare one binding per scene array render also where the
     /// device binds them all (`Pipelines::with_kernels`).
     one_binding: bool,
-    /// Whether the kernels' driver statistics are captured and reported (on a device that
-    /// offers them: `Context::executable_properties`).
-    capture_statistics: bool,
 }
 
 impl GpuRenderer {
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer> {
         let ctx = Context::new(options.device_index, options.validation)?;
-        // Where the driver reports them: keeping a kernel's statistics changes none of its code.
-        let capture_statistics = ctx.executable_properties.is_some();
-        let pipelines =
-            Pipelines::with_kernels(&ctx, &SceneSplit::NONE, false, capture_statistics)?;
+        let pipelines = Pipelines::with_kernels(&ctx, &SceneSplit::NONE, false)?;
         let commands = Commands::new(&ctx)?;
         let timing = options.timing
             && ctx.timestamp_valid_bits > 0
@@ -87,7 +81,6 @@ impl GpuRenderer {
             ctx,
             timing,
             count_fetches: options.count_fetches,
-            capture_statistics,
         })
     }
 
@@ -121,12 +114,7 @@ impl GpuRenderer {
     /// Results do not depend on it.
     pub fn set_one_binding(&mut self, one_binding: bool) -> Result<()> {
         if one_binding != self.one_binding {
-            self.pipelines = Pipelines::with_kernels(
-                &self.ctx,
-                &SceneSplit::NONE,
-                one_binding,
-                self.capture_statistics,
-            )?;
+            self.pipelines = Pipelines::with_kernels(&self.ctx, &SceneSplit::NONE, one_binding)?;
             self.one_binding = one_binding;
         }
         Ok(())
@@ -139,15 +127,12 @@ impl GpuRenderer {
     }
 
     /// The driver's statistics of each kernel `setup` renders an `integrator` with (in
-    /// `wavefront::kernels` order), where they are captured (`capture_statistics`).
+    /// `wavefront::kernels` order), where the device reports them.
     fn kernel_statistics(
         &self,
         setup: &Setup,
         integrator: crate::cpu::Integrator,
     ) -> Vec<(String, Vec<crate::render::KernelStatistic>)> {
-        if !self.capture_statistics {
-            return Vec::new();
-        }
         let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
         wavefront::kernels(integrator)
             .iter()
@@ -401,12 +386,7 @@ impl GpuRenderer {
         let split = self.scene_split(scene)?;
         let pipelines = match split == SceneSplit::NONE {
             true => None,
-            false => Some(Pipelines::with_kernels(
-                ctx,
-                &split,
-                self.one_binding,
-                self.capture_statistics,
-            )?),
+            false => Some(Pipelines::with_kernels(ctx, &split, self.one_binding)?),
         };
         let features = match self.specialise {
             true => scene.gpu_features(settings),

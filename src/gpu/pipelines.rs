@@ -449,15 +449,10 @@ impl Pipelines {
     /// The descriptor set and the layout of kernels specialised for scenes laid over their
     /// bindings as `split` says; the kernels' pipelines are created by [`Pipelines::prepare`].
     /// With `one_binding`, the kernels that declare one binding per scene array
-    /// (`KERNELS_ONE_BINDING`) also where the device binds them all; with `capture_statistics`,
-    /// the driver keeps each kernel's statistics where it reports them
-    /// ([`Pipelines::statistics`]).
-    pub fn with_kernels(
-        ctx: &Context,
-        split: &SceneSplit,
-        one_binding: bool,
-        capture_statistics: bool,
-    ) -> Result<Pipelines> {
+    /// (`KERNELS_ONE_BINDING`) also where the device binds them all. Where the device reports
+    /// them, the driver keeps each kernel's statistics ([`Pipelines::statistics`]): keeping
+    /// them changes none of its code.
+    pub fn with_kernels(ctx: &Context, split: &SceneSplit, one_binding: bool) -> Result<Pipelines> {
         let device = &ctx.device;
         if let Some(shortfall) = ctx.info.storage_shortfall() {
             bail!("{} {shortfall}", ctx.info.name);
@@ -553,10 +548,7 @@ impl Pipelines {
             constants,
             pipelines: Mutex::new(HashMap::new()),
             one_binding,
-            executable_properties: ctx
-                .executable_properties
-                .clone()
-                .filter(|_| capture_statistics),
+            executable_properties: ctx.executable_properties.clone(),
         })
     }
 

@@ -404,11 +404,12 @@ fn push_mip_chain_with(
                 // Source rows and columns this texel averages: 2y, 2y + 1 (and 2y + 2 for the
                 // last texel of an odd-sized side).
                 let ys = source_span(y as u32, nh, h);
-                let rows = |k: u32| &source[((ys.start + k) * w) as usize..][..w as usize];
-                let (upper, lower) = (rows(0), rows(ys.len().min(2) as u32 - 1));
+                let source_row = |sy: u32| &source[(sy * w) as usize..][..w as usize];
+                let rows =
+                    (ys.len() == 2).then(|| (source_row(ys.start), source_row(ys.start + 1)));
                 for (x, out) in row.iter_mut().enumerate() {
                     let xs = source_span(x as u32, nw, w);
-                    if ys.len() == 2 && xs.len() == 2 {
+                    if let (Some((upper, lower)), 2) = (rows, xs.len()) {
                         // A 2 × 2 box (nearly every texel): the loop's sum below in its order,
                         // ((0 + a + b) + c) + d, where 0 + a is a (no texel decodes to −0).
                         let sx = xs.start as usize;

@@ -21,10 +21,12 @@ pub const PREPARE_BYTES_PER_TRIANGLE: u64 = (size_of::<Triangle>()
     + size_of::<LightEntry>()
     + 4) as u64;
 
-/// Memory one emitting triangle takes in the light BVH besides [`PREPARE_BYTES_PER_TRIANGLE`]
-/// (`light_bvh::BYTES_PER_LIGHT`), and each triangle's trail to its leaf and emitter-selection
-/// scale, which every triangle gets once any emits.
+/// Memory one emitter (emitting triangle or punctual light) takes in the light BVH besides
+/// [`PREPARE_BYTES_PER_TRIANGLE`] (`light_bvh::BYTES_PER_LIGHT`).
 pub const PREPARE_BYTES_PER_EMITTER: u64 = crate::light_bvh::BYTES_PER_LIGHT as u64;
+
+/// Memory every triangle takes once any emits: its trail to its light BVH leaf (a `u32`) and
+/// its emitter-selection scale (an `f32`).
 pub const PREPARE_BYTES_PER_TRIANGLE_WITH_EMITTERS: u64 = 8;
 
 /// Memory one instance takes while prepared: its `GpuInstance`, its box in the top level's
