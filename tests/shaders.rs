@@ -4,7 +4,9 @@
 //! Verification 5).
 
 use ash::vk;
-use naga::{AddressSpace, ImageClass, ImageDimension, Module, ScalarKind, TypeInner};
+use naga::{
+    AddressSpace, ImageClass, ImageDimension, Module, StorageAccess, StorageFormat, TypeInner,
+};
 use std::collections::BTreeSet;
 use wavetrace::gpu::pipelines::{kernel_spirv, Binding, STORAGE_BUFFERS_ONE_BINDING};
 use wavetrace::kernels::{KERNELS, KERNELS_ONE_BINDING, TEST_KERNELS};
@@ -187,17 +189,28 @@ fn descriptor_bindings_match_the_host_layout() {
             let found = match var.space {
                 AddressSpace::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
                 AddressSpace::Storage { .. } => vk::DescriptorType::STORAGE_BUFFER,
-                // The scene images: unsigned-integer 2-D textures read by texelFetch.
+                // The scene images: read-only 2-D storage images of RGBA32UI texels (the
+                // textures' R32UI), read by imageLoad.
                 AddressSpace::Handle => match module.types[var.ty].inner {
                     TypeInner::Image {
                         dim: ImageDimension::D2,
                         arrayed: false,
-                        class:
-                            ImageClass::Sampled {
-                                kind: ScalarKind::Uint,
-                                multi: false,
-                            },
-                    } => vk::DescriptorType::SAMPLED_IMAGE,
+                        class: ImageClass::Storage { format, access },
+                    } => {
+                        let want = if *binding == Binding::TexelImage {
+                            StorageFormat::R32Uint
+                        } else {
+                            StorageFormat::Rgba32Uint
+                        };
+                        assert_eq!(format, want, "{name}: binding {}'s format", rb.binding);
+                        assert_eq!(
+                            access,
+                            StorageAccess::LOAD,
+                            "{name}: binding {} must be read-only",
+                            rb.binding
+                        );
+                        vk::DescriptorType::STORAGE_IMAGE
+                    }
                     ref other => panic!("{name}: binding {} is a {other:?}", rb.binding),
                 },
                 other => panic!(

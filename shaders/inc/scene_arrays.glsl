@@ -22,8 +22,8 @@ layout(constant_id = 2) const uint TRIANGLE_VERTICES_SHIFT = 32u;
 layout(constant_id = 3) const uint VERTEX_SHIFT = 32u;
 layout(constant_id = 4) const uint TEXEL_SHIFT = 32u;
 // 1: BVH nodes, triangles, their vertex indices, vertices, materials and light BVH nodes are read
-// from images (bindings.glsl; src/gpu/pipelines.rs, SceneImage and SceneSplit::images). On
-// llvmpipe a texel fetch loads each lane's 16 bytes at once, where a storage-buffer read is a
+// from storage images (bindings.glsl; src/gpu/pipelines.rs, SceneImage and SceneSplit::images).
+// On llvmpipe an image load reads each lane's 16 bytes at once, where a storage-buffer read is a
 // conditional load per lane and word (README, "Performance").
 layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
 // Texels per image row: 1 << SCENE_IMAGE_SHIFT (memory.rs, SCENE_IMAGE_WIDTH).
@@ -32,7 +32,7 @@ layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
 uint scene_fetches = 0u;
 #define SCENE_TEXEL(image, a)                                                                   \
     (scene_fetches += 1u,                                                                       \
-     texelFetch(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT), 0))
+     imageLoad(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT)))
 
 #ifdef KERNEL_INDEX
 #extension GL_KHR_shader_subgroup_arithmetic : require

@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Stage 5: add each finished path's radiance to its pixel (sum, sum of squares, count). One thread
 // per pixel of the batch, looping over the batch's samples of that pixel in sample order, so the
 // film is the same on every run. Non-finite samples are dropped and counted.

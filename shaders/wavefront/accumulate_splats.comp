@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Light tracing and BDPT, the end of a batch's passes: each pixel's splat sum over a pass's
 // light subpaths (one per pixel of the image) and camera paths is that pixel's sample; the
 // samples of the batch's passes go into the film in pass order and the sums are cleared for

@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Stage 4: any-hit test of every shadow ray; an unoccluded one adds its contribution to its path
 // (each path has at most one shadow ray per bounce, so no atomics on radiance).
 #include "layout.glsl"

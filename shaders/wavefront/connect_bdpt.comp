@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // BDPT, the connections of one strategy (s, t) = bdpt_strategy(params.depth), one thread per
 // path: it joins light vertex s − 1 to camera vertex t − 1 (s = 0: the camera subpath's own
 // emitter hit; s = 1: a light vertex sampled afresh with the path tracer's next-event

@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Light tracing and BDPT, stage 4: any-hit test of every join queued by shade_light,
 // generate_light or connect_bdpt; an unoccluded one splats its contribution onto its pixel
 // (the shadow ray's `pad`) with order-independent integer atomics. params.depth = the

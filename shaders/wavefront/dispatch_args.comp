@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Turns a queue counter into indirect-dispatch arguments, adds it to a running total and zeroes
 // the counters the next stage will fill: the whole batch is recorded with no host round trip.
 #include "layout.glsl"

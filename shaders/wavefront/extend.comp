@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Stage 2: closest hit for every queued extension ray.
 #include "layout.glsl"
 #include "bindings.glsl"

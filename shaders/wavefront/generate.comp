@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Stage 1 of the wavefront loop: one camera ray and a fresh path state per path of the batch.
 #include "layout.glsl"
 #include "bindings.glsl"

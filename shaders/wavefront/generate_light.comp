@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Light tracing and BDPT, stage 1: per path an emitter chosen by power, a point on it and an
 // emission direction (src/cpu/bidir.rs, light_subpath: a uniform direction in a punctual
 // light's cone, or cosine-weighted on the emitting side); the first ray goes to queue 0.

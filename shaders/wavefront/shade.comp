@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Stage 3: at each hit add MIS-weighted emission, queue one shadow ray (next event estimation),
 // sample the BSDF for the continuation ray and apply Russian roulette. Twin of src/cpu/path.rs.
 #include "layout.glsl"

@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // BDPT, the camera subpath: at each hit store the vertex (its forward density from the ray's
 // pdf, the previous vertex's reverse density once this one's next direction is sampled), then
 // sample the BSDF with the path tracer's random numbers and apply its Russian roulette

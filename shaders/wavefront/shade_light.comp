@@ -1,7 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_EXT_samplerless_texture_functions : require
 // Light tracing, stage 3: at each hit of a light subpath, queue the vertex's join to the camera
 // (a shadow ray that splats if unoccluded), then sample the adjoint BSDF for the next ray and
 // apply Russian roulette (src/cpu/bidir.rs, walk in importance mode). params.depth = d: the

@@ -28,6 +28,9 @@ pub struct DeviceInfo {
     pub usable: bool,
     /// Storage buffers a kernel may bind (`maxPerStageDescriptorStorageBuffers`).
     pub max_storage_buffers: u32,
+    /// Storage images a kernel may bind (the least of `maxPerStageDescriptorStorageImages` and
+    /// `maxDescriptorSetStorageImages`): the scene images are read as storage images.
+    pub max_storage_images: u32,
 }
 
 /// What a usable device offers (`DeviceInfo::usable`), as the messages say it.
@@ -47,15 +50,24 @@ impl DeviceInfo {
         self.renders() && self.max_storage_buffers >= super::pipelines::STORAGE_BUFFERS
     }
 
-    /// Why the wavefront kernels' storage buffers do not fit its limit, if they do not.
+    /// Why the wavefront kernels' storage buffers or images do not fit its limits, if they do
+    /// not.
     pub fn storage_shortfall(&self) -> Option<String> {
         let needed = super::pipelines::STORAGE_BUFFERS_ONE_BINDING;
-        (self.max_storage_buffers < needed).then(|| {
-            format!(
+        let images = super::pipelines::SceneImage::ALL.len() as u32;
+        if self.max_storage_buffers < needed {
+            Some(format!(
                 "binds at most {} storage buffers per kernel; wavetrace needs {needed}",
                 self.max_storage_buffers
-            )
-        })
+            ))
+        } else if self.max_storage_images < images {
+            Some(format!(
+                "binds at most {} storage images per kernel; wavetrace needs {images}",
+                self.max_storage_images
+            ))
+        } else {
+            None
+        }
     }
 }
 
@@ -191,6 +203,10 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         // Vulkan 1.1 makes subgroups core, and every GPU driver and lavapipe offer these three
         // in compute.
         max_storage_buffers: p.limits.max_per_stage_descriptor_storage_buffers,
+        max_storage_images: p
+            .limits
+            .max_per_stage_descriptor_storage_images
+            .min(p.limits.max_descriptor_set_storage_images),
         usable: v >= vk::API_VERSION_1_2
             && has_compute
             && subgroup
@@ -480,6 +496,7 @@ mod tests {
             driver: String::new(),
             usable,
             max_storage_buffers,
+            max_storage_images: 11,
         };
         let (all, one) = (
             crate::gpu::pipelines::STORAGE_BUFFERS,
@@ -493,5 +510,15 @@ mod tests {
         assert!(device(true, one).renders());
         assert!(!device(true, one - 1).renders());
         assert!(!device(false, u32::MAX).renders());
+        // The scene images are storage images: eleven of them.
+        let few_images = DeviceInfo {
+            max_storage_images: 10,
+            ..device(true, all)
+        };
+        assert!(!few_images.renders());
+        assert_eq!(
+            few_images.storage_shortfall().as_deref(),
+            Some("binds at most 10 storage images per kernel; wavetrace needs 11")
+        );
     }
 }

@@ -66,8 +66,8 @@ pub enum Binding {
     Texels1 = 40,
     Texels2 = 41,
     Texels3 = 42,
-    /// The `SceneImage` arrays as RGBA32UI images, which the kernels read instead of their
-    /// storage buffers where `SceneSplit::images` says so.
+    /// The `SceneImage` arrays as RGBA32UI storage images (read-only), which the kernels read
+    /// instead of their storage buffers where `SceneSplit::images` says so.
     BvhNodeImage = 43,
     TriangleImage = 44,
     TriangleVertexImage = 45,
@@ -152,7 +152,7 @@ impl Binding {
     pub fn descriptor_type(self) -> vk::DescriptorType {
         match self {
             Binding::Frame => vk::DescriptorType::UNIFORM_BUFFER,
-            b if b as u32 >= Binding::BvhNodeImage as u32 => vk::DescriptorType::SAMPLED_IMAGE,
+            b if b as u32 >= Binding::BvhNodeImage as u32 => vk::DescriptorType::STORAGE_IMAGE,
             _ => vk::DescriptorType::STORAGE_BUFFER,
         }
     }
@@ -508,7 +508,7 @@ impl Pipelines {
         let sizes = [
             vk::DescriptorType::UNIFORM_BUFFER,
             vk::DescriptorType::STORAGE_BUFFER,
-            vk::DescriptorType::SAMPLED_IMAGE,
+            vk::DescriptorType::STORAGE_IMAGE,
         ]
         .map(|ty| {
             vk::DescriptorPoolSize::default().ty(ty).descriptor_count(
@@ -748,7 +748,7 @@ impl Pipelines {
             .map(|(_, view)| {
                 [vk::DescriptorImageInfo::default()
                     .image_view(*view)
-                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)]
+                    .image_layout(vk::ImageLayout::GENERAL)]
             })
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = images

@@ -79,7 +79,7 @@ fn upload_rows(ctx: &Context, commands: &Commands, image: &Image, data: &[u8]) -
     commands.image_layout(
         image,
         vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::ImageLayout::GENERAL,
     );
     commands.submit_and_wait(ctx, "the scene upload", SUBMIT_TIMEOUT_S)
 }
