@@ -1095,6 +1095,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "kernel_ms": s.kernel_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
                 "host_ms": s.host_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
                 "submissions": s.submissions,
+                "scene_reads": s.device_memory.as_ref().map(|m| m.scene_reads),
                 "kernel_statistics": s.kernel_statistics.iter().map(|(k, list)| (k.clone(), serde_json::Value::Object(list.iter().map(|st| (st.name.clone(), st.value.to_json())).collect()))).collect::<serde_json::Map<_, _>>(),
                 "kernel_fetches_per_ray": s.kernel_seconds.iter().filter_map(|(k, _)| Some((k.clone(), serde_json::json!(fetches_per_ray(&s, k)?.0)))).collect::<serde_json::Map<_, _>>(),
                 "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,

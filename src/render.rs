@@ -970,6 +970,9 @@ pub struct DeviceMemory {
     pub blocks: usize,
     /// The scene arrays spread over several bindings: (what, bindings).
     pub split: Vec<(String, u32)>,
+    /// Where the kernels read the scene arrays from: storage images, sampled images or storage
+    /// buffers (`gpu::SceneImages`).
+    pub scene_reads: &'static str,
 }
 
 impl std::fmt::Display for DeviceMemory {
@@ -990,6 +993,9 @@ impl std::fmt::Display for DeviceMemory {
                 .map(|(what, n)| format!("{what} over {n}"))
                 .collect();
             write!(f, "; bindings: {}", parts.join(", "))?;
+        }
+        if !self.scene_reads.is_empty() {
+            write!(f, "; scene read from {}", self.scene_reads)?;
         }
         Ok(())
     }

@@ -9,6 +9,7 @@ mod common;
 use common::{assert_agree_at, render_cpu, render_gpu};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
+use wavetrace::gpu::SceneImages;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::scene::Scene;
 use wavetrace::stats::sidak;
@@ -277,8 +278,17 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
     });
     let mut gpu = common::gpu().unwrap();
     assert!(gpu.scene_split(&scene).unwrap().images);
+    // The images read as storage images and as sampled images: the same texels.
+    let default_images = gpu.scene_images();
+    for kind in [SceneImages::Storage, SceneImages::Sampled] {
+        gpu.set_scene_images(kind);
+        let out = gpu
+            .render(&scene, &settings, None)
+            .unwrap_or_else(|e| panic!("{kind:?} render failed: {e:#}"));
+        common::assert_same_bits(&whole.film, &out.film, &format!("{kind:?} vs the default"));
+    }
     gpu.set_binding_limits(Some(limits));
-    gpu.set_scene_images(false);
+    gpu.set_scene_images(SceneImages::Buffers);
     let split = gpu.scene_split(&scene).unwrap();
     let out = gpu.render(&scene, &settings, None);
     // The kernels of one binding per array (a device of fewer storage buffers) refuse it, by name.
@@ -286,7 +296,7 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
     let refused = gpu.render(&scene, &settings, None);
     gpu.set_one_binding(false).unwrap();
     gpu.set_binding_limits(None);
-    gpu.set_scene_images(true);
+    gpu.set_scene_images(default_images);
     let refused = format!(
         "{:#}",
         refused

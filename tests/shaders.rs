@@ -5,7 +5,8 @@
 
 use ash::vk;
 use naga::{
-    AddressSpace, ImageClass, ImageDimension, Module, StorageAccess, StorageFormat, TypeInner,
+    AddressSpace, ImageClass, ImageDimension, Module, ScalarKind, StorageAccess, StorageFormat,
+    TypeInner,
 };
 use std::collections::BTreeSet;
 use wavetrace::gpu::pipelines::{kernel_spirv, Binding, STORAGE_BUFFERS_ONE_BINDING};
@@ -211,6 +212,16 @@ fn descriptor_bindings_match_the_host_layout() {
                         );
                         vk::DescriptorType::STORAGE_IMAGE
                     }
+                    // The same images as sampled images, read by texelFetch.
+                    TypeInner::Image {
+                        dim: ImageDimension::D2,
+                        arrayed: false,
+                        class:
+                            ImageClass::Sampled {
+                                kind: ScalarKind::Uint,
+                                multi: false,
+                            },
+                    } => vk::DescriptorType::SAMPLED_IMAGE,
                     ref other => panic!("{name}: binding {} is a {other:?}", rb.binding),
                 },
                 other => panic!(

@@ -12,6 +12,11 @@ cancels from, for changes to one kernel).
 
 Arguments after the two binaries and the script's own options go to `wavetrace bench` as they
 are (scenes, --spp, --gpu-only, --cpu-only, ...).
+
+Each build first runs once untimed (`--warm-up 0` leaves that out): lavapipe compiles parts of a
+kernel at its first dispatch and keeps them in Mesa's shader cache, so a build's first run on a
+scene can take seconds longer in one kernel (5 December 2026: prism's shade 913 ms against 147
+in a build's first pair, 129 after).
 """
 
 import argparse
@@ -41,6 +46,8 @@ def main():
     parser.add_argument("a", help="the reference build's wavetrace binary")
     parser.add_argument("b", help="the build to compare with it")
     parser.add_argument("--pairs", type=int, default=4, help="pairs of runs (default 4)")
+    parser.add_argument("--warm-up", type=int, default=1, choices=(0, 1),
+                        help="an untimed run of each build first (default 1)")
     args, bench_args = parser.parse_known_args()
     if args.pairs < 1:
         parser.error("--pairs must be at least 1")
@@ -50,6 +57,10 @@ def main():
 
     ratios, kernels = {}, {}
     with tempfile.TemporaryDirectory() as tmp:
+        if args.warm_up:
+            for name, binary in (("a", args.a), ("b", args.b)):
+                bench(binary, bench_args, os.path.join(tmp, f"warm-{name}.json"))
+            print("warm-up runs done", file=sys.stderr)
         for p in range(args.pairs):
             order = [("a", args.a), ("b", args.b)]
             if p % 2:

@@ -190,7 +190,11 @@ figures() {
     # storage buffers instead of images (chosen for llvmpipe), and without the fetch counters.
     step "bench cornell-box --wavefront 4194240" 60 "$wt" bench --gpu-only --width $size \
         --height $size --spp $spp --wavefront 4194240 scenes/cornell-box.gltf
-    step "bench, scene in storage buffers" 240 env WAVETRACE_SCENE_IMAGES=0 "$wt" bench \
+    step "bench, scene in storage buffers" 240 env WAVETRACE_SCENE_IMAGES=buffers "$wt" bench \
+        --gpu-only --width $size --height $size --spp $spp --environment 1 \
+        scenes/cornell-box.gltf "${scenes[@]}"
+    # A GPU reads the scene as sampled images by default; lavapipe's choice, storage images.
+    step "bench, scene in storage images" 240 env WAVETRACE_SCENE_IMAGES=storage "$wt" bench \
         --gpu-only --width $size --height $size --spp $spp --environment 1 \
         scenes/cornell-box.gltf "${scenes[@]}"
     step "bench, no fetch counts" 240 "$wt" bench --gpu-only --no-fetch-counts --width $size \

@@ -70,23 +70,37 @@ layout(std430, set = 0, binding = 40) readonly buffer Texels1 { uint texels1[]; 
 layout(std430, set = 0, binding = 41) readonly buffer Texels2 { uint texels2[]; };
 layout(std430, set = 0, binding = 42) readonly buffer Texels3 { uint texels3[]; };
 #endif
-// The read-only scene arrays as RGBA32UI storage images (records of 16-byte texels, row after
-// row), read with imageLoad instead of the buffers above where the specialization constant
-// SCENE_IMAGES is 1 (scene_arrays.glsl; src/gpu/pipelines.rs, SceneImage). Storage images, not
-// sampled ones: llvmpipe reads a sampled image's texel through a function that works out each
-// lane's mip level, its size, row pitch and offset (about 200 instructions for 8 lanes), and a
-// storage image's through one that only bounds-checks and loads (about 50; README, "Performance").
+// The read-only scene arrays as RGBA32UI images (records of 16-byte texels, row after row; the
+// textures' texels R32UI), read instead of the buffers above where the specialization constant
+// SCENE_IMAGES is not 0 (scene_arrays.glsl; src/gpu/pipelines.rs, SceneImage): as storage images
+// with imageLoad where it is 1, as sampled images with texelFetch (bindings 54 to 64, the same
+// images) where it is 2. On llvmpipe a sampled image's texel is read through a function that
+// works out each lane's mip level, its size, row pitch and offset (about 200 instructions for 8
+// lanes) and a storage image's through one that only bounds-checks and loads (about 50; README,
+// "Performance"); on a GPU both go through its texture units.
 layout(set = 0, binding = 43, rgba32ui) uniform readonly uimage2D bvh_node_image;
 layout(set = 0, binding = 44, rgba32ui) uniform readonly uimage2D triangle_image;
 layout(set = 0, binding = 45, rgba32ui) uniform readonly uimage2D triangle_vertex_image;
 layout(set = 0, binding = 46, rgba32ui) uniform readonly uimage2D vertex_image;
 layout(set = 0, binding = 47, rgba32ui) uniform readonly uimage2D material_image;
 layout(set = 0, binding = 48, rgba32ui) uniform readonly uimage2D light_node_image;
-layout(set = 0, binding = 49, r32ui) uniform readonly uimage2D texel_image;  // R32UI: one RGBA8 texel each
+layout(set = 0, binding = 49, r32ui) uniform readonly uimage2D texel_image;
 layout(set = 0, binding = 50, rgba32ui) uniform readonly uimage2D instance_image;
 layout(set = 0, binding = 51, rgba32ui) uniform readonly uimage2D texture_image;
 layout(set = 0, binding = 52, rgba32ui) uniform readonly uimage2D texture_ref_image;
 layout(set = 0, binding = 53, rgba32ui) uniform readonly uimage2D light_image;
+#extension GL_EXT_samplerless_texture_functions : require
+layout(set = 0, binding = 54) uniform utexture2D bvh_node_image_sampled;
+layout(set = 0, binding = 55) uniform utexture2D triangle_image_sampled;
+layout(set = 0, binding = 56) uniform utexture2D triangle_vertex_image_sampled;
+layout(set = 0, binding = 57) uniform utexture2D vertex_image_sampled;
+layout(set = 0, binding = 58) uniform utexture2D material_image_sampled;
+layout(set = 0, binding = 59) uniform utexture2D light_node_image_sampled;
+layout(set = 0, binding = 60) uniform utexture2D texel_image_sampled;
+layout(set = 0, binding = 61) uniform utexture2D instance_image_sampled;
+layout(set = 0, binding = 62) uniform utexture2D texture_image_sampled;
+layout(set = 0, binding = 63) uniform utexture2D texture_ref_image_sampled;
+layout(set = 0, binding = 64) uniform utexture2D light_image_sampled;
 #define SCENE_SPLIT_BINDINGS
 #include "scene_arrays.glsl"
 layout(push_constant) uniform Push { DispatchParams params; };

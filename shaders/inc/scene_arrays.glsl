@@ -22,9 +22,10 @@ layout(constant_id = 2) const uint TRIANGLE_VERTICES_SHIFT = 32u;
 layout(constant_id = 3) const uint VERTEX_SHIFT = 32u;
 layout(constant_id = 4) const uint TEXEL_SHIFT = 32u;
 // 1: BVH nodes, triangles, their vertex indices, vertices, materials and light BVH nodes are read
-// from storage images (bindings.glsl; src/gpu/pipelines.rs, SceneImage and SceneSplit::images).
-// On llvmpipe an image load reads each lane's 16 bytes at once, where a storage-buffer read is a
-// conditional load per lane and word (README, "Performance").
+// from storage images, 2: from the same images as sampled images (bindings.glsl;
+// src/gpu/pipelines.rs, SceneImage and SceneImages). On llvmpipe an image read loads each lane's
+// 16 bytes at once, where a storage-buffer read is a conditional load per lane and word (README,
+// "Performance").
 layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
 // Texels per image row: 1 << SCENE_IMAGE_SHIFT (memory.rs, SCENE_IMAGE_WIDTH).
 #define SCENE_IMAGE_SHIFT 12u
@@ -32,7 +33,16 @@ layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
 uint scene_fetches = 0u;
 #define SCENE_TEXEL(image, a)                                                                   \
     (scene_fetches += 1u,                                                                       \
-     imageLoad(image, ivec2((a) & ((1u << SCENE_IMAGE_SHIFT) - 1u), (a) >> SCENE_IMAGE_SHIFT)))
+     scene_images_sampled(SCENE_IMAGES) ? texelFetch(image##_sampled, scene_texel_at(a), 0)    \
+                                        : imageLoad(image, scene_texel_at(a)))
+// Where texel a of a scene image lies: column, row.
+ivec2 scene_texel_at(uint a) {
+    return ivec2(a & ((1u << SCENE_IMAGE_SHIFT) - 1u), a >> SCENE_IMAGE_SHIFT);
+}
+// Whether SCENE_IMAGES says sampled images (passed in, for the reason SPLIT_READ gives).
+bool scene_images_sampled(uint images) {
+    return images == 2u;
+}
 
 #ifdef KERNEL_INDEX
 #extension GL_KHR_shader_subgroup_arithmetic : require

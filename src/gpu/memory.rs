@@ -185,11 +185,13 @@ impl Drop for Buffer {
 /// Texels per row of a scene image (`scene_arrays.glsl`, `SCENE_IMAGE_SHIFT`).
 pub const SCENE_IMAGE_WIDTH: u32 = 1 << 12;
 
-/// A 2-D storage image of RGBA32UI (or R32UI) texels that the kernels read with `imageLoad`: an
-/// array of records laid row after row, `SCENE_IMAGE_WIDTH` texels a row. On llvmpipe an image
-/// load gathers the lanes' 16 bytes with one unconditional load each, where a storage-buffer read
-/// becomes a conditional load per lane and word; and a storage image's load, unlike a sampled
-/// image's `texelFetch`, does not work out a mip level per lane (README, "Performance").
+/// A 2-D image of RGBA32UI (or R32UI) texels that the kernels read as a storage image
+/// (`imageLoad`) or as a sampled image (`texelFetch`; `SceneImages`): an array of records laid
+/// row after row, `SCENE_IMAGE_WIDTH` texels a row, in the general layout both reads take. On
+/// llvmpipe an image read gathers the lanes' 16 bytes with one unconditional load each, where a
+/// storage-buffer read becomes a conditional load per lane and word; and a storage image's
+/// load, unlike a sampled image's `texelFetch`, does not work out a mip level per lane (README,
+/// "Performance").
 pub struct Image {
     device: ash::Device,
     allocator: Arc<Mutex<Allocator>>,
@@ -219,7 +221,11 @@ impl Image {
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST)
+            .usage(
+                vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_DST,
+            )
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
         let image = unsafe { device.create_image(&info, None) }.with_context(|| {

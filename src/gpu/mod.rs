@@ -20,6 +20,7 @@ use ash::vk;
 use context::Context;
 use indicatif::ProgressBar;
 use memory::Commands;
+pub use pipelines::SceneImages;
 use pipelines::{Pipelines, SceneSplit};
 use resources::{RenderBuffers, SUBMIT_TIMEOUT_S};
 use std::mem::size_of;
@@ -52,8 +53,8 @@ pub struct GpuRenderer {
     /// Per `SplitArray`, at most this many bytes in one of its bindings (besides the device's
     /// range).
     binding_limits: Option<[u64; 5]>,
-    /// Whether BVH nodes and triangles are read from images where they fit (`SceneSplit::images`).
-    scene_images: bool,
+    /// How the scene arrays are read where their images fit (`SceneSplit::images`).
+    scene_images: SceneImages,
     /// Whether kernels are specialised for each scene's features (else made with them all).
     specialise: bool,
     /// Whether the kernels that declare one binding per scene array render also where the
@@ -72,8 +73,11 @@ impl GpuRenderer {
         Ok(GpuRenderer {
             band_pixel_limit: None,
             binding_limits: None,
-            // WAVETRACE_SCENE_IMAGES=0 reads them from storage buffers, to measure the two.
-            scene_images: std::env::var("WAVETRACE_SCENE_IMAGES").map_or(true, |v| v != "0"),
+            // WAVETRACE_SCENE_IMAGES=buffers|storage|sampled chooses, to measure them.
+            scene_images: SceneImages::for_device(
+                ctx.is_cpu(),
+                std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
+            )?,
             specialise: true,
             one_binding: false,
             commands,
@@ -102,10 +106,15 @@ impl GpuRenderer {
         self.count_fetches = count;
     }
 
-    /// Reads BVH nodes and triangles from images where they fit (the default), or from storage
+    /// Reads the scene arrays from storage images, sampled images (where they fit) or storage
     /// buffers. Results do not depend on it.
-    pub fn set_scene_images(&mut self, images: bool) {
+    pub fn set_scene_images(&mut self, images: SceneImages) {
         self.scene_images = images;
+    }
+
+    /// How the scene arrays are read where their images fit.
+    pub fn scene_images(&self) -> SceneImages {
+        self.scene_images
     }
 
     /// Renders with the kernels that declare one binding per scene array (what a device that
@@ -147,7 +156,7 @@ impl GpuRenderer {
         let len = |n: usize| n as u64;
         // Arrays read from images need no buffer.
         let max_rows = self.ctx.properties.limits.max_image_dimension2_d as u64;
-        let images = self.scene_images
+        let images = self.scene_images != SceneImages::Buffers
             && pipelines::SceneImage::ALL
                 .iter()
                 .all(|i| i.rows(scene) <= max_rows);
@@ -172,6 +181,7 @@ impl GpuRenderer {
                 .map(|b| b.min(range)),
         )?;
         split.images = images;
+        split.sampled = self.scene_images == SceneImages::Sampled;
         Ok(split)
     }
 
@@ -427,6 +437,12 @@ impl GpuRenderer {
                 ..scene.frame_params(settings)
             },
             split_bindings: buffers.split_bindings,
+            scene_reads: match (split.images, split.sampled) {
+                (false, _) => SceneImages::Buffers,
+                (true, false) => SceneImages::Storage,
+                (true, true) => SceneImages::Sampled,
+            }
+            .describe(),
             buffers,
             pipelines,
             features,
@@ -452,6 +468,7 @@ impl GpuRenderer {
             reserved: report.total_capacity_bytes,
             blocks: report.blocks.len(),
             split,
+            scene_reads: setup.scene_reads,
         }
     }
 
@@ -893,6 +910,8 @@ struct Setup {
     features: u32,
     /// Bindings each `SplitArray` uses.
     split_bindings: [u32; 5],
+    /// How the kernels read the scene arrays (`SceneImages::describe`).
+    scene_reads: &'static str,
     query_pool: Option<vk::QueryPool>,
 }
 

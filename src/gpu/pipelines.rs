@@ -79,10 +79,23 @@ pub enum Binding {
     TextureImage = 51,
     TextureRefImage = 52,
     LightImage = 53,
+    /// The same images as sampled images, which the kernels read instead where
+    /// `SceneImages::Sampled` says so.
+    BvhNodeSampled = 54,
+    TriangleSampled = 55,
+    TriangleVertexSampled = 56,
+    VertexSampled = 57,
+    MaterialSampled = 58,
+    LightNodeSampled = 59,
+    TexelSampled = 60,
+    InstanceSampled = 61,
+    TextureSampled = 62,
+    TextureRefSampled = 63,
+    LightSampled = 64,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 54] = [
+    pub const ALL: [Binding; 65] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -137,6 +150,17 @@ impl Binding {
         Binding::TextureImage,
         Binding::TextureRefImage,
         Binding::LightImage,
+        Binding::BvhNodeSampled,
+        Binding::TriangleSampled,
+        Binding::TriangleVertexSampled,
+        Binding::VertexSampled,
+        Binding::MaterialSampled,
+        Binding::LightNodeSampled,
+        Binding::TexelSampled,
+        Binding::InstanceSampled,
+        Binding::TextureSampled,
+        Binding::TextureRefSampled,
+        Binding::LightSampled,
     ];
     /// Chunks 1 to 3 of a split scene array: bindings the kernels built with SCENE_ONE_BINDING
     /// (`KERNELS_ONE_BINDING`) do not declare.
@@ -152,8 +176,48 @@ impl Binding {
     pub fn descriptor_type(self) -> vk::DescriptorType {
         match self {
             Binding::Frame => vk::DescriptorType::UNIFORM_BUFFER,
+            b if b as u32 >= Binding::BvhNodeSampled as u32 => vk::DescriptorType::SAMPLED_IMAGE,
             b if b as u32 >= Binding::BvhNodeImage as u32 => vk::DescriptorType::STORAGE_IMAGE,
             _ => vk::DescriptorType::STORAGE_BUFFER,
+        }
+    }
+}
+
+/// How the kernels read the scene arrays of [`SceneImage`]: from storage buffers, or from
+/// images as storage images (`imageLoad`) or as sampled images (`texelFetch`). The same texels
+/// either way, so the same images bit for bit; only the speed differs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneImages {
+    Buffers,
+    Storage,
+    Sampled,
+}
+
+impl SceneImages {
+    /// The kind a device reads by default: storage images on a CPU implementation, where
+    /// llvmpipe's `imageLoad` costs about a quarter of its `texelFetch` (README,
+    /// "Performance"); sampled images on a GPU, which the one GPU measured (an NVIDIA H200,
+    /// 4 December 2026) rendered with, until a session with one compares the two.
+    /// `WAVETRACE_SCENE_IMAGES` = `buffers` (or `0`), `storage` or `sampled` overrides it.
+    pub fn for_device(cpu: bool, env: Option<&str>) -> Result<SceneImages> {
+        Ok(match env {
+            None | Some("") | Some("1") if cpu => SceneImages::Storage,
+            None | Some("") | Some("1") => SceneImages::Sampled,
+            Some("0") | Some("buffers") => SceneImages::Buffers,
+            Some("storage") => SceneImages::Storage,
+            Some("sampled") => SceneImages::Sampled,
+            Some(other) => {
+                bail!("WAVETRACE_SCENE_IMAGES={other}: expected buffers (or 0), storage or sampled")
+            }
+        })
+    }
+
+    /// As `render --stats` names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SceneImages::Buffers => "storage buffers",
+            SceneImages::Storage => "storage images",
+            SceneImages::Sampled => "sampled images",
         }
     }
 }
@@ -204,6 +268,23 @@ impl SceneImage {
             SceneImage::Textures => Binding::TextureImage,
             SceneImage::TextureRefs => Binding::TextureRefImage,
             SceneImage::Lights => Binding::LightImage,
+        }
+    }
+
+    /// The binding of the same image as a sampled image.
+    pub fn sampled_binding(self) -> Binding {
+        match self {
+            SceneImage::BvhNodes => Binding::BvhNodeSampled,
+            SceneImage::Triangles => Binding::TriangleSampled,
+            SceneImage::TriangleVertices => Binding::TriangleVertexSampled,
+            SceneImage::Vertices => Binding::VertexSampled,
+            SceneImage::Materials => Binding::MaterialSampled,
+            SceneImage::LightNodes => Binding::LightNodeSampled,
+            SceneImage::Texels => Binding::TexelSampled,
+            SceneImage::Instances => Binding::InstanceSampled,
+            SceneImage::Textures => Binding::TextureSampled,
+            SceneImage::TextureRefs => Binding::TextureRefSampled,
+            SceneImage::Lights => Binding::LightSampled,
         }
     }
 
@@ -331,12 +412,15 @@ impl SplitArray {
 
 /// How a scene's large arrays are laid over their bindings: per `SplitArray`, log2 of the
 /// elements one binding holds, or 32 where the first binding holds the whole array, and whether
-/// the BVH nodes and triangles are read from images (`Binding::BvhNodeImage`). The shifts are
-/// the kernels' specialization constants 0 to 4, `images` constant 5 (`scene_arrays.glsl`).
+/// the BVH nodes and triangles are read from images (`Binding::BvhNodeImage`), and those as
+/// sampled images (`Binding::BvhNodeSampled`). The shifts are the kernels' specialization
+/// constants 0 to 4, `images` and `sampled` constant 5 (`scene_arrays.glsl`: 0 buffers, 1
+/// storage images, 2 sampled images).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneSplit {
     pub shifts: [u32; 5],
     pub images: bool,
+    pub sampled: bool,
 }
 
 impl SceneSplit {
@@ -344,6 +428,7 @@ impl SceneSplit {
     pub const NONE: SceneSplit = SceneSplit {
         shifts: [32; 5],
         images: true,
+        sampled: false,
     };
 
     /// The split of arrays of `lengths` elements of `sizes` bytes into bindings of at most
@@ -380,7 +465,17 @@ impl SceneSplit {
         Ok(SceneSplit {
             shifts,
             images: true,
+            sampled: false,
         })
+    }
+
+    /// Specialization constant 5 (`SCENE_IMAGES`): how the kernels read the scene images.
+    pub fn images_constant(&self) -> u32 {
+        match (self.images, self.sampled) {
+            (false, _) => 0,
+            (true, false) => 1,
+            (true, true) => 2,
+        }
     }
 
     /// Elements of array `k` in one binding (all of them where it is not split).
@@ -431,7 +526,7 @@ pub struct Pipelines {
 
 /// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer
 /// and the scene images.
-pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 1 - SceneImage::ALL.len()) as u32;
+pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 1 - 2 * SceneImage::ALL.len()) as u32;
 
 /// Storage buffers the kernels built with SCENE_ONE_BINDING bind: all but the further chunks.
 pub const STORAGE_BUFFERS_ONE_BINDING: u32 = STORAGE_BUFFERS - further_chunks();
@@ -509,6 +604,7 @@ impl Pipelines {
             vk::DescriptorType::UNIFORM_BUFFER,
             vk::DescriptorType::STORAGE_BUFFER,
             vk::DescriptorType::STORAGE_IMAGE,
+            vk::DescriptorType::SAMPLED_IMAGE,
         ]
         .map(|ty| {
             vk::DescriptorPoolSize::default().ty(ty).descriptor_count(
@@ -537,7 +633,7 @@ impl Pipelines {
             .shifts
             .iter()
             .copied()
-            .chain([split.images as u32])
+            .chain([split.images_constant()])
             .collect();
         Ok(Pipelines {
             device: device.clone(),
@@ -787,6 +883,52 @@ mod tests {
     use super::*;
 
     const SIZES: [u64; 5] = [32, 48, 16, 64, 4];
+
+    /// A CPU device reads the scene images as storage images, a GPU as sampled images, unless
+    /// WAVETRACE_SCENE_IMAGES names a kind; an unknown name is an error that says the choices;
+    /// the kind is specialization constant 5.
+    #[test]
+    fn scene_images_by_device_and_environment() {
+        use SceneImages::*;
+        for (cpu, env, want) in [
+            (true, None, Storage),
+            (false, None, Sampled),
+            (true, Some("1"), Storage),
+            (false, Some(""), Sampled),
+            (true, Some("0"), Buffers),
+            (false, Some("buffers"), Buffers),
+            (false, Some("storage"), Storage),
+            (true, Some("sampled"), Sampled),
+        ] {
+            assert_eq!(
+                SceneImages::for_device(cpu, env).unwrap(),
+                want,
+                "{cpu} {env:?}"
+            );
+        }
+        let err = SceneImages::for_device(true, Some("texels")).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("buffers (or 0), storage or sampled"),
+            "{err}"
+        );
+        let constant = |images, sampled| {
+            SceneSplit {
+                images,
+                sampled,
+                ..SceneSplit::NONE
+            }
+            .images_constant()
+        };
+        assert_eq!(
+            [
+                constant(false, true),
+                constant(true, false),
+                constant(true, true)
+            ],
+            [0, 1, 2]
+        );
+    }
 
     #[test]
     fn a_scene_that_fits_is_not_split() {

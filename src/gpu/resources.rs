@@ -343,12 +343,18 @@ impl RenderBuffers {
             };
             let image = Image::new(ctx, array.name(), array.format(), rows as u32)?;
             upload_rows(ctx, commands, &image, data)?;
-            images.push((array.binding(), image));
+            images.push((array, image));
         }
+        // Each image twice: as a storage image and as a sampled image (SceneImages).
         pipelines.bind_images(
             &images
                 .iter()
-                .map(|(binding, image)| (*binding, image.view))
+                .flat_map(|(array, image)| {
+                    [
+                        (array.binding(), image.view),
+                        (array.sampled_binding(), image.view),
+                    ]
+                })
                 .collect::<Vec<_>>(),
         );
 
