@@ -9,7 +9,8 @@ pays for it (`render`'s "built in", a fresh process each).
 
 This machine's speed drifts by more than most changes make, so the programs run in rounds whose
 order alternates (earlier, later, Mitsuba, builds; then the reverse), and each ratio is taken
-within a round: the table gives its median and range over the rounds.
+within a round: the table gives its median and range over the rounds. Each build's bench runs
+once untimed before the rounds (lavapipe's first run of a build compiles part of its kernels).
 
     cargo build --release
     git worktree add /tmp/before 26cccc5 && (cd /tmp/before && cargo build --release)
@@ -114,6 +115,10 @@ def main():
     if args.terrain:
         steps.append(("earlier build", lambda: build_ms(args.earlier, args.terrain, out)))
         steps.append(("later build", lambda: build_ms(args.later, args.terrain, out)))
+    # One untimed bench of each build first: lavapipe compiles part of a kernel at its first
+    # dispatch and caches it, so a build's first run is slower (README, "Performance").
+    for binary in (args.earlier, args.later):
+        bench(binary, bench_args)
     rounds = []
     for r in range(args.rounds):
         order = steps if r % 2 == 0 else steps[::-1]
