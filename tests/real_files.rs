@@ -277,7 +277,7 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
         (per_binding * sizes[k]) as u64
     });
     let mut gpu = common::gpu().unwrap();
-    assert!(gpu.scene_split(&scene).unwrap().images);
+    assert!(gpu.scene_split(&scene).unwrap().images());
     // The images read as storage images and as sampled images: the same texels.
     let default_images = gpu.scene_images();
     for kind in [SceneImages::Storage, SceneImages::Sampled] {
@@ -307,7 +307,7 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
         refused.contains("take more than one storage binding"),
         "{refused}"
     );
-    assert!(!split.images);
+    assert!(!split.images());
     drop(gpu);
     for k in 0..5 {
         let per_binding = split.per_binding(k).expect("every array is split") as usize;

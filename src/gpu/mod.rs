@@ -65,7 +65,12 @@ pub struct GpuRenderer {
 impl GpuRenderer {
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer> {
         let ctx = Context::new(options.device_index, options.validation)?;
-        let pipelines = Pipelines::with_kernels(&ctx, &SceneSplit::NONE, false)?;
+        // WAVETRACE_SCENE_IMAGES=buffers|storage|sampled chooses, to measure them.
+        let scene_images = SceneImages::for_device(
+            ctx.is_cpu(),
+            std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
+        )?;
+        let pipelines = Pipelines::with_kernels(&ctx, &SceneSplit::whole(scene_images), false)?;
         let commands = Commands::new(&ctx)?;
         let timing = options.timing
             && ctx.timestamp_valid_bits > 0
@@ -73,11 +78,7 @@ impl GpuRenderer {
         Ok(GpuRenderer {
             band_pixel_limit: None,
             binding_limits: None,
-            // WAVETRACE_SCENE_IMAGES=buffers|storage|sampled chooses, to measure them.
-            scene_images: SceneImages::for_device(
-                ctx.is_cpu(),
-                std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
-            )?,
+            scene_images,
             specialise: true,
             one_binding: false,
             commands,
@@ -123,7 +124,8 @@ impl GpuRenderer {
     /// Results do not depend on it.
     pub fn set_one_binding(&mut self, one_binding: bool) -> Result<()> {
         if one_binding != self.one_binding {
-            self.pipelines = Pipelines::with_kernels(&self.ctx, &SceneSplit::NONE, one_binding)?;
+            self.pipelines =
+                Pipelines::with_kernels(&self.ctx, &self.pipelines.split, one_binding)?;
             self.one_binding = one_binding;
         }
         Ok(())
@@ -180,8 +182,10 @@ impl GpuRenderer {
                 .unwrap_or([u64::MAX; 5])
                 .map(|b| b.min(range)),
         )?;
-        split.images = images;
-        split.sampled = self.scene_images == SceneImages::Sampled;
+        split.reads = match images {
+            true => self.scene_images,
+            false => SceneImages::Buffers,
+        };
         Ok(split)
     }
 
@@ -394,7 +398,8 @@ impl GpuRenderer {
         };
         // A scene larger than one binding gets kernels specialised for its split.
         let split = self.scene_split(scene)?;
-        let pipelines = match split == SceneSplit::NONE {
+        // The renderer's own kernels where they were made for this split.
+        let pipelines = match split == self.pipelines.split {
             true => None,
             false => Some(Pipelines::with_kernels(ctx, &split, self.one_binding)?),
         };
@@ -437,12 +442,7 @@ impl GpuRenderer {
                 ..scene.frame_params(settings)
             },
             split_bindings: buffers.split_bindings,
-            scene_reads: match (split.images, split.sampled) {
-                (false, _) => SceneImages::Buffers,
-                (true, false) => SceneImages::Storage,
-                (true, true) => SceneImages::Sampled,
-            }
-            .describe(),
+            scene_reads: split.reads.describe(),
             buffers,
             pipelines,
             features,

@@ -185,12 +185,14 @@ impl Binding {
 
 /// How the kernels read the scene arrays of [`SceneImage`]: from storage buffers, or from
 /// images as storage images (`imageLoad`) or as sampled images (`texelFetch`). The same texels
-/// either way, so the same images bit for bit; only the speed differs.
+/// either way, so the same images bit for bit; only the speed differs. The discriminant is the
+/// kernels' specialization constant 5 (`SCENE_IMAGES`, `scene_arrays.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
 pub enum SceneImages {
-    Buffers,
-    Storage,
-    Sampled,
+    Buffers = 0,
+    Storage = 1,
+    Sampled = 2,
 }
 
 impl SceneImages {
@@ -411,25 +413,20 @@ impl SplitArray {
 }
 
 /// How a scene's large arrays are laid over their bindings: per `SplitArray`, log2 of the
-/// elements one binding holds, or 32 where the first binding holds the whole array, and whether
-/// the BVH nodes and triangles are read from images (`Binding::BvhNodeImage`), and those as
-/// sampled images (`Binding::BvhNodeSampled`). The shifts are the kernels' specialization
-/// constants 0 to 4, `images` and `sampled` constant 5 (`scene_arrays.glsl`: 0 buffers, 1
-/// storage images, 2 sampled images).
+/// elements one binding holds, or 32 where the first binding holds the whole array, and how the
+/// scene images are read (storage buffers, storage images `Binding::BvhNodeImage` or sampled
+/// images `Binding::BvhNodeSampled`). The shifts are the kernels' specialization constants 0 to
+/// 4, `reads` constant 5 (`scene_arrays.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneSplit {
     pub shifts: [u32; 5],
-    pub images: bool,
-    pub sampled: bool,
+    pub reads: SceneImages,
 }
 
 impl SceneSplit {
-    /// Every array in one binding, nodes and triangles read from images.
-    pub const NONE: SceneSplit = SceneSplit {
-        shifts: [32; 5],
-        images: true,
-        sampled: false,
-    };
+    /// Every array in one binding, read from storage images (`plan`'s split before the renderer
+    /// sets `reads`).
+    pub const NONE: SceneSplit = SceneSplit::whole(SceneImages::Storage);
 
     /// The split of arrays of `lengths` elements of `sizes` bytes into bindings of at most
     /// `binding_bytes` each: one binding where it holds the array, else the largest power of two
@@ -464,18 +461,21 @@ impl SceneSplit {
         }
         Ok(SceneSplit {
             shifts,
-            images: true,
-            sampled: false,
+            ..SceneSplit::NONE
         })
     }
 
-    /// Specialization constant 5 (`SCENE_IMAGES`): how the kernels read the scene images.
-    pub fn images_constant(&self) -> u32 {
-        match (self.images, self.sampled) {
-            (false, _) => 0,
-            (true, false) => 1,
-            (true, true) => 2,
+    /// Every array in one binding, read as `reads` says.
+    pub const fn whole(reads: SceneImages) -> SceneSplit {
+        SceneSplit {
+            shifts: [32; 5],
+            reads,
         }
+    }
+
+    /// Whether the scene arrays are read from images (of either kind), not storage buffers.
+    pub fn images(&self) -> bool {
+        self.reads != SceneImages::Buffers
     }
 
     /// Elements of array `k` in one binding (all of them where it is not split).
@@ -510,9 +510,11 @@ pub struct Pipelines {
     pub layout: vk::PipelineLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
-    /// The specialisation constants of every kernel: the split's shifts, then whether scene
-    /// arrays are read from images (then the scene's features and the quantised walks'
-    /// deferred array, per pipeline: `layout::qbvh_stack_size`).
+    /// The split the kernels are specialised for.
+    pub split: SceneSplit,
+    /// The specialisation constants of every kernel: the split's shifts, then how the scene
+    /// arrays are read (then the scene's features and the quantised walks' deferred array, per
+    /// pipeline: `layout::qbvh_stack_size`).
     constants: Vec<u32>,
     /// The pipelines created, by kernel and scene features (`layout::FEATURE_*`).
     pipelines: Mutex<HashMap<(&'static str, u32), vk::Pipeline>>,
@@ -633,7 +635,7 @@ impl Pipelines {
             .shifts
             .iter()
             .copied()
-            .chain([split.images_constant()])
+            .chain([split.reads as u32])
             .collect();
         Ok(Pipelines {
             device: device.clone(),
@@ -641,6 +643,7 @@ impl Pipelines {
             layout,
             pool,
             set,
+            split: *split,
             constants,
             pipelines: Mutex::new(HashMap::new()),
             one_binding,
@@ -912,22 +915,7 @@ mod tests {
                 .contains("buffers (or 0), storage or sampled"),
             "{err}"
         );
-        let constant = |images, sampled| {
-            SceneSplit {
-                images,
-                sampled,
-                ..SceneSplit::NONE
-            }
-            .images_constant()
-        };
-        assert_eq!(
-            [
-                constant(false, true),
-                constant(true, false),
-                constant(true, true)
-            ],
-            [0, 1, 2]
-        );
+        assert_eq!([Buffers, Storage, Sampled].map(|r| r as u32), [0, 1, 2]);
     }
 
     #[test]

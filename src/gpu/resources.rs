@@ -159,7 +159,7 @@ impl RenderBuffers {
                 data
             }
         }
-        let in_buffer = |data| in_buffer(split.images, data);
+        let in_buffer = |data| in_buffer(split.images(), data);
         let split_data: [&[u8]; 5] = [
             in_buffer(bytemuck::cast_slice(&scene.gpu_bvh().nodes)),
             in_buffer(bytemuck::cast_slice(&scene.triangles)),
@@ -333,7 +333,7 @@ impl RenderBuffers {
         let mut images = Vec::new();
         for array in SceneImage::ALL {
             let records: Vec<crate::layout::GpuMaterial>;
-            let (rows, data) = match (split.images, array) {
+            let (rows, data) = match (split.images(), array) {
                 (true, SceneImage::Materials) => {
                     records = scene.materials.iter().map(|m| m.image_record()).collect();
                     (array.rows(scene), bytemuck::cast_slice(&records))
