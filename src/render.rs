@@ -191,6 +191,14 @@ pub struct PreparedScene {
     /// Shared with the `Scene`, not copied.
     pub texels: std::sync::Arc<Vec<u32>>,
     pub camera: Camera,
+    /// Some material attenuates the light inside it (KHR_materials_volume: attenuation > 0,
+    /// the GPU kernels' `FEATURE_VOLUME`). Without one every segment's transmittance is 1,
+    /// and the CPU path skips working it out.
+    pub attenuates: bool,
+    /// Every emitting triangle's emission is its material's factors wherever it is sampled:
+    /// no emitter reads its surface (`surface::emitter_reads_surface`) or is alpha-tested. The
+    /// CPU path's emitter sample then reads the material as it is.
+    pub plain_emitters: bool,
 }
 
 /// The GPU form of a scene material.
@@ -529,6 +537,18 @@ impl PreparedScene {
             &materials,
             &scene.punctual,
         );
+        let attenuates = materials
+            .iter()
+            .any(|m| m.attenuation.iter().any(|&s| s > 0.0));
+        let plain_emitters = lights.iter().all(|e| {
+            e.triangle & LIGHT_ENTRY_PUNCTUAL != 0 || {
+                let t = &triangles[e.triangle as usize];
+                t.material & TRIANGLE_TEST_ALPHA == 0
+                    && !crate::surface::emitter_reads_surface(
+                        &materials[t.material_index() as usize],
+                    )
+            }
+        });
         PreparedScene {
             bvh: Bvh {
                 nodes,
@@ -556,6 +576,8 @@ impl PreparedScene {
             texture_refs: scene.textures.refs.clone(),
             texels: std::sync::Arc::clone(&scene.textures.texels),
             camera: scene.camera,
+            attenuates,
+            plain_emitters,
         }
     }
 
@@ -784,10 +806,7 @@ impl PreparedScene {
             .triangles
             .iter()
             .any(|t| t.material & TRIANGLE_TEST_ALPHA != 0);
-        let volume = self
-            .materials
-            .iter()
-            .any(|m| m.attenuation.iter().any(|&s| s > 0.0));
+        let volume = self.attenuates;
         [
             (top_level, FEATURE_TOP_LEVEL),
             (binary_walk, FEATURE_BINARY_WALK),

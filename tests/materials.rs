@@ -451,3 +451,55 @@ fn khronos_material_samples_render_alike_on_gpu_and_cpu() {
         }
     }
 }
+
+/// The CPU path's scene-wide shortcuts (`PreparedScene::attenuates`, `plain_emitters`) skip
+/// only work whose result they know: a transmittance of exactly 1 where no material attenuates,
+/// and an emitter's material as it is where no emitter reads its surface or is alpha-tested.
+/// Forcing the general path on scenes that take the shortcuts gives the same bits; the flags
+/// are set where a scene needs the general path (an attenuating model, an emissive texture).
+#[test]
+fn the_cpu_paths_scene_shortcuts_change_no_bit() {
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 4,
+        max_depth: 5,
+        ..RenderSettings::default()
+    };
+    let mut scenes: Vec<(String, Scene)> = ["cornell-box.gltf", "furnace.gltf", "veach-mis.gltf"]
+        .iter()
+        .map(|&n| (n.to_string(), Scene::load(&common::scene_path(n)).unwrap()))
+        .collect();
+    let samples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples");
+    if samples.is_dir() {
+        for (name, attenuates, plain_emitters) in [
+            ("valid/DamagedHelmet.glb", false, false),
+            ("valid/extensions/AttenuationTest.glb", true, true),
+        ] {
+            let scene = Scene::load(&samples.join(name)).unwrap();
+            let p = PreparedScene::new(&scene);
+            assert_eq!(
+                (p.attenuates, p.plain_emitters),
+                (attenuates, plain_emitters),
+                "{name}: (attenuates, plain_emitters)"
+            );
+            scenes.push((name.to_string(), scene));
+        }
+    } else {
+        eprintln!("../shared/gltf-samples not found: the committed scenes only");
+    }
+    for (name, scene) in &scenes {
+        let fast = PreparedScene::new(scene);
+        if name.ends_with(".gltf") {
+            assert!(!fast.attenuates && fast.plain_emitters, "{name}'s flags");
+        }
+        let mut general = PreparedScene::new(scene);
+        general.attenuates = true;
+        general.plain_emitters = false;
+        common::assert_same_bits(
+            &render_cpu(&fast, &settings).film,
+            &render_cpu(&general, &settings).film,
+            &format!("{name}: shortcuts against the general path"),
+        );
+    }
+}

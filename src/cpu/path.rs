@@ -282,7 +282,9 @@ fn shade(
     // Escaped: the environment's radiance, weighted against sampling the environment from the
     // previous vertex (a ray that leaves into a volume and escapes crossed an infinite medium).
     let Some((hit, instance)) = hit else {
-        throughput *= transmittance(Vec3::from(state.medium), f32::MAX);
+        if scene.attenuates {
+            throughput *= transmittance(Vec3::from(state.medium), f32::MAX);
+        }
         if frame.aov == AOV_RADIANCE && frame.env_width > 0 && class.ends_here(&[]) {
             let le = env_radiance(env, frame, ray.dir);
             let mut w = 1.0;
@@ -308,9 +310,12 @@ fn shade(
     let cone_width = state.cone_width + frame.cone_spread * hit.t;
     state.cone_width = cone_width;
     let raw = &scene.materials[tri.material_index() as usize];
-    // KHR_materials_volume: the segment's attenuation, its medium read from either end.
-    let sigma = Vec3::from(state.medium).max(volume_sigma(raw, ng, wo));
-    throughput *= transmittance(sigma, hit.t);
+    // KHR_materials_volume: the segment's attenuation, its medium read from either end (1
+    // where no material attenuates: the medium stays 0).
+    if scene.attenuates {
+        let sigma = Vec3::from(state.medium).max(volume_sigma(raw, ng, wo));
+        throughput *= transmittance(sigma, hit.t);
+    }
     state.throughput = throughput.to_array();
     let lod = if raw.flags & MATERIAL_TEXTURED != 0 {
         surface_lod_base(&sp, cone_width, cos_out)
@@ -362,7 +367,7 @@ fn shade(
     }
     // KHR_materials_dispersion: the path turns spectral at its first dispersive vertex, before
     // the vertex's emitter sample (`spectrum`'s module docs).
-    if is_dispersive(mat) {
+    if frame.spectral != 0 && is_dispersive(mat) {
         if state.wavelength == 0.0 {
             let lambda = sample_wavelength_of(frame.seed, pixel, sample);
             throughput *= wavelength_weight(lambda);
@@ -485,7 +490,11 @@ fn scatter<B: VertexBsdf>(
                     None => (ls.wi, f32::MAX),
                 };
                 // The shadow segment's attenuation, its medium read from either end.
-                let sigma = volume_sigma(mat, ng, ls.wi).max(ls.medium);
+                let attenuation = if scene.attenuates {
+                    transmittance(volume_sigma(mat, ng, ls.wi).max(ls.medium), t_max)
+                } else {
+                    Vec3::ONE
+                };
                 shadow = Some(ShadowRay {
                     ray: Ray { origin, dir },
                     t_max,
@@ -493,7 +502,7 @@ fn scatter<B: VertexBsdf>(
                         * f
                         * bsdf.cos_theta(ls.wi)
                         * ls.radiance
-                        * transmittance(sigma, t_max)
+                        * attenuation
                         * (w / ls.pdf),
                 });
             }
@@ -518,7 +527,9 @@ fn scatter<B: VertexBsdf>(
     state.prev_specular = u32::from(s.delta);
     state.prev_position = p.to_array();
     state.prev_normal = ng.to_array();
-    state.medium = volume_sigma(mat, ng, s.wi).to_array();
+    if scene.attenuates {
+        state.medium = volume_sigma(mat, ng, s.wi).to_array();
+    }
     if throughput.max_element() <= 0.0 {
         return (None, shadow);
     }
@@ -652,15 +663,19 @@ fn sample_emitter(
     let dist2 = to_light.dot(to_light);
     let wi = to_light / dist2.sqrt();
     let cos_light = light_n.dot(-wi);
-    // The light point's emission (its textures at level 0) where its surface exists.
-    let textures = scene.texture_data();
-    let light_mat = &*scene.emitter_at(&textures, entry.triangle, b.x, b.y);
-    let key = alpha_key(frame.seed, pixel, sample, depth, true);
-    // (Culling does not apply: the light's own sidedness is its emission's.)
-    let radiance = if scene.present(&textures, entry.triangle, b.x, b.y, key, Vec3::ZERO) {
-        emitted_radiance(light_mat, cos_light)
+    // The light point's emission and the medium behind it (`emitter_surface`); where no emitter
+    // reads its surface or is alpha-tested, its material's as it is (`plain_emitters`).
+    let (radiance, medium) = if scene.plain_emitters {
+        let m = &scene.materials[light.material_index() as usize];
+        let medium = if scene.attenuates {
+            volume_sigma(m, light_n, -wi)
+        } else {
+            Vec3::ZERO
+        };
+        (emitted_radiance(m, cos_light), medium)
     } else {
-        Vec3::ZERO
+        let key = alpha_key(frame.seed, pixel, sample, depth, true);
+        emitter_surface(scene, entry.triangle, b, key, cos_light, light_n, wi)
     };
     Some(LightSample {
         wi,
@@ -673,6 +688,31 @@ fn sample_emitter(
         // Solid-angle pdf: pmf · (1/area) · dist² / |cos at the light|.
         pdf: pmf * dist2 / (cos_light.abs() * light.area),
         delta: false,
-        medium: volume_sigma(light_mat, light_n, -wi),
+        medium,
     })
+}
+
+/// The emission at point `b` (barycentric) of emitting triangle `index`, seen at cosine
+/// `cos_light` to its normal `light_n` from direction −`wi`: its textures at level 0 where its
+/// surface exists under alpha key `key`, and the medium behind it (`volume_sigma` at the
+/// light's end of the shadow segment). Out of line: most scenes' emitters take the plain path.
+#[inline(never)]
+fn emitter_surface(
+    scene: &PreparedScene,
+    index: u32,
+    b: Vec2,
+    key: glam::UVec4,
+    cos_light: f32,
+    light_n: Vec3,
+    wi: Vec3,
+) -> (Vec3, Vec3) {
+    let textures = scene.texture_data();
+    let light_mat = scene.emitter_at(&textures, index, b.x, b.y);
+    // (Culling does not apply: the light's own sidedness is its emission's.)
+    let radiance = if scene.present(&textures, index, b.x, b.y, key, Vec3::ZERO) {
+        emitted_radiance(&light_mat, cos_light)
+    } else {
+        Vec3::ZERO
+    };
+    (radiance, volume_sigma(&light_mat, light_n, -wi))
 }
