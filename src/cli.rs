@@ -48,8 +48,9 @@ pub enum DeviceKind {
     Gpu,
     /// The reference path tracer on all CPU cores.
     Cpu,
-    /// A real GPU when Vulkan has one, else the CPU reference (faster than a CPU Vulkan
-    /// driver such as lavapipe on every scene `wavetrace bench` measures); says which.
+    /// A real GPU when Vulkan has one, else the CPU reference (on the whole faster than a CPU
+    /// Vulkan driver such as lavapipe: on 7 of the 9 committed scenes `wavetrace bench`
+    /// measures, the default Cornell box included); says which.
     Auto,
 }
 
