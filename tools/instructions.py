@@ -19,6 +19,16 @@ sample, with the rays per sample from `render`'s own count.
 scene, which must be exactly Lambertian). Render options after `--` go to every wavetrace
 render, e.g. `-- --sampler independent --light-sampler power`, which samples the Cornell box as
 Mitsuba's path tracer does (the same estimator). A run takes about a second per 1 000 samples.
+`--device gpu` counts the wavefront kernels on lavapipe instead (`render --device gpu`, which
+must choose it): llvmpipe's JIT-compiled kernels run under callgrind (`--smc-check=all`, which
+code generated at run time needs) with one worker thread (`LP_NUM_THREADS=1`, so that no thread
+spins while another works), after one untimed run that leaves every kernel in Mesa's shader
+cache, so the two counted runs load the same compiled code. The count is the kernels' and the
+driver's together, per sample; callgrind cannot name the JIT's functions, so there is no
+breakdown. Two counts of the same build agree to a few parts per million (this machine's
+lavapipe render takes 2 minutes under callgrind at the default size, most of it creating the
+pipelines, which cancels).
+
 Python 3 standard library, valgrind and callgrind_annotate.
 """
 
@@ -50,10 +60,12 @@ PATH = "wavetrace::cpu::path::trace_path_matching"
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def callgrind(cmd, env, out):
-    """Runs cmd under callgrind; returns (total instructions, the program's output)."""
+def callgrind(cmd, env, out, jit=False):
+    """Runs cmd under callgrind; returns (total instructions, the program's output). `jit`: the
+    program runs code it generates (llvmpipe's kernels), which callgrind must check for."""
+    smc = ["--smc-check=all"] if jit else []
     run = subprocess.run(
-        ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *cmd],
+        ["valgrind", "--tool=callgrind", *smc, f"--callgrind-out-file={out}", *cmd],
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -90,20 +102,25 @@ def inclusive(out):
 
 
 def wavetrace(binary, args, spp, folder, tag):
-    env = dict(os.environ, RAYON_NUM_THREADS="1")
+    gpu = args.device == "gpu"
+    env = dict(os.environ, RAYON_NUM_THREADS="1", LP_NUM_THREADS="1")
+    command = lambda s: [
+        binary, "render", args.scene, "--device", args.device, "--spp", str(s),
+        "--width", str(args.size), "--height", str(args.size),
+        "-o", os.path.join(folder, f"{tag}-{s}.exr"), *args.render,
+    ]
+    if gpu:
+        # Untimed: the kernels compiled once and kept in Mesa's shader cache for both counts.
+        subprocess.run(command(1), env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     runs = []
     for s in spp:
         out = os.path.join(folder, f"{tag}-{s}.out")
-        cmd = [
-            binary, "render", args.scene, "--device", "cpu", "--spp", str(s),
-            "--width", str(args.size), "--height", str(args.size),
-            "-o", os.path.join(folder, f"{tag}-{s}.exr"), *args.render,
-        ]
-        total, text = callgrind(cmd, env, out)
+        cmd = command(s)
+        total, text = callgrind(cmd, env, out, jit=gpu)
         m = re.search(r"\((\d+) extension \+ (\d+) shadow rays\)", text)
         if not m:
             sys.exit(f"instructions: no ray counts in the output of {' '.join(cmd)}")
-        runs.append((total, int(m.group(1)), int(m.group(2)), inclusive(out)))
+        runs.append((total, int(m.group(1)), int(m.group(2)), {} if gpu else inclusive(out)))
     return runs
 
 
@@ -134,6 +151,10 @@ def main():
     ap.add_argument("--size", type=int, default=64, help="image width and height")
     ap.add_argument("--spp", type=int, nargs=2, default=[16, 48], metavar=("LOW", "HIGH"))
     ap.add_argument("--mitsuba", action="store_true", help="add Mitsuba 3's scalar_rgb")
+    ap.add_argument(
+        "--device", choices=("cpu", "gpu"), default="cpu",
+        help="the CPU reference (default) or the wavefront kernels on lavapipe",
+    )
     args = ap.parse_args(argv)
     args.render = render
     low, high = args.spp
@@ -151,6 +172,8 @@ def main():
             # The path loop's own work: what its callees listed above do not account for (the
             # light BVH is called from inside the emitter sampling, which is inlined).
             parts.append(("rest of the path loop", path - sum(v for _, v in parts)))
+            if args.device == "gpu":
+                parts = []
             rows.append((binary, per(t0, t1), per(e0, e1), per(s0, s1), parts))
         reference = None
         if args.mitsuba:
@@ -160,6 +183,7 @@ def main():
     print(
         f"instructions per sample, {os.path.basename(args.scene)} at {args.size}², the runs at "
         f"{low} and {high} spp differenced, one thread"
+        + (", on lavapipe" if args.device == "gpu" else "")
         + (f", render options: {' '.join(args.render)}" if args.render else "")
     )
     for binary, total, ext, shadow, parts in rows:

@@ -124,4 +124,24 @@ uint queue_push_slot(uint counter) {
     return subgroupBroadcastFirst(first) + rank;
 }
 
+// The path tracer's state of path `path`, as generate and shade store it: what a later vertex
+// of the path reads. The members only a feature reads (the previous vertex for the light BVH's
+// pmf, the ray cone for textures, the path expression's state, the medium, the wavelength) are
+// stored only where the kernels are made for it; without it no kernel reads them, and every
+// word is a store per lane on lavapipe (README, "Performance").
+void path_store(uint path, PathState state) {
+    paths[path].throughput = state.throughput;
+    paths[path].prev_bsdf_pdf = state.prev_bsdf_pdf;
+    paths[path].radiance = state.radiance;
+    paths[path].prev_specular = state.prev_specular;
+    if (SCENE_HAS(FEATURE_LIGHT_BVH)) {
+        paths[path].prev_position = state.prev_position;
+        paths[path].prev_normal = state.prev_normal;
+    }
+    if (SCENE_HAS(FEATURE_TEXTURES)) paths[path].cone_width = state.cone_width;
+    if (SCENE_HAS(FEATURE_PATHS)) paths[path].pad0 = state.pad0;
+    if (SCENE_HAS(FEATURE_VOLUME)) paths[path].medium = state.medium;
+    if (SCENE_HAS(FEATURE_DISPERSION)) paths[path].wavelength = state.wavelength;
+}
+
 #endif

@@ -31,7 +31,7 @@ void kernel_main() {
     state.wavelength = 0.0;
     // --paths: the eye-first automaton's state after E.
     state.pad0 = paths_enabled() ? dfa_step_reversed(0u, SYM_E) : 0u;
-    paths[i] = state;
+    path_store(i, state);
 
     QueuedRay ray;
     vec2 jitter = sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK, u.xy);

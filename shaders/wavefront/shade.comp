@@ -283,7 +283,7 @@ void kernel_main() {
         }
         state.throughput *= weight;
     }
-    paths[ray.path] = state;
+    path_store(ray.path, state);
 
     QueuedRay next;
     next.origin = offset_ray_origin(p, dot(ng, wi) > 0.0 ? ng : -ng);
