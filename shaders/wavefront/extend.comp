@@ -30,7 +30,7 @@ void kernel_main() {
     hits[i].triangle = hit.triangle;
     hits[i].u = hit.u;
     hits[i].v = hit.v;
-    hits[i].instance = hit.instance;
+    if (SCENE_HAS(FEATURE_TOP_LEVEL)) hits[i].instance = hit.instance;
 }
 
 void main() {

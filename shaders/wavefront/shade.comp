@@ -156,7 +156,7 @@ void kernel_main() {
     }
     GpuTriangle tri = triangle_at(hit.triangle);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    surface_to_world(sp, tri, instance_at(hit.instance));
+    if (SCENE_HAS(FEATURE_TOP_LEVEL)) surface_to_world(sp, tri, instance_at(hit.instance));
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     float cos_out = dot(ng, wo);

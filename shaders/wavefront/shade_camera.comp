@@ -39,7 +39,7 @@ void kernel_main() {
 
     GpuTriangle tri = triangle_at(hit.triangle);
     SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    surface_to_world(sp, tri, instance_at(hit.instance));
+    if (SCENE_HAS(FEATURE_TOP_LEVEL)) surface_to_world(sp, tri, instance_at(hit.instance));
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     vec3 wo = -ray.dir;
@@ -54,7 +54,7 @@ void kernel_main() {
     BdptVertex v = bdpt_endpoint(BDPT_VERTEX_SURFACE, p, ng, beta, 1.0, hit.triangle);
     v.ns = ns;
     v.wo = wo;
-    v.instance = hit.instance;
+    v.instance = hit_instance(hit);
     v.bary = vec2(hit.u, hit.v);
     // The solid-angle pdf of the ray: the pinhole's for the primary ray, else the BSDF
     // sample's (PathState::cone_width; < 0 after a delta lobe).
