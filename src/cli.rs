@@ -49,7 +49,7 @@ pub enum DeviceKind {
     /// The reference path tracer on all CPU cores.
     Cpu,
     /// A real GPU when Vulkan has one, else the CPU reference (on the whole faster than a CPU
-    /// Vulkan driver such as lavapipe: on 7 of the 9 committed scenes `wavetrace bench`
+    /// Vulkan driver such as lavapipe: on most of the committed scenes `wavetrace bench`
     /// measures, the default Cornell box included); says which.
     Auto,
 }

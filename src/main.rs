@@ -312,9 +312,9 @@ fn prepare(
 
 /// `--device auto`: a GPU (discrete, integrated or virtual) when the Vulkan loader reports a
 /// usable one or `--gpu-index` names a device, else the CPU reference, which `wavetrace bench`
-/// measures faster than a CPU Vulkan driver (lavapipe) on 7 of the 9 committed scenes (the
-/// default Cornell box by 1.3–1.4×; lavapipe leads on the furnace and veach-mis by 1.1–1.16×,
-/// README "Performance"). Says which.
+/// measures faster than a CPU Vulkan driver (lavapipe) on most of the committed scenes (the
+/// default Cornell box by about 1.3×; lavapipe leads on two or three of the nine by up to
+/// 1.16×, README "Performance"). Says which.
 pub(crate) fn resolve_device(kind: DeviceKind, gpu_index: Option<usize>) -> DeviceKind {
     if kind != DeviceKind::Auto {
         return kind;

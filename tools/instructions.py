@@ -22,8 +22,10 @@ Mitsuba's path tracer does (the same estimator). A run takes about a second per 
 `--device gpu` counts the wavefront kernels on lavapipe instead (`render --device gpu`, which
 must choose it): llvmpipe's JIT-compiled kernels run under callgrind (`--smc-check=all`, which
 code generated at run time needs) with one worker thread (`LP_NUM_THREADS=1`, so that no thread
-spins while another works), after one untimed run that leaves every kernel in Mesa's shader
-cache, so the two counted runs load the same compiled code. The count is the kernels' and the
+spins while another works), after one uncounted run under valgrind that leaves every kernel in
+Mesa's shader cache (valgrind's virtual CPU has fewer features than this one, and the cache's
+keys name them: a native run's entries would not be found), so the two counted runs load the
+same compiled code. The count is the kernels' and the
 driver's together, per sample; callgrind cannot name the JIT's functions, so there is no
 breakdown. Two counts of the same build agree to a few parts per million (this machine's
 lavapipe render takes 2 minutes under callgrind at the default size, most of it creating the
@@ -110,8 +112,14 @@ def wavetrace(binary, args, spp, folder, tag):
         "-o", os.path.join(folder, f"{tag}-{s}.exr"), *args.render,
     ]
     if gpu:
-        # Untimed: the kernels compiled once and kept in Mesa's shader cache for both counts.
-        subprocess.run(command(1), env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        # Uncounted: the kernels compiled once and kept in Mesa's shader cache for both counts.
+        # Under valgrind too (its tool "none", which only runs the program): valgrind's virtual
+        # CPU lacks some of this machine's features, the cache's keys name them, and so a
+        # native run's entries are not the ones a run under callgrind looks up.
+        subprocess.run(
+            ["valgrind", "--tool=none", "--smc-check=all", *command(1)],
+            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )
     runs = []
     for s in spp:
         out = os.path.join(folder, f"{tag}-{s}.out")
