@@ -124,11 +124,6 @@ uint queue_push_slot(uint counter) {
     return subgroupBroadcastFirst(first) + rank;
 }
 
-// The placement hit `hit` lies on: extend stores it only where the kernels walk a top level;
-// without one the scene is its one identity placement, 0, and a hit's surface is where the
-// bottom level has it (no `surface_to_world` to apply).
-uint hit_instance(HitRecord hit) { return SCENE_HAS(FEATURE_TOP_LEVEL) ? hit.instance : 0u; }
-
 // The path tracer's state of path `path`, as generate and shade store it: what a later vertex
 // of the path reads. The members only a feature reads (the previous vertex for the light BVH's
 // pmf, the ray cone for textures, the path expression's state, the medium, the wavelength) are

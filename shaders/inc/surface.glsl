@@ -81,6 +81,23 @@ void surface_to_world(inout SurfacePoint sp, GpuTriangle tri, GpuInstance inst) 
                                  transform_vector(inst.object_to_world, tri.e2)));
 }
 
+#ifdef BINDINGS_GLSL
+// (The wavefront kernels' only: they bind the placements and the hit records.)
+// The placement hit `hit` lies on: extend stores it only where the kernels walk a top level;
+// without one the scene is its one identity placement, 0.
+uint hit_instance(HitRecord hit) { return SCENE_HAS(FEATURE_TOP_LEVEL) ? hit.instance : 0u; }
+
+// The world-space surface of `hit` and its triangle `tri` (src/render.rs,
+// PreparedScene::hit_surface): surface_point, then surface_to_world where there is a top level
+// (without one the bottom level is in world space, and its placement is not read).
+SurfacePoint hit_surface(HitRecord hit, out GpuTriangle tri) {
+    tri = triangle_at(hit.triangle);
+    SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
+    if (SCENE_HAS(FEATURE_TOP_LEVEL)) surface_to_world(sp, tri, instance_at(hit.instance));
+    return sp;
+}
+#endif
+
 // log2(W / |cos|) + the uv density, per set (Akenine-Moller et al. 2021, eq. 34).
 vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
     float footprint = log2(max(cone_width / max(abs(cos_view), 1e-6), 1e-30));

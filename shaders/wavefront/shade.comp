@@ -154,9 +154,8 @@ void kernel_main() {
         path_end(ray.path, state);
         return;
     }
-    GpuTriangle tri = triangle_at(hit.triangle);
-    SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    if (SCENE_HAS(FEATURE_TOP_LEVEL)) surface_to_world(sp, tri, instance_at(hit.instance));
+    GpuTriangle tri;
+    SurfacePoint sp = hit_surface(hit, tri);
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     float cos_out = dot(ng, wo);

@@ -37,9 +37,8 @@ void kernel_main() {
         // A punctual light's range window, now that the distance is known.
         beta *= punctual_window(punctual_lights[state.pad0 - 1u], hit.t);
     }
-    GpuTriangle tri = triangle_at(hit.triangle);
-    SurfacePoint sp = surface_point(tri, triangle_vertices_at(hit.triangle), hit.u, hit.v);
-    if (SCENE_HAS(FEATURE_TOP_LEVEL)) surface_to_world(sp, tri, instance_at(hit.instance));
+    GpuTriangle tri;
+    SurfacePoint sp = hit_surface(hit, tri);
     vec3 p = sp.p;
     vec3 ng = sp.ng;
     vec3 wo = -ray.dir;
