@@ -163,7 +163,7 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
 #define QBVH_DESCEND_CLOSEST(at, at_leaf)                                                           \
     {                                                                                               \
         at_leaf = true;                                                                             \
-        while ((at.x & QBVH_LEAF) == 0u) {                                                          \
+        if ((at.x & QBVH_LEAF) == 0u) do {                                                          \
             QuantNode node = quant_node_at(at.x);                                                   \
             uvec2 e0, e1, e2, e3;                                                                   \
             float t0, t1, t2, t3;                                                                   \
@@ -176,7 +176,7 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
             if (entered > 2u) BVH_DEFER(e2, t2)                                                     \
             if (entered > 1u) BVH_DEFER(e1, t1)                                                     \
             at = e0;                                                                                \
-        }                                                                                           \
+        } while ((at.x & QBVH_LEAF) == 0u);                                                         \
     }
 // Any hit: the entered slots in slot order (any hit needs no order), the lowest next, each
 // further one deferred over the last (src/bvh/wide.rs). Reads ray, t_min and t_max.
@@ -192,7 +192,7 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
 #define QBVH_DESCEND_ANY(at, at_leaf)                                                       \
     {                                                                                       \
         at_leaf = true;                                                                     \
-        while ((at.x & QBVH_LEAF) == 0u) {                                                  \
+        if ((at.x & QBVH_LEAF) == 0u) do {                                                  \
             QuantNode node = quant_node_at(at.x);                                           \
             vec4 t_enter;                                                                   \
             uint mask = qbvh_slabs(node, ray, t_min, t_max, t_enter);                       \
@@ -207,7 +207,7 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
                 at_leaf = false;                                                            \
                 break;                                                                      \
             }                                                                               \
-        }                                                                                   \
+        } while ((at.x & QBVH_LEAF) == 0u);                                                 \
     }
 
 // Closest hit in the bottom level whose quantised root is node `root` (NO_WIDE_ROOT: none) with t

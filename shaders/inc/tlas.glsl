@@ -45,7 +45,8 @@ bool single_identity_instance() {
 // normalised in object space, so t is the same in both spaces.
 bool tlas_leaf_closest(uint first, uint count, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     bool found = false;
-    for (uint k = first; k < first + count; ++k) {
+    uint k = first;
+    if (k < first + count) do {
         GpuInstance inst = instance_inverse_at(k);
         vec3 o, d;
         instance_ray(inst, origin, dir, o, d);
@@ -53,17 +54,18 @@ bool tlas_leaf_closest(uint first, uint count, vec3 origin, vec3 dir, float t_mi
             hit.instance = k;
             found = true;
         }
-    }
+    } while (++k < first + count);
     return found;
 }
 
 bool tlas_leaf_any(uint first, uint count, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
-    for (uint k = first; k < first + count; ++k) {
+    uint k = first;
+    if (k < first + count) do {
         GpuInstance inst = instance_inverse_at(k);
         vec3 o, d;
         instance_ray(inst, origin, dir, o, d);
         if (blas_any(inst, o, d, t_min, t_max, instance_key(key, k))) return true;
-    }
+    } while (++k < first + count);
     return false;
 }
 
@@ -123,7 +125,7 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
         // While-while, as in bvh.glsl: the top level's interior nodes first, then the
         // instances of the leaves reached, lanes together.
         bool at_leaf = true;
-        while (!bvh_cursor_is_leaf(cursor)) {
+        if (!bvh_cursor_is_leaf(cursor)) do {
             uvec2 near, far;
             float far_enter;
             uint entered = bvh_step(cursor, ray, t_min, hit.t, true, near, far, far_enter);
@@ -137,17 +139,17 @@ bool scene_intersect_closest(vec3 origin, vec3 dir, float t_min, float t_max, uv
                 ++sp;
             }
             cursor = near;
-        }
+        } while (!bvh_cursor_is_leaf(cursor));
         if (at_leaf) tlas_leaf_closest(cursor.x, bvh_cursor_count(cursor), origin, dir, t_min, key, hit);
         bool popped = false;
-        while (sp > 0u) {
+        if (sp > 0u) do {
             --sp;
             if (stack_enter[sp] - abs(stack_enter[sp]) * BVH_SLAB_SLACK <= hit.t) {
                 cursor = stack[sp];
                 popped = true;
                 break;
             }
-        }
+        } while (sp > 0u);
         if (!popped) break;
     }
     return hit.triangle != NO_HIT;
@@ -171,7 +173,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
         // While-while, as in bvh.glsl: the top level's interior nodes first, then the
         // instances of the leaves reached, lanes together.
         bool at_leaf = true;
-        while (!bvh_cursor_is_leaf(cursor)) {
+        if (!bvh_cursor_is_leaf(cursor)) do {
             uvec2 near, far;
             float far_enter;
             uint entered = bvh_step(cursor, ray, t_min, t_max, false, near, far, far_enter);
@@ -181,7 +183,7 @@ bool scene_intersect_any(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 
             }
             if (entered == 2u) stack[sp++] = far;
             cursor = near;
-        }
+        } while (!bvh_cursor_is_leaf(cursor));
         if (at_leaf && tlas_leaf_any(cursor.x, bvh_cursor_count(cursor), origin, dir, t_min, t_max, key)) return true;
         if (sp == 0u) return false;
         cursor = stack[--sp];
