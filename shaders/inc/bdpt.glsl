@@ -223,17 +223,19 @@ float bdpt_mis_weight(uint path, uint s, uint t, BdptVertex sampled, GpuMaterial
     bool beaten = false;
     // Strategies with more light vertices: move the connection towards the camera.
     float r = 1.0;
-    for (int i = int(t) - 1; i >= 1; i--) {
+    int i = int(t) - 1;
+    if (i >= 1) do {
         BdptVertex v = i == int(t) - 1 ? pt : bdpt_camera(path, uint(i));
         float rev = i == int(t) - 1 ? pt_rev : (i + 2 == int(t) ? pt_minus_rev : v.pdf_rev);
         r *= bdpt_ratio(rev, v.pdf_fwd);
         bool delta_here = i != int(t) - 1 && bdpt_delta(v);
         bool delta_before = bdpt_delta(bdpt_camera(path, uint(i - 1)));
         if (!delta_here && !delta_before) bdpt_mis_add(r, true, sum, others, beaten);
-    }
+    } while (--i >= 1);
     // Strategies with fewer light vertices.
     r = 1.0;
-    for (int i = int(s) - 1; i >= 0; i--) {
+    i = int(s) - 1;
+    if (i >= 0) do {
         BdptVertex v = bdpt_lv(path, s, i, sampled);
         float rev = i == int(s) - 1 ? qs_rev : (i + 2 == int(s) ? qs_minus_rev : v.pdf_rev);
         r *= bdpt_ratio(rev, v.pdf_fwd);
@@ -242,7 +244,7 @@ float bdpt_mis_weight(uint path, uint s, uint t, BdptVertex sampled, GpuMaterial
             ? bdpt_delta(bdpt_lv(path, s, i - 1, sampled))
             : bdpt_kind(v) == BDPT_VERTEX_POINT_LIGHT;
         if (!delta_here && !delta_before) bdpt_mis_add(r, false, sum, others, beaten);
-    }
+    } while (--i >= 0);
     uint h = frame.mis_heuristic;
     if (h == MIS_POWER || h == MIS_BALANCE) return 1.0 / (1.0 + sum);
     if (h == MIS_AVERAGE) return 1.0 / (1.0 + float(others));

@@ -72,10 +72,10 @@ float env_marginal_start(uint j) { return j == 0u ? 0.0 : env_marginal[j - 1u]; 
 uint env_marginal_search(float u) {
     uint lo = 0u;
     uint hi = frame.env_height - 1u;
-    while (lo < hi) {
+    if (lo < hi) do {
         uint mid = (lo + hi) / 2u;
         if (env_marginal[mid] > u) hi = mid; else lo = mid + 1u;
-    }
+    } while (lo < hi);
     return lo;
 }
 
@@ -83,10 +83,10 @@ uint env_marginal_search(float u) {
 uint env_conditional_search(uint j, float u) {
     uint lo = 0u;
     uint hi = frame.env_width - 1u;
-    while (lo < hi) {
+    if (lo < hi) do {
         uint mid = (lo + hi) / 2u;
         if (env_conditional_end(j, mid) > u) hi = mid; else lo = mid + 1u;
-    }
+    } while (lo < hi);
     return lo;
 }
 

@@ -108,13 +108,11 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
     // The node at `index`: below the root, the child record read at its parent's level, so no
     // node on the path is fetched twice (64 bytes, four texels, per level saved).
     GpuLightNode node = light_node_at(0u);
-    for (uint depth = 0u; depth <= MAX_LIGHT_BVH_DEPTH; depth++) {
-        if (light_node_is_leaf(node)) {
-            if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return false;
-            light = node.child_or_light;
-            pmf = prob;
-            return true;
-        }
+    // Descends while the node (at `depth`) is interior, testing where the body ends (bvh.glsl
+    // says why): a leaf is taken at depths up to MAX_LIGHT_BVH_DEPTH, as the CPU's walk does.
+    uint depth = 0u;
+    bool leaf = light_node_is_leaf(node);
+    if (!leaf) do {
         uint second = node.child_or_light;
         GpuLightNode child0 = light_node_at(index + 1u);
         GpuLightNode child1 = light_node_at(second);
@@ -137,8 +135,14 @@ bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint
             node = child1;
         }
         trail >>= 1u;
-    }
-    return false;
+        ++depth;
+        leaf = light_node_is_leaf(node);
+    } while (!leaf && depth <= MAX_LIGHT_BVH_DEPTH);
+    if (!leaf || depth > MAX_LIGHT_BVH_DEPTH) return false;
+    if (index == 0u && !(light_bounds_importance(node, p, n) > 0.0)) return false;
+    light = node.child_or_light;
+    pmf = prob;
+    return true;
 }
 
 // Descends from the root choosing each child with probability proportional to its importance,

@@ -79,10 +79,10 @@ vec3 punctual_incident(GpuPunctualLight l, vec3 p, out vec3 wi, out float dist) 
 uint sample_light(float u) {
     uint lo = 0u;
     uint hi = frame.light_count - 1u;
-    while (lo < hi) {
+    if (lo < hi) do {
         uint mid = (lo + hi) / 2u;
         if (light_at(mid).cdf > u) hi = mid; else lo = mid + 1u;
-    }
+    } while (lo < hi);
     return lo;
 }
 

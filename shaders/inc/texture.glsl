@@ -38,11 +38,12 @@ uvec3 texture_level(GpuTexture t, uint level) {
     uint w = t.width;
     uint h = t.height;
     uint offset = t.texel_offset;
-    for (uint k = 0u; k < level; ++k) {
+    uint k = 0u;
+    if (k < level) do {
         offset += w * h;
         w = max(w / 2u, 1u);
         h = max(h / 2u, 1u);
-    }
+    } while (++k < level);
     return uvec3(w, h, offset);
 }
 
@@ -84,13 +85,14 @@ vec4 texture_sample_level(GpuTexture t, uint level, vec2 uv, bool linear) {
     vec4 b = vec4(0.0);
     vec4 c = vec4(0.0);
     vec4 d = vec4(0.0);
-    [[dont_unroll]] for (uint k = 0u; k < taps; ++k) {
+    uint k = 0u;
+    [[dont_unroll]] do {
         vec4 v = texture_fetch(t, l.z, l.x, (k & 1u) == 0u ? i.x : i.y, k < 2u ? j.x : j.y);
         if (k == 0u) a = v;
         else if (k == 1u) b = v;
         else if (k == 2u) c = v;
         else d = v;
-    }
+    } while (++k < taps);
     if (taps == 1u) return a;
     vec4 top = a + (b - a) * fx;
     vec4 bottom = c + (d - c) * fx;
@@ -131,11 +133,12 @@ vec4 texture_sample_lod(GpuTexture t, vec2 uv, float lod) {
     }
     vec4 a = vec4(0.0);
     vec4 b = vec4(0.0);
-    [[dont_unroll]] for (uint k = 0u; k < count; ++k) {
+    uint k = 0u;
+    [[dont_unroll]] do {
         vec4 v = texture_sample_level(t, k == 0u ? level.x : level.y, uv, linear);
         if (k == 0u) a = v;
         else b = v;
-    }
+    } while (++k < count);
     return count == 1u ? a : a + (b - a) * f;
 }
 
