@@ -145,12 +145,16 @@ def mitsuba(args, spp, folder):
     return totals
 
 
-def main():
-    argv = sys.argv[1:]
-    render = []
+def split_render_options(argv):
+    """The tool's own arguments and the render options after `--` (also tools/jit_profile.py)."""
     if "--" in argv:
         at = argv.index("--")
-        argv, render = argv[:at], argv[at + 1:]
+        return argv[:at], argv[at + 1:]
+    return argv, []
+
+
+def main():
+    argv, render = split_render_options(sys.argv[1:])
     ap = argparse.ArgumentParser(
         description=__doc__.split("\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )

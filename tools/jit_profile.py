@@ -40,6 +40,8 @@ import sys
 import tempfile
 import time
 
+from instructions import split_render_options
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
@@ -163,11 +165,7 @@ def listing(func, cost):
 
 
 def main():
-    argv = sys.argv[1:]
-    render = []
-    if "--" in argv:
-        at = argv.index("--")
-        argv, render = argv[:at], argv[at + 1:]
+    argv, render = split_render_options(sys.argv[1:])
     ap = argparse.ArgumentParser(
         description=__doc__.split("\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
