@@ -88,6 +88,11 @@ layout(set = 0, binding = 49, r32ui) uniform readonly uimage2D texel_image;
 layout(set = 0, binding = 50, rgba32ui) uniform readonly uimage2D instance_image;
 layout(set = 0, binding = 51, rgba32ui) uniform readonly uimage2D texture_image;
 layout(set = 0, binding = 52, rgba32ui) uniform readonly uimage2D texture_ref_image;
+// The hit records' first 16 bytes (t, triangle, u, v), one texel a record at scene_texel_at(i):
+// extend stores them, the shade kernels load them (hit_store, hit_load); a texel is one call of
+// llvmpipe's image function for 8 lanes where four words of a storage buffer are a bounds-checked
+// load per lane and word. The instance, read only with a top level, stays in hits[].
+layout(set = 0, binding = 65, rgba32ui) uniform uimage2D hit_image;
 layout(set = 0, binding = 53, rgba32ui) uniform readonly uimage2D light_image;
 #extension GL_EXT_samplerless_texture_functions : require
 layout(set = 0, binding = 54) uniform utexture2D bvh_node_image_sampled;
@@ -122,6 +127,21 @@ uint queue_push_slot(uint counter) {
     uint first = 0u;
     if (rank == 0u) first = atomicAdd(counters[counter], pushing);
     return subgroupBroadcastFirst(first) + rank;
+}
+
+// Hit record i as extend stores it: t, triangle, u and v in the hit image's texel, the instance
+// in hits[] where there is a top level (without one it is 0 and never read).
+void hit_store(uint i, HitRecord hit) {
+    imageStore(hit_image, scene_texel_at(i),
+               uvec4(floatBitsToUint(hit.t), hit.triangle, floatBitsToUint(hit.u), floatBitsToUint(hit.v)));
+    if (SCENE_HAS(FEATURE_TOP_LEVEL)) hits[i].instance = hit.instance;
+}
+
+// Hit record i as hit_store left it.
+HitRecord hit_load(uint i) {
+    uvec4 h = imageLoad(hit_image, scene_texel_at(i));
+    uint instance = SCENE_HAS(FEATURE_TOP_LEVEL) ? hits[i].instance : 0u;
+    return HitRecord(uintBitsToFloat(h.x), h.y, uintBitsToFloat(h.z), uintBitsToFloat(h.w), instance, 0u, 0u, 0u);
 }
 
 // The path tracer's state of path `path`, as generate and shade store it: what a later vertex

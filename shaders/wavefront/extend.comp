@@ -25,12 +25,7 @@ void kernel_main() {
     uvec4 key = alpha_key(frame.seed, pixel, sample_index, params.depth, false);
     HitRecord hit;
     scene_intersect_closest(ray.origin, ray.dir, 0.0, 3.402823466e38, key, hit);
-    // Member by member: the padding is not written (each word a store per lane on lavapipe).
-    hits[i].t = hit.t;
-    hits[i].triangle = hit.triangle;
-    hits[i].u = hit.u;
-    hits[i].v = hit.v;
-    if (SCENE_HAS(FEATURE_TOP_LEVEL)) hits[i].instance = hit.instance;
+    hit_store(i, hit);
 }
 
 void main() {

@@ -131,7 +131,7 @@ void kernel_main() {
     uint queue = depth & 1u;
     if (i >= counters[queue]) return;
     QueuedRay ray = rays[queue * params.batch_size + i];
-    HitRecord hit = hits[i];
+    HitRecord hit = hit_load(i);
     PathState state = paths[ray.path];
     uint pixel, sample_index;
     path_pixel_sample(ray.path, pixel, sample_index);

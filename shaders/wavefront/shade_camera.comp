@@ -29,7 +29,7 @@ void kernel_main() {
     uint queue = depth & 1u;
     if (i >= counters[queue]) return;
     QueuedRay ray = rays[queue * params.batch_size + i];
-    HitRecord hit = hits[i];
+    HitRecord hit = hit_load(i);
     if (hit.triangle == NO_HIT) return;
     PathState state = paths[ray.path];
     uint pixel, sample_index;

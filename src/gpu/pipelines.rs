@@ -92,10 +92,15 @@ pub enum Binding {
     TextureSampled = 62,
     TextureRefSampled = 63,
     LightSampled = 64,
+    /// The hit records' first 16 bytes (t, triangle, u, v) as an RGBA32UI storage image, one
+    /// texel a record (`hit_store`, `hit_load`; bindings.glsl), which `extend` writes and the
+    /// shade kernels read: on llvmpipe a texel costs a fraction of four words of a storage
+    /// buffer (README, "Performance").
+    HitImage = 65,
 }
 
 impl Binding {
-    pub const ALL: [Binding; 65] = [
+    pub const ALL: [Binding; 66] = [
         Binding::Frame,
         Binding::BvhNodes,
         Binding::Triangles,
@@ -161,6 +166,7 @@ impl Binding {
         Binding::TextureSampled,
         Binding::TextureRefSampled,
         Binding::LightSampled,
+        Binding::HitImage,
     ];
     /// Chunks 1 to 3 of a split scene array: bindings the kernels built with SCENE_ONE_BINDING
     /// (`KERNELS_ONE_BINDING`) do not declare.
@@ -176,6 +182,7 @@ impl Binding {
     pub fn descriptor_type(self) -> vk::DescriptorType {
         match self {
             Binding::Frame => vk::DescriptorType::UNIFORM_BUFFER,
+            Binding::HitImage => vk::DescriptorType::STORAGE_IMAGE,
             b if b as u32 >= Binding::BvhNodeSampled as u32 => vk::DescriptorType::SAMPLED_IMAGE,
             b if b as u32 >= Binding::BvhNodeImage as u32 => vk::DescriptorType::STORAGE_IMAGE,
             _ => vk::DescriptorType::STORAGE_BUFFER,
@@ -526,9 +533,9 @@ pub struct Pipelines {
     executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
 }
 
-/// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer
-/// and the scene images.
-pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 1 - 2 * SceneImage::ALL.len()) as u32;
+/// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer,
+/// the scene images and the hit records' image.
+pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 2 - 2 * SceneImage::ALL.len()) as u32;
 
 /// Storage buffers the kernels built with SCENE_ONE_BINDING bind: all but the further chunks.
 pub const STORAGE_BUFFERS_ONE_BINDING: u32 = STORAGE_BUFFERS - further_chunks();

@@ -3,7 +3,7 @@
 //! descriptor set.
 
 use super::context::Context;
-use super::memory::{Buffer, Commands, Image, Location};
+use super::memory::{Buffer, Commands, Image, Location, SCENE_IMAGE_WIDTH};
 use super::pipelines::{Binding, Pipelines, SceneImage, SceneSplit, SplitArray};
 use crate::environment::EnvironmentMap;
 use crate::layout::{
@@ -357,6 +357,22 @@ impl RenderBuffers {
                 })
                 .collect::<Vec<_>>(),
         );
+        // The hit records' texels (Binding::HitImage): written before they are read, so only
+        // moved to the layout the kernels use.
+        let hit_image = Image::new(
+            ctx,
+            "hit_records",
+            vk::Format::R32G32B32A32_UINT,
+            cap.div_ceil(SCENE_IMAGE_WIDTH as usize) as u32,
+        )?;
+        commands.begin()?;
+        commands.image_layout(
+            &hit_image,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::GENERAL,
+        );
+        commands.submit_and_wait(ctx, "the hit image's layout", SUBMIT_TIMEOUT_S)?;
+        pipelines.bind_images(&[(Binding::HitImage, hit_image.view)]);
 
         Ok(RenderBuffers {
             frame,
@@ -392,7 +408,11 @@ impl RenderBuffers {
             .into_iter()
             .chain(chunks.into_iter().map(|(_, _, buffer, _)| buffer))
             .collect(),
-            _images: images.into_iter().map(|(_, image)| image).collect(),
+            _images: images
+                .into_iter()
+                .map(|(_, image)| image)
+                .chain([hit_image])
+                .collect(),
         })
     }
 }
