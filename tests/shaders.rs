@@ -191,7 +191,8 @@ fn descriptor_bindings_match_the_host_layout() {
                 AddressSpace::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
                 AddressSpace::Storage { .. } => vk::DescriptorType::STORAGE_BUFFER,
                 // The scene images: read-only 2-D storage images of RGBA32UI texels (the
-                // textures' R32UI), read by imageLoad.
+                // textures' R32UI), read by imageLoad; the hit records' image, which extend
+                // writes, read-write.
                 AddressSpace::Handle => match module.types[var.ty].inner {
                     TypeInner::Image {
                         dim: ImageDimension::D2,
@@ -204,10 +205,14 @@ fn descriptor_bindings_match_the_host_layout() {
                             StorageFormat::Rgba32Uint
                         };
                         assert_eq!(format, want, "{name}: binding {}'s format", rb.binding);
+                        let access_wanted = if *binding == Binding::HitImage {
+                            StorageAccess::LOAD | StorageAccess::STORE
+                        } else {
+                            StorageAccess::LOAD
+                        };
                         assert_eq!(
-                            access,
-                            StorageAccess::LOAD,
-                            "{name}: binding {} must be read-only",
+                            access, access_wanted,
+                            "{name}: binding {}'s access",
                             rb.binding
                         );
                         vk::DescriptorType::STORAGE_IMAGE

@@ -54,7 +54,9 @@ impl DeviceInfo {
     /// not.
     pub fn storage_shortfall(&self) -> Option<String> {
         let needed = super::pipelines::STORAGE_BUFFERS_ONE_BINDING;
-        let images = super::pipelines::SceneImage::ALL.len() as u32;
+        // The scene images and the wavefront's (the hit records').
+        let images =
+            super::pipelines::SceneImage::ALL.len() as u32 + super::pipelines::WAVEFRONT_IMAGES;
         if self.max_storage_buffers < needed {
             Some(format!(
                 "binds at most {} storage buffers per kernel; wavetrace needs {needed}",

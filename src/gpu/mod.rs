@@ -232,7 +232,12 @@ impl GpuRenderer {
             .max(size_of::<ShadowRay>())
             .max(size_of::<PathState>()) as u64;
         let groups = self.ctx.properties.limits.max_compute_work_group_count[0].min(65535) as u64;
-        (range / per_path).min(groups * crate::layout::WORKGROUP_SIZE as u64) as u32
+        // The hit records' image: a texel a path, in rows of SCENE_IMAGE_WIDTH.
+        let image_texels = memory::SCENE_IMAGE_WIDTH as u64
+            * self.ctx.properties.limits.max_image_dimension2_d as u64;
+        (range / per_path)
+            .min(groups * crate::layout::WORKGROUP_SIZE as u64)
+            .min(image_texels) as u32
     }
 
     /// Renders `settings.spp` samples of every pixel with at most `wavefront` paths in flight.

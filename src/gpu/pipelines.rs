@@ -534,8 +534,12 @@ pub struct Pipelines {
 }
 
 /// Storage buffers every wavefront kernel binds: all bindings but the frame's uniform buffer,
-/// the scene images and the hit records' image.
-pub const STORAGE_BUFFERS: u32 = (Binding::ALL.len() - 2 - 2 * SceneImage::ALL.len()) as u32;
+/// the scene images and the wavefront's images.
+pub const STORAGE_BUFFERS: u32 =
+    (Binding::ALL.len() - 1 - WAVEFRONT_IMAGES as usize - 2 * SceneImage::ALL.len()) as u32;
+
+/// The wavefront's own storage images: the hit records' (`Binding::HitImage`).
+pub const WAVEFRONT_IMAGES: u32 = 1;
 
 /// Storage buffers the kernels built with SCENE_ONE_BINDING bind: all but the further chunks.
 pub const STORAGE_BUFFERS_ONE_BINDING: u32 = STORAGE_BUFFERS - further_chunks();
