@@ -498,7 +498,7 @@ mod tests {
             driver: String::new(),
             usable,
             max_storage_buffers,
-            max_storage_images: 11,
+            max_storage_images: 12,
         };
         let (all, one) = (
             crate::gpu::pipelines::STORAGE_BUFFERS,
@@ -512,15 +512,15 @@ mod tests {
         assert!(device(true, one).renders());
         assert!(!device(true, one - 1).renders());
         assert!(!device(false, u32::MAX).renders());
-        // The scene images are storage images: eleven of them.
+        // The scene images are storage images, eleven of them, and the hit records' image.
         let few_images = DeviceInfo {
-            max_storage_images: 10,
+            max_storage_images: 11,
             ..device(true, all)
         };
         assert!(!few_images.renders());
         assert_eq!(
             few_images.storage_shortfall().as_deref(),
-            Some("binds at most 10 storage images per kernel; wavetrace needs 11")
+            Some("binds at most 11 storage images per kernel; wavetrace needs 12")
         );
     }
 }
