@@ -10,7 +10,8 @@ layout(std430, set = 0, binding = 4) readonly buffer Lights { LightEntry lights[
 layout(std430, set = 0, binding = 5) buffer Paths { PathState paths[]; };
 // Two queues of batch_size rays each, ping-ponged by depth & 1.
 layout(std430, set = 0, binding = 6) buffer Rays { QueuedRay rays[]; };
-layout(std430, set = 0, binding = 7) buffer Hits { HitRecord hits[]; };
+// The hit records' instances (the rest of a record is hit_image's texel; hit_store, hit_load).
+layout(std430, set = 0, binding = 7) buffer HitInstances { uint hit_instances[]; };
 layout(std430, set = 0, binding = 8) buffer Shadows { ShadowRay shadow_rays[]; };
 layout(std430, set = 0, binding = 9) buffer Film { FilmPixel film[]; };
 layout(std430, set = 0, binding = 10) buffer Counters { uint counters[]; };
@@ -88,11 +89,6 @@ layout(set = 0, binding = 49, r32ui) uniform readonly uimage2D texel_image;
 layout(set = 0, binding = 50, rgba32ui) uniform readonly uimage2D instance_image;
 layout(set = 0, binding = 51, rgba32ui) uniform readonly uimage2D texture_image;
 layout(set = 0, binding = 52, rgba32ui) uniform readonly uimage2D texture_ref_image;
-// The hit records' first 16 bytes (t, triangle, u, v), one texel a record at scene_texel_at(i):
-// extend stores them, the shade kernels load them (hit_store, hit_load); a texel is one call of
-// llvmpipe's image function for 8 lanes where four words of a storage buffer are a bounds-checked
-// load per lane and word. The instance, read only with a top level, stays in hits[].
-layout(set = 0, binding = 65, rgba32ui) uniform uimage2D hit_image;
 layout(set = 0, binding = 53, rgba32ui) uniform readonly uimage2D light_image;
 #extension GL_EXT_samplerless_texture_functions : require
 layout(set = 0, binding = 54) uniform utexture2D bvh_node_image_sampled;
@@ -106,6 +102,11 @@ layout(set = 0, binding = 61) uniform utexture2D instance_image_sampled;
 layout(set = 0, binding = 62) uniform utexture2D texture_image_sampled;
 layout(set = 0, binding = 63) uniform utexture2D texture_ref_image_sampled;
 layout(set = 0, binding = 64) uniform utexture2D light_image_sampled;
+// The hit records' first 16 bytes (t, triangle, u, v), one texel a record at scene_texel_at(i):
+// extend stores them, the shade kernels load them (hit_store, hit_load); a texel is one call of
+// llvmpipe's image function for 8 lanes where four words of a storage buffer are a bounds-checked
+// load per lane and word. The instance, read only with a top level, stays in hit_instances[].
+layout(set = 0, binding = 65, rgba32ui) uniform uimage2D hit_image;
 #define SCENE_SPLIT_BINDINGS
 #include "scene_arrays.glsl"
 layout(push_constant) uniform Push { DispatchParams params; };
@@ -130,17 +131,17 @@ uint queue_push_slot(uint counter) {
 }
 
 // Hit record i as extend stores it: t, triangle, u and v in the hit image's texel, the instance
-// in hits[] where there is a top level (without one it is 0 and never read).
+// in hit_instances[] where there is a top level (without one it is 0 and never read).
 void hit_store(uint i, HitRecord hit) {
     imageStore(hit_image, scene_texel_at(i),
                uvec4(floatBitsToUint(hit.t), hit.triangle, floatBitsToUint(hit.u), floatBitsToUint(hit.v)));
-    if (SCENE_HAS(FEATURE_TOP_LEVEL)) hits[i].instance = hit.instance;
+    if (SCENE_HAS(FEATURE_TOP_LEVEL)) hit_instances[i] = hit.instance;
 }
 
 // Hit record i as hit_store left it.
 HitRecord hit_load(uint i) {
     uvec4 h = imageLoad(hit_image, scene_texel_at(i));
-    uint instance = SCENE_HAS(FEATURE_TOP_LEVEL) ? hits[i].instance : 0u;
+    uint instance = SCENE_HAS(FEATURE_TOP_LEVEL) ? hit_instances[i] : 0u;
     return HitRecord(uintBitsToFloat(h.x), h.y, uintBitsToFloat(h.z), uintBitsToFloat(h.w), instance, 0u, 0u, 0u);
 }
 

@@ -22,7 +22,8 @@ pub enum Binding {
     Lights = 4,
     Paths = 5,
     Rays = 6,
-    Hits = 7,
+    /// The hit records' instances (their t, triangle, u and v are `HitImage`'s texels).
+    HitInstances = 7,
     Shadows = 8,
     Film = 9,
     Counters = 10,
@@ -108,7 +109,7 @@ impl Binding {
         Binding::Lights,
         Binding::Paths,
         Binding::Rays,
-        Binding::Hits,
+        Binding::HitInstances,
         Binding::Shadows,
         Binding::Film,
         Binding::Counters,

@@ -7,7 +7,7 @@ use super::memory::{Buffer, Commands, Image, Location, SCENE_IMAGE_WIDTH};
 use super::pipelines::{Binding, Pipelines, SceneImage, SceneSplit, SplitArray};
 use crate::environment::EnvironmentMap;
 use crate::layout::{
-    args, counter, BdptVertex, FilmPixel, FrameParams, HitRecord, PathState, QueuedRay, ShadowRay,
+    args, counter, BdptVertex, FilmPixel, FrameParams, PathState, QueuedRay, ShadowRay,
 };
 use crate::render::PreparedScene;
 use anyhow::{bail, Result};
@@ -209,7 +209,7 @@ impl RenderBuffers {
         let light_trails = device("light_trails", size_of_val(scene.light_trails.as_slice()))?;
         let paths = device("paths", cap * size_of::<PathState>())?;
         let rays = device("rays", 2 * cap * size_of::<QueuedRay>())?;
-        let hits = device("hits", cap * size_of::<HitRecord>())?;
+        let hit_instances = device("hit_instances", cap * size_of::<u32>())?;
         let shadows = device("shadow_rays", cap * size_of::<ShadowRay>())?;
         let film = device("film", film_bytes as usize)?;
         let counters = device("counters", 4 * counter::COUNT as usize)?;
@@ -261,7 +261,7 @@ impl RenderBuffers {
             (Binding::Lights, lights.buffer),
             (Binding::Paths, paths.buffer),
             (Binding::Rays, rays.buffer),
-            (Binding::Hits, hits.buffer),
+            (Binding::HitInstances, hit_instances.buffer),
             (Binding::Shadows, shadows.buffer),
             (Binding::Film, film.buffer),
             (Binding::Counters, counters.buffer),
@@ -392,7 +392,7 @@ impl RenderBuffers {
                 lights,
                 paths,
                 rays,
-                hits,
+                hit_instances,
                 shadows,
                 textures,
                 texture_refs,
