@@ -911,6 +911,59 @@ fn devices() -> Result<()> {
 }
 
 /// An option's value as the command line spells it.
+/// The host's processor as `bench` records it beside its figures: /proc/cpuinfo's first
+/// "model name" on Linux, else the architecture. Speed figures belong to a machine (a change of
+/// virtual machine from one processor to another moved this project's Cornell box figures by
+/// more than most changes do), so a `--baseline` from another processor is said to be one.
+fn host_cpu() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            info.lines()
+                .find_map(|l| l.strip_prefix("model name")?.split_once(':'))
+                .map(|(_, name)| name.trim().to_owned())
+        })
+        .filter(|name| !name.is_empty())
+        .unwrap_or_else(|| std::env::consts::ARCH.to_owned())
+}
+
+/// What differs between the machine of a `bench --json` document and this run's, as a notice
+/// (`None` where the processor, its threads and the GPU, where this run opened one, are the
+/// same): ratios against it then compare machines as well as builds.
+fn baseline_machine_notice(
+    doc: &serde_json::Value,
+    cpu: &str,
+    threads: usize,
+    gpu: Option<&str>,
+) -> Option<String> {
+    let their_cpu = doc["cpu"].as_str();
+    let their_threads = doc["cpu_threads"].as_u64();
+    let their_gpu = doc["gpu"].as_str();
+    let mut differs = Vec::new();
+    match their_cpu {
+        None => differs.push("it does not name its processor".to_owned()),
+        Some(c) if c != cpu => differs.push(format!("its processor was {c}, this one is {cpu}")),
+        Some(_) => {}
+    }
+    if their_threads.is_some_and(|t| t != threads as u64) {
+        differs.push(format!(
+            "it ran {} CPU threads, this run {threads}",
+            their_threads.unwrap()
+        ));
+    }
+    if let (Some(theirs), Some(ours)) = (their_gpu, gpu) {
+        if theirs != ours {
+            differs.push(format!("its GPU was {theirs}, this one is {ours}"));
+        }
+    }
+    (!differs.is_empty()).then(|| {
+        format!(
+            "note: the baseline's machine may not be this one ({}): its ratios compare the machines as well as the builds",
+            differs.join("; ")
+        )
+    })
+}
+
 fn value_name(v: &impl clap::ValueEnum) -> String {
     v.to_possible_value()
         .map_or(String::new(), |p| p.get_name().to_owned())
@@ -984,8 +1037,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
         Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
         Err(e) => format!("unavailable: {e:#}"),
     };
+    let cpu = host_cpu();
     println!(
-        "wavetrace bench ({:?} integrator, {sampler} sampler, {light_sampler} light sampler): {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {} threads",
+        "wavetrace bench ({:?} integrator, {sampler} sampler, {light_sampler} light sampler): {}×{} at {} spp, max depth {}; gpu = {gpu_name}; cpu = {cpu}, {} threads",
         settings.integrator,
         args.width,
         args.height,
@@ -1000,6 +1054,14 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 .with_context(|| format!("reading {}", file.display()))?;
             let v: serde_json::Value = serde_json::from_str(&text)
                 .with_context(|| format!("{}: not JSON", file.display()))?;
+            if let Some(notice) = baseline_machine_notice(
+                &v,
+                &cpu,
+                rayon::current_num_threads(),
+                gpu.is_ok().then_some(gpu_name.as_str()),
+            ) {
+                println!("{notice}");
+            }
             v["rows"]
                 .as_array()
                 .with_context(|| {
@@ -1144,6 +1206,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
             "spp": args.spp,
             "max_depth": args.max_depth,
             "gpu": gpu_name,
+            "cpu": cpu,
             "cpu_threads": rayon::current_num_threads(),
             "rows": json_rows,
         });
@@ -1194,7 +1257,8 @@ fn build_parts_ms(stats: &wavetrace::bvh::BvhStats) -> [f64; 3] {
 fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray, WideBvh};
     println!(
-        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {} threads",
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {}, {} threads",
+        host_cpu(),
         rayon::current_num_threads()
     );
     println!(
@@ -1320,6 +1384,7 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
     }
     if let Some(file) = json {
         let doc = serde_json::json!({
+            "cpu": host_cpu(),
             "cpu_threads": rayon::current_num_threads(),
             "rays": RAYS,
             "rows": rows,

@@ -370,11 +370,41 @@ fn bench_baseline_ratios_compare_rows_sampled_alike() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(doc["rows"][0]["sampler"], "independent", "{doc}");
     assert_eq!(doc["rows"][0]["light_sampler"], "power", "{doc}");
-    let (_, alike) = bench(&["--baseline", json.to_str().unwrap()]);
+    // The run's processor is recorded beside its figures.
+    let cpu = doc["cpu"].as_str().unwrap();
+    assert!(
+        !cpu.is_empty() && out.contains(&format!("cpu = {cpu}, ")),
+        "{doc}\n{out}"
+    );
+    let (same_machine, alike) = bench(&["--baseline", json.to_str().unwrap()]);
     assert_eq!(alike, 7);
-    // The committed baseline was sampled with the defaults: no ratio.
-    let (_, unlike) = bench(&["--baseline", "tools/bench-baseline.json"]);
+    assert!(
+        !same_machine.contains("note: the baseline's machine"),
+        "{same_machine}"
+    );
+    // The committed baseline was sampled with the defaults: no ratio; and it does not name its
+    // processor, which the run says.
+    let (other_machine, unlike) = bench(&["--baseline", "tools/bench-baseline.json"]);
     assert_eq!(unlike, 6);
+    assert!(
+        other_machine.contains(
+            "note: the baseline's machine may not be this one (it does not name its processor"
+        ),
+        "{other_machine}"
+    );
+    // A baseline from another processor is said to be one.
+    let mut moved = doc.clone();
+    moved["cpu"] = "another processor".into();
+    let moved_json = temp("bench-moved.json");
+    std::fs::write(&moved_json, moved.to_string()).unwrap();
+    let (moved_out, moved_cols) = bench(&["--baseline", moved_json.to_str().unwrap()]);
+    assert_eq!(moved_cols, 7);
+    assert!(
+        moved_out.contains(&format!(
+            "its processor was another processor, this one is {cpu}"
+        )),
+        "{moved_out}"
+    );
 }
 
 /// `bench --bvh` measures the three walks on the same seeded rays and writes them to JSON: the
