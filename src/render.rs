@@ -684,6 +684,10 @@ impl PreparedScene {
     /// the instance's space) → whether the surface is there (`present`).
     fn any_hit(&self, key: UVec4) -> impl Fn(u32, f32, f32, u32, Vec3) -> bool + '_ {
         let data = self.texture_data();
+        // Inlined into the walks: left to LLVM, the closest-hit walk called it per candidate hit
+        // (about 60 instructions a call; Cornell box 8 563 -> 8 470 instructions per sample
+        // sampling as Mitsuba does, tools/instructions.py).
+        #[inline(always)]
         move |i, u, v, k, dir| self.present(&data, i, u, v, instance_key(key, k), dir)
     }
 
