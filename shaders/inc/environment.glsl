@@ -3,6 +3,7 @@
 // src/environment.rs (conventions and sources there); reads env_texels (RGBE), env_marginal and env_conditional.
 #ifndef ENVIRONMENT_GLSL
 #define ENVIRONMENT_GLSL
+#include "convert.glsl"
 
 #define ENV_PI 3.14159265358979323846
 
@@ -52,11 +53,12 @@ vec3 env_radiance(vec3 d) {
     float tx = x - x0;
     float ty = y - y0;
     // x0 lies in [-1, w - 1] (GLSL's % is undefined for negative operands).
-    int i0 = int(x0);
+    ivec2 c0 = trunc_to_int(vec2(x0, y0));
+    int i0 = c0.x;
     if (i0 < 0) i0 += w;
     int i1 = (i0 + 1) % w;
-    int j0 = clamp(int(y0), 0, h - 1);
-    int j1 = clamp(int(y0) + 1, 0, h - 1);
+    int j0 = clamp(c0.y, 0, h - 1);
+    int j1 = clamp(c0.y + 1, 0, h - 1);
     vec3 top = mix(rgbe_decode(env_texels[j0 * w + i0]), rgbe_decode(env_texels[j0 * w + i1]), tx);
     vec3 bottom = mix(rgbe_decode(env_texels[j1 * w + i0]), rgbe_decode(env_texels[j1 * w + i1]), tx);
     return mix(top, bottom, ty) * frame.env_scale;
@@ -98,8 +100,9 @@ float env_pdf(vec3 d) {
     float sin_theta;
     vec2 uv = env_direction_uv(d, sin_theta);
     if (!(sin_theta > 0.0)) return 0.0;
-    uint j = min(uint(uv.y * float(h)), h - 1u);
-    uint i = min(uint(uv.x * float(w)), w - 1u);
+    uvec2 ji = uvec2(trunc_to_int(vec2(uv.y * float(h), uv.x * float(w))));
+    uint j = min(ji.x, h - 1u);
+    uint i = min(ji.y, w - 1u);
     float pdf_v = (env_marginal[j] - env_marginal_start(j)) * float(h);
     float pdf_u = (env_conditional_end(j, i) - env_conditional_start(j, i)) * float(w);
     return pdf_v * pdf_u / (2.0 * float(ENV_PI) * float(ENV_PI) * sin_theta);

@@ -4,6 +4,7 @@
 #ifndef LIGHT_TRACING_GLSL
 #define LIGHT_TRACING_GLSL
 #include "scene_arrays.glsl"
+#include "convert.glsl"
 
 // Alpha-test keys of light subpaths and of their connections (src/cpu/bidir.rs).
 #define ALPHA_LIGHT_WALK (1u << 20)
@@ -24,7 +25,8 @@ bool camera_importance(vec3 dir, out uint pixel, out float we, out float pdf) {
     float px = (sx + 1.0) * 0.5 * float(frame.width);
     float py = (1.0 - sy) * 0.5 * float(frame.height);
     if (!(px >= 0.0 && px < float(frame.width) && py >= 0.0 && py < float(frame.height))) return false;
-    pixel = min(uint(py), frame.height - 1u) * frame.width + min(uint(px), frame.width - 1u);
+    uvec2 at = uvec2(trunc_to_int(vec2(py, px)));
+    pixel = min(at.x, frame.height - 1u) * frame.width + min(at.y, frame.width - 1u);
     float film_area = 4.0 * t * t * frame.aspect;
     pdf = 1.0 / (film_area * c * c * c);
     we = pdf / c;

@@ -1,6 +1,7 @@
 // Warps with their pdfs (measure named) and inverses: twin of src/sampling.rs.
 #ifndef SAMPLING_GLSL
 #define SAMPLING_GLSL
+#include "convert.glsl"
 
 #define PI 3.14159265358979323846
 #define INV_PI 0.31830988618379067154
@@ -83,12 +84,12 @@ void build_frame(vec3 n, out vec3 t, out vec3 b) {
 }
 
 // Moves p off its surface along n, the side the new ray leaves to (Waechter & Binder, Ray
-// Tracing Gems, ch. 6).
+// Tracing Gems, ch. 6). n is a unit normal, so int_scale * n is within trunc_to_int's range.
 vec3 offset_ray_origin(vec3 p, vec3 n) {
     const float origin = 1.0 / 32.0;
     const float float_scale = 1.0 / 65536.0;
     const float int_scale = 256.0;
-    ivec3 of_i = ivec3(int_scale * n);
+    ivec3 of_i = trunc_to_int(int_scale * n);
     vec3 p_i = intBitsToFloat(floatBitsToInt(p) + ivec3(p.x < 0.0 ? -of_i.x : of_i.x,
                                                        p.y < 0.0 ? -of_i.y : of_i.y,
                                                        p.z < 0.0 ? -of_i.z : of_i.z));

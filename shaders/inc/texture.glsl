@@ -3,6 +3,7 @@
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
 #include "scene_arrays.glsl"
+#include "convert.glsl"
 
 // The sRGB transfer function's inverse (IEC 61966-2-1), per channel.
 float srgb_to_linear(float c) {
@@ -67,8 +68,8 @@ vec4 texture_sample_level(GpuTexture t, uint level, vec2 uv, bool linear) {
     float fy = 0.0;
     uint taps = 1u;
     if (!linear) {
-        i = ivec2(wrap_texel(int(floor(x)), wi, t.wrap_s));
-        j = ivec2(wrap_texel(int(floor(y)), hi, t.wrap_t));
+        i = ivec2(wrap_texel(trunc_to_int(floor(x)), wi, t.wrap_s));
+        j = ivec2(wrap_texel(trunc_to_int(floor(y)), hi, t.wrap_t));
     } else {
         x -= 0.5;
         y -= 0.5;
@@ -76,8 +77,9 @@ vec4 texture_sample_level(GpuTexture t, uint level, vec2 uv, bool linear) {
         float y0 = floor(y);
         fx = x - x0;
         fy = y - y0;
-        i = ivec2(wrap_texel(int(x0), wi, t.wrap_s), wrap_texel(int(x0) + 1, wi, t.wrap_s));
-        j = ivec2(wrap_texel(int(y0), hi, t.wrap_t), wrap_texel(int(y0) + 1, hi, t.wrap_t));
+        ivec2 c0 = trunc_to_int(vec2(x0, y0));
+        i = ivec2(wrap_texel(c0.x, wi, t.wrap_s), wrap_texel(c0.x + 1, wi, t.wrap_s));
+        j = ivec2(wrap_texel(c0.y, hi, t.wrap_t), wrap_texel(c0.y + 1, hi, t.wrap_t));
         taps = 4u;
     }
     // (Named taps, not an array: llvmpipe keeps a dynamically indexed array in memory.)
@@ -122,12 +124,12 @@ vec4 texture_sample_lod(GpuTexture t, vec2 uv, float lod) {
         linear = minf == MIN_LINEAR_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_LINEAR;
         float top = float(t.levels - 1u);
         if (minf == MIN_NEAREST_MIPMAP_NEAREST || minf == MIN_LINEAR_MIPMAP_NEAREST) {
-            level.x = uint(min(floor(lod + 0.5), top));
+            level.x = trunc_to_uint(min(floor(lod + 0.5), top));
         } else {
             float l0 = min(floor(lod), top);
             float l1 = min(l0 + 1.0, top);
             f = clamp(lod - l0, 0.0, 1.0);
-            level = uvec2(uint(l0), uint(l1));
+            level = uvec2(trunc_to_int(vec2(l0, l1)));
             count = 2u;
         }
     }
