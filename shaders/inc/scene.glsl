@@ -2,6 +2,7 @@
 // (camera rays: camera.glsl).
 #ifndef SCENE_GLSL
 #define SCENE_GLSL
+#include "convert.glsl"
 
 // Pixel and sample index of path i of the current batch (src/layout.rs, DispatchParams). The
 // batch's paths go round the band's pixels in order or, in a pass of an adaptive render, round
@@ -9,12 +10,15 @@
 // number of samples, so sample = the pass's first sample + the round).
 void path_pixel_sample(uint i, out uint pixel, out uint sample_index) {
     uint local_index = params.first_pixel + i;
+    // A batch holds fewer than 2^22 rounds of the pixels (src/gpu/mod.rs, max_wavefront).
     if (frame.active_pixel_count == 0u) {
-        pixel = frame.band_first_pixel + local_index % frame.band_pixel_count;
-        sample_index = params.first_sample + local_index / frame.band_pixel_count;
+        uvec2 qr = div_mod(local_index, frame.band_pixel_count);
+        pixel = frame.band_first_pixel + qr.y;
+        sample_index = params.first_sample + qr.x;
     } else {
-        pixel = frame.band_first_pixel + active_pixels[local_index % frame.active_pixel_count];
-        sample_index = params.first_sample + local_index / frame.active_pixel_count;
+        uvec2 qr = div_mod(local_index, frame.active_pixel_count);
+        pixel = frame.band_first_pixel + active_pixels[qr.y];
+        sample_index = params.first_sample + qr.x;
     }
 }
 

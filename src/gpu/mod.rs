@@ -235,9 +235,12 @@ impl GpuRenderer {
         // The hit records' image: a texel a path, in rows of SCENE_IMAGE_WIDTH.
         let image_texels = memory::SCENE_IMAGE_WIDTH as u64
             * self.ctx.properties.limits.max_image_dimension2_d as u64;
+        // path_pixel_sample's div_mod (convert.glsl) needs a batch's rounds of its pixels below
+        // 2^22.
         (range / per_path)
             .min(groups * crate::layout::WORKGROUP_SIZE as u64)
-            .min(image_texels) as u32
+            .min(image_texels)
+            .min((1 << 22) - 2) as u32
     }
 
     /// Renders `settings.spp` samples of every pixel with at most `wavefront` paths in flight.
