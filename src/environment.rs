@@ -293,7 +293,7 @@ pub fn env_radiance(map: &EnvironmentMap, frame: &FrameParams, d: Vec3) -> Vec3 
     let (x0, y0) = (x.floor(), y.floor());
     let (tx, ty) = (x - x0, y - y0);
     let i0 = (x0 as i32).rem_euclid(w);
-    let i1 = (i0 + 1) % w;
+    let i1 = if i0 + 1 == w { 0 } else { i0 + 1 }; // (i0 + 1) mod w, i0 in [0, w)
     let j0 = (y0 as i32).clamp(0, h - 1);
     let j1 = (y0 as i32 + 1).clamp(0, h - 1);
     let texel = |i: i32, j: i32| rgbe_decode(map.texels[(j * w + i) as usize]);

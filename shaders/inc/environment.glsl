@@ -56,7 +56,7 @@ vec3 env_radiance(vec3 d) {
     ivec2 c0 = trunc_to_int(vec2(x0, y0));
     int i0 = c0.x;
     if (i0 < 0) i0 += w;
-    int i1 = (i0 + 1) % w;
+    int i1 = i0 + 1 == w ? 0 : i0 + 1;  // (i0 + 1) mod w, i0 in [0, w)
     int j0 = clamp(c0.y, 0, h - 1);
     int j1 = clamp(c0.y + 1, 0, h - 1);
     vec3 top = mix(rgbe_decode(env_texels[j0 * w + i0]), rgbe_decode(env_texels[j0 * w + i1]), tx);
