@@ -910,7 +910,6 @@ fn devices() -> Result<()> {
     Ok(())
 }
 
-/// An option's value as the command line spells it.
 /// The host's processor as `bench` records it beside its figures: /proc/cpuinfo's first
 /// "model name" on Linux, else the architecture. Speed figures belong to a machine (a change of
 /// virtual machine from one processor to another moved this project's Cornell box figures by
@@ -945,11 +944,8 @@ fn baseline_machine_notice(
         Some(c) if c != cpu => differs.push(format!("its processor was {c}, this one is {cpu}")),
         Some(_) => {}
     }
-    if their_threads.is_some_and(|t| t != threads as u64) {
-        differs.push(format!(
-            "it ran {} CPU threads, this run {threads}",
-            their_threads.unwrap()
-        ));
+    if let Some(t) = their_threads.filter(|&t| t != threads as u64) {
+        differs.push(format!("it ran {t} CPU threads, this run {threads}"));
     }
     if let (Some(theirs), Some(ours)) = (their_gpu, gpu) {
         if theirs != ours {
@@ -964,6 +960,7 @@ fn baseline_machine_notice(
     })
 }
 
+/// An option's value as the command line spells it.
 fn value_name(v: &impl clap::ValueEnum) -> String {
     v.to_possible_value()
         .map_or(String::new(), |p| p.get_name().to_owned())
@@ -1256,9 +1253,9 @@ fn build_parts_ms(stats: &wavetrace::bvh::BvhStats) -> [f64; 3] {
 /// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
 fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray, WideBvh};
+    let cpu = host_cpu();
     println!(
-        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {}, {} threads",
-        host_cpu(),
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {cpu}, {} threads",
         rayon::current_num_threads()
     );
     println!(
@@ -1384,7 +1381,7 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
     }
     if let Some(file) = json {
         let doc = serde_json::json!({
-            "cpu": host_cpu(),
+            "cpu": cpu,
             "cpu_threads": rayon::current_num_threads(),
             "rays": RAYS,
             "rows": rows,

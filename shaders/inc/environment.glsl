@@ -52,7 +52,7 @@ vec3 env_radiance(vec3 d) {
     float y0 = floor(y);
     float tx = x - x0;
     float ty = y - y0;
-    // x0 lies in [-1, w - 1] (GLSL's % is undefined for negative operands).
+    // x0 lies in [-1, w - 1]: one step wraps it.
     ivec2 c0 = trunc_to_int(vec2(x0, y0));
     int i0 = c0.x;
     if (i0 < 0) i0 += w;
