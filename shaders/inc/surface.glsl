@@ -107,31 +107,76 @@ vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
 
 #define LOD_MAGNIFY vec2(-1e30)
 
-// The emitted radiance factor at the point: emissive factor × texture, × the vertex colour for
-// an unlit material (src/surface.rs).
-vec3 surface_emission(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    vec3 e = m.emission;
-    if ((m.flags & MATERIAL_UNLIT) != 0u) e *= sp.color.xyz;
-    if (!HAS_TEXTURE(m.emissive_texture)) return e;
-    return e * sample_texture_ref(m.emissive_texture, sp.uv0, sp.uv1, lod).xyz;
-}
+// The textures a material can name, as the slots of surface_textures, in the order it applies
+// them: the coat's factor before the coat's normal map, which only a coat reads.
+#define TEXTURE_SLOT_EMISSIVE 0u
+#define TEXTURE_SLOT_CLEARCOAT 1u
+#define TEXTURE_SLOT_BASE_COLOR 2u
+#define TEXTURE_SLOT_METALLIC_ROUGHNESS 3u
+#define TEXTURE_SLOT_TRANSMISSION 4u
+#define TEXTURE_SLOT_SPECULAR 5u
+#define TEXTURE_SLOT_SPECULAR_COLOR 6u
+#define TEXTURE_SLOT_CLEARCOAT_ROUGHNESS 7u
+#define TEXTURE_SLOT_SHEEN_COLOR 8u
+#define TEXTURE_SLOT_SHEEN_ROUGHNESS 9u
+#define TEXTURE_SLOT_IRIDESCENCE 10u
+#define TEXTURE_SLOT_IRIDESCENCE_THICKNESS 11u
+#define TEXTURE_SLOT_DIFFUSE_TRANSMISSION 12u
+#define TEXTURE_SLOT_DIFFUSE_TRANSMISSION_COLOR 13u
+#define TEXTURE_SLOT_CLEARCOAT_NORMAL 14u
+#define TEXTURE_SLOT_ANISOTROPY 15u
+#define TEXTURE_SLOT_NORMAL 16u
+// The slots an emitter's material reads (surface_emitter), and every slot but the normal map's.
+#define TEXTURE_SLOTS_EMITTER ((1u << TEXTURE_SLOT_EMISSIVE) | (1u << TEXTURE_SLOT_CLEARCOAT))
+#define TEXTURE_SLOTS_MATERIAL ((1u << TEXTURE_SLOT_NORMAL) - 1u)
+#define TEXTURE_SLOTS_ALL ((1u << (TEXTURE_SLOT_NORMAL + 1u)) - 1u)
 
-// Whether surface_emitter reads the point: an emissive or clearcoat texture, or an unlit
-// material's vertex colour; else the emitter is the material's own factors (src/surface.rs).
-bool emitter_reads_surface(GpuMaterial m) {
-    return HAS_TEXTURE(m.emissive_texture) || HAS_TEXTURE(m.clearcoat_texture)
-        || (m.flags & MATERIAL_UNLIT) != 0u;
-}
-
-// An emitter's material at a point as emitted_radiance reads it: the emission and the coat's
-// clearcoat x R of its texture (src/surface.rs, surface_emitter).
-GpuMaterial surface_emitter(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    GpuMaterial o = m;
-    o.emission = surface_emission(m, sp, lod);
-    if (HAS_TEXTURE(m.clearcoat_texture)) {
-        o.clearcoat *= sample_texture_ref(m.clearcoat_texture, sp.uv0, sp.uv1, lod).x;
+// The texture reference in slot `slot` of material m.
+uint material_texture(GpuMaterial m, uint slot) {
+    switch (slot) {
+    case TEXTURE_SLOT_EMISSIVE: return m.emissive_texture;
+    case TEXTURE_SLOT_CLEARCOAT: return m.clearcoat_texture;
+    case TEXTURE_SLOT_BASE_COLOR: return m.base_color_texture;
+    case TEXTURE_SLOT_METALLIC_ROUGHNESS: return m.metallic_roughness_texture;
+    case TEXTURE_SLOT_TRANSMISSION: return m.transmission_texture;
+    case TEXTURE_SLOT_SPECULAR: return m.specular_texture;
+    case TEXTURE_SLOT_SPECULAR_COLOR: return m.specular_color_texture;
+    case TEXTURE_SLOT_CLEARCOAT_ROUGHNESS: return m.clearcoat_roughness_texture;
+    case TEXTURE_SLOT_SHEEN_COLOR: return m.sheen_color_texture;
+    case TEXTURE_SLOT_SHEEN_ROUGHNESS: return m.sheen_roughness_texture;
+    case TEXTURE_SLOT_IRIDESCENCE: return m.iridescence_texture;
+    case TEXTURE_SLOT_IRIDESCENCE_THICKNESS: return m.iridescence_thickness_texture;
+    case TEXTURE_SLOT_DIFFUSE_TRANSMISSION: return m.diffuse_transmission_texture;
+    case TEXTURE_SLOT_DIFFUSE_TRANSMISSION_COLOR: return m.diffuse_transmission_color_texture;
+    case TEXTURE_SLOT_CLEARCOAT_NORMAL: return m.clearcoat_normal_texture;
+    case TEXTURE_SLOT_ANISOTROPY: return m.anisotropy_texture;
+    default: return m.normal_texture;
     }
-    return o;
+}
+
+#define TEXTURE_SLOT_BIT(t, slot) ((t) != NO_TEXTURE ? 1u << (slot) : 0u)
+// The slots of `slots` in which material m has a texture (bit s for slot s); none in kernels
+// made without textures. The anisotropy's texture is read only where there is anisotropy.
+uint material_texture_slots(GpuMaterial m, uint slots) {
+    if (!SCENE_HAS(FEATURE_TEXTURES)) return 0u;
+    uint present = TEXTURE_SLOT_BIT(m.emissive_texture, TEXTURE_SLOT_EMISSIVE)
+        | TEXTURE_SLOT_BIT(m.clearcoat_texture, TEXTURE_SLOT_CLEARCOAT)
+        | TEXTURE_SLOT_BIT(m.base_color_texture, TEXTURE_SLOT_BASE_COLOR)
+        | TEXTURE_SLOT_BIT(m.metallic_roughness_texture, TEXTURE_SLOT_METALLIC_ROUGHNESS)
+        | TEXTURE_SLOT_BIT(m.transmission_texture, TEXTURE_SLOT_TRANSMISSION)
+        | TEXTURE_SLOT_BIT(m.specular_texture, TEXTURE_SLOT_SPECULAR)
+        | TEXTURE_SLOT_BIT(m.specular_color_texture, TEXTURE_SLOT_SPECULAR_COLOR)
+        | TEXTURE_SLOT_BIT(m.clearcoat_roughness_texture, TEXTURE_SLOT_CLEARCOAT_ROUGHNESS)
+        | TEXTURE_SLOT_BIT(m.sheen_color_texture, TEXTURE_SLOT_SHEEN_COLOR)
+        | TEXTURE_SLOT_BIT(m.sheen_roughness_texture, TEXTURE_SLOT_SHEEN_ROUGHNESS)
+        | TEXTURE_SLOT_BIT(m.iridescence_texture, TEXTURE_SLOT_IRIDESCENCE)
+        | TEXTURE_SLOT_BIT(m.iridescence_thickness_texture, TEXTURE_SLOT_IRIDESCENCE_THICKNESS)
+        | TEXTURE_SLOT_BIT(m.diffuse_transmission_texture, TEXTURE_SLOT_DIFFUSE_TRANSMISSION)
+        | TEXTURE_SLOT_BIT(m.diffuse_transmission_color_texture, TEXTURE_SLOT_DIFFUSE_TRANSMISSION_COLOR)
+        | TEXTURE_SLOT_BIT(m.clearcoat_normal_texture, TEXTURE_SLOT_CLEARCOAT_NORMAL)
+        | (m.anisotropy > 0.0 ? TEXTURE_SLOT_BIT(m.anisotropy_texture, TEXTURE_SLOT_ANISOTROPY) : 0u)
+        | TEXTURE_SLOT_BIT(m.normal_texture, TEXTURE_SLOT_NORMAL);
+    return present & slots;
 }
 
 // The unit tangent and bitangent of the point's tangent frame: TANGENT made orthogonal to the
@@ -147,17 +192,31 @@ bool surface_tangent_frame(SurfacePoint sp, out vec3 t, out vec3 b) {
     return true;
 }
 
+// The interpolated normal perturbed by a tangent-space normal map's texel, XY scaled by `scale`
+// (surface_mapped_normal): the base's and the clearcoat's maps.
+vec3 surface_mapped_normal(vec4 texel, float scale, SurfacePoint sp) {
+    vec3 n = sp.ns;
+    vec3 t, b;
+    if (!surface_tangent_frame(sp, t, b)) return n;
+    float x = (2.0 * texel.x - 1.0) * scale;
+    float y = (2.0 * texel.y - 1.0) * scale;
+    float z = 2.0 * texel.z - 1.0;
+    vec3 mapped = t * x + b * y + n * z;
+    float len = length(mapped);
+    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
+}
+
 // KHR_materials_anisotropy at the point (surface.rs, surface_anisotropy): the strength and the
 // world direction of alpha_t, T d.x + B d.y with d the texture's RG in [-1, 1]^2 (else (1, 0))
-// rotated by anisotropyRotation; strength 0 where the tangent frame is degenerate.
-float surface_anisotropy(GpuMaterial m, SurfacePoint sp, vec2 lod, out vec3 direction) {
+// rotated by anisotropyRotation; strength 0 where the tangent frame is degenerate. `texel` is
+// the anisotropy texture's where `textured`.
+float surface_anisotropy(GpuMaterial m, SurfacePoint sp, bool textured, vec4 texel, out vec3 direction) {
     vec3 t, b;
     direction = vec3(0.0);
     if (!surface_tangent_frame(sp, t, b)) return 0.0;
     vec2 d = vec2(1.0, 0.0);
     float strength = m.anisotropy;
-    if (HAS_TEXTURE(m.anisotropy_texture)) {
-        vec4 texel = sample_texture_ref(m.anisotropy_texture, sp.uv0, sp.uv1, lod);
+    if (textured) {
         d = 2.0 * texel.xy - vec2(1.0);
         strength *= texel.z;
     }
@@ -168,78 +227,111 @@ float surface_anisotropy(GpuMaterial m, SurfacePoint sp, vec2 lod, out vec3 dire
     return strength;
 }
 
-// The interpolated normal perturbed by tangent-space normal map `tex` (or NO_TEXTURE), XY scaled
-// by `scale` (surface_mapped_normal): the base's and the clearcoat's maps.
-vec3 surface_mapped_normal(uint tex, float scale, SurfacePoint sp, vec2 lod) {
-    if (!HAS_TEXTURE(tex)) return sp.ns;
-    vec3 n = sp.ns;
-    vec3 t, b;
-    if (!surface_tangent_frame(sp, t, b)) return n;
-    vec4 texel = sample_texture_ref(tex, sp.uv0, sp.uv1, lod);
-    float x = (2.0 * texel.x - 1.0) * scale;
-    float y = (2.0 * texel.y - 1.0) * scale;
-    float z = 2.0 * texel.z - 1.0;
-    vec3 mapped = t * x + b * y + n * z;
-    float len = length(mapped);
-    return (len > 1e-12 && !isinf(len)) ? mapped / len : n;
+// Reads the textures of m in the slots `present` names (material_texture_slots) at the point and
+// applies each to o (its base colour and alpha to `base`; the coat's normal map only under a
+// coat), keeping the anisotropy's and the normal map's texels for the caller. One rolled loop
+// over the slots, so that a kernel holds one copy of the texture lookup where a lookup per slot
+// (as src/surface.rs writes them) made llvmpipe compile seventeen: compiling `shade` for a
+// textured scene took lavapipe 17 s (DamagedHelmet) to 58 s (a scene whose texels span several
+// bindings), which every render of such a scene paid until Mesa's shader cache held it.
+void surface_textures(GpuMaterial m, SurfacePoint sp, vec2 lod, uint present, inout GpuMaterial o,
+                      inout vec4 base, out vec4 anisotropy, out vec4 normal) {
+    anisotropy = vec4(0.0);
+    normal = vec4(0.0);
+    if (present != 0u) do {
+        uint s = uint(findLSB(present));
+        present &= present - 1u;
+        if (s != TEXTURE_SLOT_CLEARCOAT_NORMAL || o.clearcoat > 0.0) {
+            vec4 v = sample_texture_ref(material_texture(m, s), sp.uv0, sp.uv1, lod);
+            if (s == TEXTURE_SLOT_EMISSIVE) o.emission = o.emission * v.xyz;
+            else if (s == TEXTURE_SLOT_CLEARCOAT) o.clearcoat *= v.x;
+            else if (s == TEXTURE_SLOT_BASE_COLOR) base *= v;
+            else if (s == TEXTURE_SLOT_METALLIC_ROUGHNESS) {
+                o.metallic *= v.z;
+                o.roughness *= v.y;
+            }
+            else if (s == TEXTURE_SLOT_TRANSMISSION) o.transmission *= v.x;
+            else if (s == TEXTURE_SLOT_SPECULAR) o.specular *= v.w;
+            else if (s == TEXTURE_SLOT_SPECULAR_COLOR) o.specular_color = m.specular_color * v.xyz;
+            else if (s == TEXTURE_SLOT_CLEARCOAT_ROUGHNESS) o.clearcoat_roughness *= v.y;
+            else if (s == TEXTURE_SLOT_SHEEN_COLOR) o.sheen_color = m.sheen_color * v.xyz;
+            else if (s == TEXTURE_SLOT_SHEEN_ROUGHNESS) o.sheen_roughness *= v.w;
+            else if (s == TEXTURE_SLOT_IRIDESCENCE) o.iridescence *= v.x;
+            else if (s == TEXTURE_SLOT_IRIDESCENCE_THICKNESS) {
+                o.iridescence_thickness = mix(m.iridescence_thickness_min, m.iridescence_thickness, v.y);
+            }
+            else if (s == TEXTURE_SLOT_DIFFUSE_TRANSMISSION) o.diffuse_transmission *= v.w;
+            else if (s == TEXTURE_SLOT_DIFFUSE_TRANSMISSION_COLOR) {
+                o.diffuse_transmission_color = m.diffuse_transmission_color * v.xyz;
+            }
+            else if (s == TEXTURE_SLOT_CLEARCOAT_NORMAL) {
+                o.clearcoat_normal = surface_mapped_normal(v, m.clearcoat_normal_scale, sp);
+            }
+            else if (s == TEXTURE_SLOT_ANISOTROPY) anisotropy = v;
+            else normal = v;
+        }
+    } while (present != 0u);
 }
 
-// The shading normal with the normal map applied (unit, not flipped).
-vec3 surface_normal(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    return surface_mapped_normal(m.normal_texture, m.normal_scale, sp, lod);
+// The emitted radiance factor before textures: emissive factor, x the vertex colour for an
+// unlit material (src/surface.rs, surface_emission, whose emissive texture surface_textures
+// applies).
+vec3 surface_emission_factor(GpuMaterial m, SurfacePoint sp) {
+    vec3 e = m.emission;
+    if ((m.flags & MATERIAL_UNLIT) != 0u) e *= sp.color.xyz;
+    return e;
 }
 
-// Material m at the surface point: factors times textures times vertex colour.
+// Whether surface_emitter reads the point: an emissive or clearcoat texture, or an unlit
+// material's vertex colour; else the emitter is the material's own factors (src/surface.rs).
+bool emitter_reads_surface(GpuMaterial m) {
+    return HAS_TEXTURE(m.emissive_texture) || HAS_TEXTURE(m.clearcoat_texture)
+        || (m.flags & MATERIAL_UNLIT) != 0u;
+}
 
-GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
-    // The emission and the coat's factor, as emitters read them.
-    GpuMaterial o = surface_emitter(m, sp, lod);
+// An emitter's material at a point as emitted_radiance reads it: the emission and the coat's
+// clearcoat x R of its texture (src/surface.rs, surface_emitter).
+GpuMaterial surface_emitter(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    GpuMaterial o = m;
+    o.emission = surface_emission_factor(m, sp);
+    vec4 base = vec4(0.0);
+    vec4 anisotropy, normal;
+    surface_textures(m, sp, lod, material_texture_slots(m, TEXTURE_SLOTS_EMITTER), o, base, anisotropy, normal);
+    return o;
+}
+
+// Material m at the surface point (factors times textures times vertex colour) and, where `slots`
+// holds the normal map's, its shading normal: the interpolated normal with the normal map applied
+// (unit, not flipped; else the interpolated normal). src/surface.rs's surface_material and
+// surface_normal, their textures read by one loop (surface_textures).
+GpuMaterial surface_material_slots(GpuMaterial m, SurfacePoint sp, vec2 lod, uint slots, out vec3 ns) {
+    GpuMaterial o = m;
+    o.emission = surface_emission_factor(m, sp);
     vec4 base = vec4(m.base_color, m.alpha) * sp.color;
-    if (HAS_TEXTURE(m.base_color_texture)) base *= sample_texture_ref(m.base_color_texture, sp.uv0, sp.uv1, lod);
+    vec4 anisotropy, normal;
+    surface_textures(m, sp, lod, material_texture_slots(m, slots), o, base, anisotropy, normal);
     o.base_color = base.xyz;
     o.alpha = base.w;
-    if (HAS_TEXTURE(m.metallic_roughness_texture)) {
-        vec4 mr = sample_texture_ref(m.metallic_roughness_texture, sp.uv0, sp.uv1, lod);
-        o.metallic *= mr.z;
-        o.roughness *= mr.y;
+    // The coat's normal: its own map (applied above), else the interpolated normal (0: the
+    // base's shading normal).
+    if (o.clearcoat > 0.0 && !HAS_TEXTURE(m.clearcoat_normal_texture) && HAS_TEXTURE(m.normal_texture)) {
+        o.clearcoat_normal = sp.ns;
     }
-    if (HAS_TEXTURE(m.transmission_texture)) {
-        o.transmission *= sample_texture_ref(m.transmission_texture, sp.uv0, sp.uv1, lod).x;
+    if (m.anisotropy > 0.0) {
+        o.anisotropy = surface_anisotropy(m, sp, HAS_TEXTURE(m.anisotropy_texture), anisotropy, o.anisotropy_direction);
     }
-    if (HAS_TEXTURE(m.specular_texture)) {
-        o.specular *= sample_texture_ref(m.specular_texture, sp.uv0, sp.uv1, lod).w;
-    }
-    if (HAS_TEXTURE(m.specular_color_texture)) {
-        o.specular_color = m.specular_color * sample_texture_ref(m.specular_color_texture, sp.uv0, sp.uv1, lod).xyz;
-    }
-    if (HAS_TEXTURE(m.clearcoat_roughness_texture)) {
-        o.clearcoat_roughness *= sample_texture_ref(m.clearcoat_roughness_texture, sp.uv0, sp.uv1, lod).y;
-    }
-    if (HAS_TEXTURE(m.sheen_color_texture)) {
-        o.sheen_color = m.sheen_color * sample_texture_ref(m.sheen_color_texture, sp.uv0, sp.uv1, lod).xyz;
-    }
-    if (HAS_TEXTURE(m.sheen_roughness_texture)) {
-        o.sheen_roughness *= sample_texture_ref(m.sheen_roughness_texture, sp.uv0, sp.uv1, lod).w;
-    }
-    // The coat's normal: its own map, else the interpolated normal (0: the base's shading normal).
-    if (o.clearcoat > 0.0 && (HAS_TEXTURE(m.clearcoat_normal_texture) || HAS_TEXTURE(m.normal_texture))) {
-        o.clearcoat_normal = surface_mapped_normal(m.clearcoat_normal_texture, m.clearcoat_normal_scale, sp, lod);
-    }
-    if (HAS_TEXTURE(m.iridescence_texture)) {
-        o.iridescence *= sample_texture_ref(m.iridescence_texture, sp.uv0, sp.uv1, lod).x;
-    }
-    if (HAS_TEXTURE(m.iridescence_thickness_texture)) {
-        float g = sample_texture_ref(m.iridescence_thickness_texture, sp.uv0, sp.uv1, lod).y;
-        o.iridescence_thickness = mix(m.iridescence_thickness_min, m.iridescence_thickness, g);
-    }
-    if (HAS_TEXTURE(m.diffuse_transmission_texture)) {
-        o.diffuse_transmission *= sample_texture_ref(m.diffuse_transmission_texture, sp.uv0, sp.uv1, lod).w;
-    }
-    if (HAS_TEXTURE(m.diffuse_transmission_color_texture)) {
-        o.diffuse_transmission_color = m.diffuse_transmission_color * sample_texture_ref(m.diffuse_transmission_color_texture, sp.uv0, sp.uv1, lod).xyz;
-    }
-    if (m.anisotropy > 0.0) o.anisotropy = surface_anisotropy(m, sp, lod, o.anisotropy_direction);
+    ns = HAS_TEXTURE(m.normal_texture) ? surface_mapped_normal(normal, m.normal_scale, sp) : sp.ns;
     return o;
+}
+
+GpuMaterial surface_material_normal(GpuMaterial m, SurfacePoint sp, vec2 lod, out vec3 ns) {
+    return surface_material_slots(m, sp, lod, TEXTURE_SLOTS_ALL, ns);
+}
+
+// Material m at the surface point, without the normal map (src/surface.rs, surface_material).
+GpuMaterial surface_material(GpuMaterial m, SurfacePoint sp, vec2 lod) {
+    vec3 ns;
+    return surface_material_slots(m, sp, lod, TEXTURE_SLOTS_MATERIAL, ns);
 }
 
 float alpha_random(uvec4 key, uint triangle) {

@@ -69,10 +69,11 @@ void main() {
     outputs[o + 4u] = vec4(sp.uv0, sp.uv1);
     GpuMaterial m = materials[mat_index];
     vec2 lod_sp = surface_lod_base(sp, in5.w, dot(sp.ng, wo));
-    GpuMaterial e = surface_material(m, sp, lod_sp);
+    vec3 e_ns;
+    GpuMaterial e = surface_material_normal(m, sp, lod_sp, e_ns);
     outputs[o + 5u] = vec4(e.base_color, e.alpha);
     outputs[o + 6u] = vec4(e.metallic, e.roughness, e.emission.x, e.transmission);
-    outputs[o + 7u] = vec4(surface_normal(m, sp, lod_sp), alpha_random(key, tri_index));
+    outputs[o + 7u] = vec4(e_ns, alpha_random(key, tri_index));
     vec3 ng_wo = dot(ng, wo) > 0.0 ? ng : -ng;
     vec3 ns_side = dot(ns, ng_wo) > 0.0 ? ns : -ns;
     outputs[o + 8u] = vec4(bend_shading_normal(ns_side, ng_wo, wo),

@@ -166,12 +166,13 @@ void kernel_main() {
     // KHR_materials_volume: the segment's attenuation, its medium read from either end.
     state.throughput *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
     vec2 lod = SCENE_HAS(FEATURE_TEXTURES) && (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
-    GpuMaterial mat = surface_material(raw, sp, lod);
+    vec3 ns;
+    GpuMaterial mat = surface_material_normal(raw, sp, lod, ns);
     // --aov: a property of the first hit instead of radiance.
     if (frame.aov != AOV_RADIANCE) {
         vec3 value = mat.emission;
         if (frame.aov == AOV_BASE_COLOR) value = mat.base_color;
-        if (frame.aov == AOV_NORMAL) value = surface_normal(raw, sp, lod) * 0.5 + 0.5;
+        if (frame.aov == AOV_NORMAL) value = ns * 0.5 + 0.5;
         if (frame.aov == AOV_UV) value = vec3(sp.uv0, 0.0);
         state.radiance = value;
         path_end(ray.path, state);
@@ -202,7 +203,7 @@ void kernel_main() {
     // the surface exactly (nothing scatters along it).
     BsdfFrame bsdf;
     if (depth >= frame.max_depth
-        || !bsdf_frame_new_shading(mat, ng, surface_normal(raw, sp, lod), wo, bsdf)) {
+        || !bsdf_frame_new_shading(mat, ng, ns, wo, bsdf)) {
         path_end(ray.path, state);
         return;
     }

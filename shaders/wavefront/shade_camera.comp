@@ -43,10 +43,10 @@ void kernel_main() {
     vec3 ng = sp.ng;
     vec3 wo = -ray.dir;
     GpuMaterial raw = material_at(triangle_material(tri));
-    GpuMaterial mat = surface_material(raw, sp, LOD_MAGNIFY);
+    vec3 ns;
+    GpuMaterial mat = surface_material_normal(raw, sp, LOD_MAGNIFY, ns);
     // KHR_materials_dispersion: n(λ) of the sample's wavelength (src/spectrum.rs).
     if (frame.spectral != 0u) material_at_wavelength(mat, sample_wavelength_of(frame.seed, pixel, sample_index));
-    vec3 ns = surface_normal(raw, sp, LOD_MAGNIFY);
     // KHR_materials_volume: the segment's attenuation, its medium read from either end.
     beta *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
 
