@@ -357,7 +357,7 @@ fn validate_wide(bvh: &Bvh, wide: &WideBvh) {
     if !bvh.nodes[0].is_leaf() && !bvh.is_empty() {
         let areas: Vec<f64> = wide.nodes.iter().map(wide_node_half_area).collect();
         let sum: f64 = areas.iter().sum();
-        let plan = wide::Plan::cost_of(&bvh.nodes, 0) as f64;
+        let plan = wide::Plan::cost_of(&bvh.nodes) as f64;
         let bound = areas.len() as f64 * 2f64.powi(-24) * sum;
         assert!((plan - sum).abs() <= bound, "plan {plan}, wide nodes {sum}");
     }
@@ -464,7 +464,7 @@ fn collapse_is_the_least_sum_of_wide_node_areas() {
         if bvh.nodes[0].is_leaf() {
             continue;
         }
-        let plan = wide::Plan::cost_of(&bvh.nodes, 0) as f64;
+        let plan = wide::Plan::cost_of(&bvh.nodes) as f64;
         let brute = brute_collapse(&bvh.nodes, 0, &mut Default::default());
         let greedy = greedy_collapse(&bvh.nodes, 0);
         let bound = bvh.nodes.len() as f64 * 2f64.powi(-24) * brute;

@@ -293,25 +293,35 @@ impl Plan {
         }
     }
 
-    /// The program's `cost` and its choices, per node. Costs compare by area, then by the
-    /// number of wide nodes: of two collapses the model cannot tell apart (boxes of no area),
-    /// the one with fewer nodes.
+    /// The program's choices per node, and the `cost` of every tree's root (last root first).
+    /// Costs compare by area, then by the number of wide nodes: of two collapses the model
+    /// cannot tell apart (boxes of no area), the one with fewer nodes.
+    ///
+    /// Children follow their parents in the depth-first layout (left child next, then its
+    /// subtree, then the right child's), so visiting the nodes last to first finishes a node's
+    /// right subtree, then its left subtree, then the node: the costs of the subtrees no parent
+    /// has taken yet form a stack, a node's two children on top (left above right). A stack as
+    /// deep as the tree instead of a cost per node (32 MiB of fresh memory for a 1M-triangle
+    /// tree, whose page faults and far reads of right children's costs were most of this
+    /// pass's time: terrain-1M 34-36 -> 15-24 ms).
     #[allow(clippy::type_complexity)]
     fn solve(nodes: &[BvhNode]) -> (Vec<[(f32, u32); WIDTH]>, Vec<[u8; WIDTH]>) {
         let half_area = super::build::node_half_area;
         let less = |a: (f32, u32), b: (f32, u32)| a.0 < b.0 || (a.0 == b.0 && a.1 < b.1);
         let add = |a: (f32, u32), b: (f32, u32)| (a.0 + b.0, a.1 + b.1);
-        let mut cost = vec![[(0.0f32, 0u32); WIDTH]; nodes.len()];
+        let mut pending: Vec<[(f32, u32); WIDTH]> = Vec::with_capacity(2 * super::MAX_DEPTH + 2);
         let mut choice = vec![[0u8; WIDTH]; nodes.len()];
-        // Children follow their parents in the depth-first layout: last to first.
         for i in (0..nodes.len()).rev() {
             let n = &nodes[i];
-            let (l, r) = (i + 1, n.right_child() as usize);
-            // Leaves, and the empty tree's one node (no children), cost nothing.
-            if n.is_leaf() || r >= nodes.len() || l >= nodes.len() {
+            // Leaves, and an empty tree's one node (no children: its right child is itself),
+            // cost nothing.
+            if n.is_leaf() || n.right_child() as usize <= i + 1 || pending.len() < 2 {
+                pending.push([(0.0, 0); WIDTH]);
                 continue;
             }
-            let (l, r) = (cost[l], cost[r]);
+            let l = pending.pop().unwrap_or_default();
+            let r = pending.pop().unwrap_or_default();
+            let mut cost = [(0.0f32, 0u32); WIDTH];
             // A wide node: its four slots split between the children (each child's cost is of
             // at most so many slots, so splits of all four are enough). Ties keep the first.
             let mut best = (add(l[0], r[2]), 1 << 4 | 3);
@@ -321,7 +331,7 @@ impl Plan {
                     best = (c, (k1 << 4 | (WIDTH - k1)) as u8);
                 }
             }
-            cost[i][0] = add((half_area(n), 1), best.0);
+            cost[0] = add((half_area(n), 1), best.0);
             choice[i][0] = best.1;
             for k in 2..=WIDTH {
                 let mut best = (add(l[0], r[k - 2]), 1u8);
@@ -331,14 +341,15 @@ impl Plan {
                         best = (c, k1 as u8);
                     }
                 }
-                if less(cost[i][k - 2], best.0) {
-                    best = (cost[i][k - 2], 0);
+                if less(cost[k - 2], best.0) {
+                    best = (cost[k - 2], 0);
                 }
-                cost[i][k - 1] = best.0;
+                cost[k - 1] = best.0;
                 choice[i][k - 1] = best.1;
             }
+            pending.push(cost);
         }
-        (cost, choice)
+        (pending, choice)
     }
 
     /// The slots of interior node `i`'s wide node that go to its left and right children.
@@ -363,11 +374,14 @@ impl Plan {
         }
     }
 
-    /// The least sum of the wide nodes' surface areas (half areas) of the tree at interior node
-    /// `root`, its own wide node included: what [`WideBvh::collapse`] builds.
+    /// The least sum of the wide nodes' surface areas (half areas) of the one tree in `nodes`
+    /// (root 0, an interior node), its own wide node included: what [`WideBvh::collapse`]
+    /// builds.
     #[cfg(test)]
-    pub(super) fn cost_of(nodes: &[BvhNode], root: u32) -> f32 {
-        Plan::solve(nodes).0[root as usize][0].0
+    pub(super) fn cost_of(nodes: &[BvhNode]) -> f32 {
+        let (roots, _) = Plan::solve(nodes);
+        assert_eq!(roots.len(), 1, "one tree");
+        roots[0][0].0
     }
 }
 
