@@ -307,6 +307,10 @@ pub const FEATURE_STRATIFIED: u32 = 1 << 10;
 pub const FEATURE_SOBOL: u32 = 1 << 11;
 /// The light BVH (`--light-sampler bvh`, the default): else emitters by power alone.
 pub const FEATURE_LIGHT_BVH: u32 = 1 << 12;
+/// A material with a thin film (`GpuMaterial::iridescence` > 0; its texture multiplies the
+/// factor, so 0 stays 0): KHR_materials_iridescence's Fresnel term, about a fifth of a textured
+/// `shade`'s first-dispatch compile on lavapipe (README, "Performance").
+pub const FEATURE_IRIDESCENCE: u32 = 1 << 13;
 /// Every feature: a pipeline that serves any scene.
 pub const FEATURES_ALL: u32 = u32::MAX;
 /// The feature bits proper; the top byte is the quantised walks' deferred array
@@ -344,6 +348,7 @@ pub fn feature_names(features: u32) -> Vec<&'static str> {
         (FEATURE_STRATIFIED, "stratified sampler"),
         (FEATURE_SOBOL, "Sobol sampler"),
         (FEATURE_LIGHT_BVH, "light BVH"),
+        (FEATURE_IRIDESCENCE, "iridescence"),
     ]
     .into_iter()
     .filter(|&(f, _)| features & f != 0)

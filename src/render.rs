@@ -794,8 +794,8 @@ impl PreparedScene {
     /// others' code. Each is left out only where no ray can reach its code: one instance placed
     /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
     /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
-    /// no dispersive material, no attenuation, no path expression, and of the samplers and the
-    /// light samplers all but the one chosen. The top byte is the quantised walks' array of
+    /// no dispersive material, no attenuation, no path expression, no thin film, and of the
+    /// samplers and the light samplers all but the one chosen. The top byte is the quantised walks' array of
     /// deferred slots made for the scene (`layout::qbvh_stack_size`): its levels' largest
     /// deferred bound less the two slots the walks keep in registers, at least 1.
     pub fn gpu_features(&self, settings: &RenderSettings) -> u32 {
@@ -825,6 +825,10 @@ impl PreparedScene {
             (frame.sampler_mode == SAMPLER_STRATIFIED, FEATURE_STRATIFIED),
             (frame.sampler_mode == SAMPLER_SOBOL, FEATURE_SOBOL),
             (frame.light_sampler == LIGHT_SAMPLER_BVH, FEATURE_LIGHT_BVH),
+            (
+                self.materials.iter().any(|m| m.iridescence > 0.0),
+                FEATURE_IRIDESCENCE,
+            ),
         ]
         .into_iter()
         .filter(|&(needed, _)| needed)

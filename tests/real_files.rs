@@ -334,8 +334,8 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
 
 /// Kernels made for a scene's features (`PreparedScene::gpu_features`: without the top level's
 /// walk, the binary walk, the general BSDF, the alpha lookup, textures, the environment,
-/// punctual lights, dispersion, attenuation, a path expression, or samplers and light samplers
-/// it does not use) render the same bits as kernels made with every feature, on a scene that
+/// punctual lights, dispersion, attenuation, a path expression, a thin film, or samplers and
+/// light samplers it does not use) render the same bits as kernels made with every feature, on a scene that
 /// lacks them all (with each integrator) and on scenes that have each: specialising leaves out
 /// only code no ray of the render reaches.
 #[test]
@@ -391,6 +391,12 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
             "LightsPunctualLamp/LightsPunctualLamp.gltf",
             FEATURE_PUNCTUAL | FEATURE_TEXTURES,
             0.0,
+        ),
+        (
+            "IridescenceSuzanne",
+            "extensions/IridescenceSuzanne.glb",
+            FEATURE_IRIDESCENCE,
+            0.5,
         ),
     ];
     let load = |path: PathBuf| PreparedScene::new(&Scene::load(&path).unwrap());

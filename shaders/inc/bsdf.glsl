@@ -112,7 +112,7 @@ void fresnel_layers(float cos_theta, vec3 f0, float f90, float etap, vec3 base, 
                     float film, float film_ior, float film_thickness, out vec3 fd, out vec3 fm) {
     fd = fresnel_dielectric_color(cos_theta, f0, f90, etap);
     fm = fresnel_conductor(base, cos_theta);
-    if (film <= 0.0) return;
+    if (!SCENE_HAS(FEATURE_IRIDESCENCE) || film <= 0.0) return;
     float c = min(abs(cos_theta), 1.0);
     bool tir = false;
     if (etap < 1.0) {

@@ -114,7 +114,8 @@ struct GpuVertex {
 // A scene's features the wavefront kernels can be compiled without (src/layout.rs, FEATURE_*;
 // SCENE_FEATURES below): the top level's walk, a binary walk, the general BSDF, the
 // alpha lookup of the any-hit test, texture lookups, the environment, punctual lights, dispersion,
-// volume attenuation, path expressions, the stratified and Sobol samplers, the light BVH.
+// volume attenuation, path expressions, the stratified and Sobol samplers, the light BVH, the
+// thin film.
 #define FEATURE_TOP_LEVEL 1u
 #define FEATURE_BINARY_WALK 2u
 #define FEATURE_GENERAL_BSDF 4u
@@ -128,6 +129,7 @@ struct GpuVertex {
 #define FEATURE_STRATIFIED 1024u
 #define FEATURE_SOBOL 2048u
 #define FEATURE_LIGHT_BVH 4096u
+#define FEATURE_IRIDESCENCE 8192u
 // Whether `features` holds feature f. (The specialisation constant is passed in, not named: an
 // expression of specialisation constants alone compiles to OpSpecConstantOp, which naga does
 // not read; the driver folds it once inlined, scene_arrays.glsl.)
