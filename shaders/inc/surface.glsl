@@ -154,28 +154,16 @@ uint material_texture(GpuMaterial m, uint slot) {
     }
 }
 
-#define TEXTURE_SLOT_BIT(t, slot) ((t) != NO_TEXTURE ? 1u << (slot) : 0u)
 // The slots of `slots` in which material m has a texture (bit s for slot s); none in kernels
-// made without textures. The anisotropy's texture is read only where there is anisotropy.
+// made without textures. The anisotropy's texture is read only where there is anisotropy. (A
+// loop of constant bounds, unrolled: material_texture's cases fold away.)
 uint material_texture_slots(GpuMaterial m, uint slots) {
     if (!SCENE_HAS(FEATURE_TEXTURES)) return 0u;
-    uint present = TEXTURE_SLOT_BIT(m.emissive_texture, TEXTURE_SLOT_EMISSIVE)
-        | TEXTURE_SLOT_BIT(m.clearcoat_texture, TEXTURE_SLOT_CLEARCOAT)
-        | TEXTURE_SLOT_BIT(m.base_color_texture, TEXTURE_SLOT_BASE_COLOR)
-        | TEXTURE_SLOT_BIT(m.metallic_roughness_texture, TEXTURE_SLOT_METALLIC_ROUGHNESS)
-        | TEXTURE_SLOT_BIT(m.transmission_texture, TEXTURE_SLOT_TRANSMISSION)
-        | TEXTURE_SLOT_BIT(m.specular_texture, TEXTURE_SLOT_SPECULAR)
-        | TEXTURE_SLOT_BIT(m.specular_color_texture, TEXTURE_SLOT_SPECULAR_COLOR)
-        | TEXTURE_SLOT_BIT(m.clearcoat_roughness_texture, TEXTURE_SLOT_CLEARCOAT_ROUGHNESS)
-        | TEXTURE_SLOT_BIT(m.sheen_color_texture, TEXTURE_SLOT_SHEEN_COLOR)
-        | TEXTURE_SLOT_BIT(m.sheen_roughness_texture, TEXTURE_SLOT_SHEEN_ROUGHNESS)
-        | TEXTURE_SLOT_BIT(m.iridescence_texture, TEXTURE_SLOT_IRIDESCENCE)
-        | TEXTURE_SLOT_BIT(m.iridescence_thickness_texture, TEXTURE_SLOT_IRIDESCENCE_THICKNESS)
-        | TEXTURE_SLOT_BIT(m.diffuse_transmission_texture, TEXTURE_SLOT_DIFFUSE_TRANSMISSION)
-        | TEXTURE_SLOT_BIT(m.diffuse_transmission_color_texture, TEXTURE_SLOT_DIFFUSE_TRANSMISSION_COLOR)
-        | TEXTURE_SLOT_BIT(m.clearcoat_normal_texture, TEXTURE_SLOT_CLEARCOAT_NORMAL)
-        | (m.anisotropy > 0.0 ? TEXTURE_SLOT_BIT(m.anisotropy_texture, TEXTURE_SLOT_ANISOTROPY) : 0u)
-        | TEXTURE_SLOT_BIT(m.normal_texture, TEXTURE_SLOT_NORMAL);
+    uint present = 0u;
+    [[unroll]] for (uint s = 0u; s <= TEXTURE_SLOT_NORMAL; s++) {
+        if (material_texture(m, s) != NO_TEXTURE) present |= 1u << s;
+    }
+    if (!(m.anisotropy > 0.0)) present &= ~(1u << TEXTURE_SLOT_ANISOTROPY);
     return present & slots;
 }
 
