@@ -62,7 +62,7 @@ fn efficiency(walks: &[Walk], order: &[usize]) -> (f64, f64) {
     )
 }
 
-fn scene_report(path: &PathBuf, size: u32, bounces: u32) -> Result<()> {
+fn scene_report(path: &std::path::Path, size: u32, bounces: u32) -> Result<()> {
     let scene = Scene::load(path).with_context(|| format!("loading {}", path.display()))?;
     let prepared = PreparedScene::new(&scene);
     let roots = prepared.level_roots();
