@@ -288,6 +288,7 @@ impl Hierarchy for [BvhNode] {
 
 /// The closest hit (t in (t_min, t_max), `accept`ed) among the triangles of the tree rooted at
 /// `root`, with the boxes and triangles its walk tested.
+#[inline]
 pub fn closest_triangle<H: Hierarchy + ?Sized>(
     tree: &H,
     root: u32,
@@ -324,6 +325,7 @@ pub fn closest_triangle<H: Hierarchy + ?Sized>(
 }
 
 /// True if an `accept`ed triangle of the tree rooted at `root` is hit with t in (t_min, t_max).
+#[inline]
 pub fn any_triangle<H: Hierarchy + ?Sized>(
     tree: &H,
     root: u32,

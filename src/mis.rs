@@ -97,6 +97,7 @@ impl Heuristic {
 /// weights summing to 1 for average too. `a_is_light` says that `a` is emitter sampling's pdf:
 /// it picks the technique of the single-technique modes and gives maximum's ties to that side.
 /// Written with the ratio r = b/a so that no power overflows. Twin of `mis_weight2` in mis.glsl.
+#[inline]
 pub fn mis_weight2(heuristic: u32, beta: f32, a: f32, b: f32, a_is_light: bool) -> f32 {
     if b.is_nan() || b <= 0.0 {
         return 1.0;

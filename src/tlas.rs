@@ -117,6 +117,7 @@ fn object_ray(instance: &GpuInstance, ray: &Ray) -> Ray {
 /// `accept(triangle, u, v, instance, object-space direction)` is the any-hit test. `tree` is the
 /// binary node array (the GPU's walk) or its wide collapse (the CPU integrators').
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn scene_intersect_closest<H: Hierarchy + ?Sized>(
     tree: &H,
     tlas_root: u32,
@@ -167,6 +168,7 @@ pub fn scene_intersect_closest<H: Hierarchy + ?Sized>(
 
 /// True if anything of any instance is hit with t in (t_min, t_max).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn scene_intersect_any<H: Hierarchy + ?Sized>(
     tree: &H,
     tlas_root: u32,
