@@ -795,9 +795,9 @@ impl PreparedScene {
     /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
     /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
     /// no dispersive material, no attenuation, no path expression, no thin film, and of the
-    /// samplers and the light samplers all but the one chosen. The top byte is the quantised walks' array of
-    /// deferred slots made for the scene (`layout::qbvh_stack_size`): its levels' largest
-    /// deferred bound less the two slots the walks keep in registers, at least 1.
+    /// samplers and the light samplers all but the one chosen. The top byte is the quantised
+    /// walks' array of deferred slots made for the scene (`layout::qbvh_stack_size`): its levels'
+    /// largest deferred bound less the two slots the walks keep in registers, at least 1.
     pub fn gpu_features(&self, settings: &RenderSettings) -> u32 {
         use crate::layout::*;
         let frame = self.frame_params(settings);

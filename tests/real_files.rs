@@ -335,9 +335,9 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
 /// Kernels made for a scene's features (`PreparedScene::gpu_features`: without the top level's
 /// walk, the binary walk, the general BSDF, the alpha lookup, textures, the environment,
 /// punctual lights, dispersion, attenuation, a path expression, a thin film, or samplers and
-/// light samplers it does not use) render the same bits as kernels made with every feature, on a scene that
-/// lacks them all (with each integrator) and on scenes that have each: specialising leaves out
-/// only code no ray of the render reaches.
+/// light samplers it does not use) render the same bits as kernels made with every feature, on a
+/// scene that lacks them all (with each integrator) and on scenes that have each: specialising
+/// leaves out only code no ray of the render reaches.
 #[test]
 fn kernels_specialised_for_a_scene_render_the_same_bits() {
     use wavetrace::cpu::Integrator;

@@ -5,8 +5,8 @@
 //!
 //! Per scene (one placement: a scene with a top level is skipped), N² camera rays (jittered,
 //! pinhole) and B diffuse bounces from their hits (cosine-distributed about the geometric normal,
-//! a hash of pixel and bounce as the random numbers: a model of a path tracer's rays, not its
-//! estimator) are walked through the CPU's 4-wide tree (`PreparedScene::wide_bvh`, the collapse
+//! `rng_uniform4` of pixel and bounce as the random numbers, origins offset as the integrators
+//! offset them: a model of a path tracer's rays, not its estimator) are walked through the CPU's 4-wide tree (`PreparedScene::wide_bvh`, the collapse
 //! the GPU's quantised nodes are made from), and each ray's boxes and triangles tested are counted.
 //! The rays of a bounce are taken in groups of eight, and a group's efficiency is its mean over
 //! its maximum: the share of a SIMD step's lanes doing work when a walk's trip count is its
@@ -19,22 +19,10 @@ use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 use wavetrace::bvh::{closest_triangle, Ray};
 use wavetrace::render::{PreparedScene, RenderSettings};
+use wavetrace::sampling::{build_frame, offset_ray_origin, rng_uniform4, sample_cosine_hemisphere};
 use wavetrace::scene::{camera_ray, Scene};
 
 const LANES: usize = 8;
-
-fn hash(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^ (x >> 16)
-}
-
-/// A uniform number in [0, 1) from (a, b).
-fn uniform(a: u32, b: u32) -> f32 {
-    (hash(a ^ hash(b)) >> 8) as f32 / (1u32 << 24) as f32
-}
 
 /// One walked ray: its sort keys and what its walk tested.
 struct Walk {
@@ -84,7 +72,8 @@ fn scene_report(path: &std::path::Path, size: u32, bounces: u32) -> Result<()> {
     let wide = prepared.wide_bvh();
     let mut rays: Vec<(u32, Ray, u32)> = (0..size * size)
         .map(|p| {
-            let jitter = Vec2::new(uniform(p, 1), uniform(p, 2));
+            let u = rng_uniform4(0, p, 0, 0);
+            let jitter = Vec2::new(u.x, u.y);
             (p, camera_ray(&frame, p, jitter, Vec2::ZERO), u32::MAX)
         })
         .collect();
@@ -102,7 +91,7 @@ fn scene_report(path: &std::path::Path, size: u32, bounces: u32) -> Result<()> {
                 roots[1],
                 &prepared.triangles,
                 &ray,
-                1e-4,
+                0.0,
                 f32::MAX,
                 |_, _, _| true,
             );
@@ -121,22 +110,12 @@ fn scene_report(path: &std::path::Path, size: u32, bounces: u32) -> Result<()> {
             if n.dot(d) > 0.0 {
                 n = -n;
             }
-            let (u1, u2) = (
-                uniform(pixel, 16 + 2 * bounce),
-                uniform(pixel, 17 + 2 * bounce),
-            );
-            let (a, b) = n.any_orthonormal_pair();
-            let (r, phi) = (u1.sqrt(), std::f32::consts::TAU * u2);
-            let dir = a * r * phi.cos() + b * r * phi.sin() + n * (1.0 - u1).max(0.0).sqrt();
-            let origin = ray.origin + hit.t * d + 1e-4 * n;
-            next.push((
-                pixel,
-                Ray {
-                    origin,
-                    dir: dir.normalize(),
-                },
-                hit.triangle,
-            ));
+            let u = rng_uniform4(0, pixel, 0, 1 + bounce);
+            let local = sample_cosine_hemisphere(Vec2::new(u.x, u.y));
+            let (t, b) = build_frame(n);
+            let dir = (t * local.x + b * local.y + n * local.z).normalize();
+            let origin = offset_ray_origin(ray.origin + hit.t * d, n);
+            next.push((pixel, Ray { origin, dir }, hit.triangle));
         }
         if walks.is_empty() {
             break;

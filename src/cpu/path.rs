@@ -617,7 +617,6 @@ fn sample_environment(env: &EnvironmentMap, frame: &FrameParams, u: Vec2) -> Opt
 /// rescaled past the environment's share, a bounded emitter through the light BVH (its share
 /// of the table, `light_bounded_cdf`) or an entry of the table by power, then the punctual
 /// light it names, or a point on its triangle for `u_point`.
-#[inline]
 fn sample_emitter(
     scene: &PreparedScene,
     frame: &FrameParams,
