@@ -750,3 +750,115 @@ fn wide_ray_equals_slab_ray() {
         }
     }
 }
+
+/// A forest as the scene's node array holds one (the top level and the bottom levels one after
+/// another): each tree's nodes with their right children moved past the trees before it.
+fn forest(trees: &[&[BvhNode]]) -> (Vec<BvhNode>, Vec<u32>) {
+    let (mut nodes, mut roots) = (Vec::new(), Vec::new());
+    for tree in trees {
+        let base = nodes.len() as u32;
+        roots.push(base);
+        nodes.extend(tree.iter().map(|n| BvhNode {
+            offset: if n.is_leaf() {
+                n.offset
+            } else {
+                n.offset + base
+            },
+            ..*n
+        }));
+    }
+    (nodes, roots)
+}
+
+/// The plan solved tree by tree, large subtrees split between threads, is the one pass over
+/// the whole array on one thread that it replaced: the same choices, wide node counts and root
+/// costs, bit for bit, on trees large enough to be split (and small ones, leaves and the empty
+/// tree, in a forest).
+#[test]
+fn parallel_plan_equals_one_pass() {
+    let mut rng = Pcg::new(23);
+    let big = Bvh::build(&soup(&mut rng, 40_000, ALL_KINDS));
+    let uniform = Bvh::build(&soup(&mut rng, 20_000, &[Kind::Uniform]));
+    let small = Bvh::build(&soup(&mut rng, 300, ALL_KINDS));
+    let leaf = Bvh::build(&soup(&mut rng, 1, ALL_KINDS));
+    let empty = Bvh::build(&[]);
+    assert!(
+        big.nodes.len() > 8 * wide::PARALLEL_NODES,
+        "{}",
+        big.nodes.len()
+    );
+    let (trees, _) = forest(&[
+        &small.nodes,
+        &big.nodes,
+        &leaf.nodes,
+        &empty.nodes,
+        &uniform.nodes,
+    ]);
+    for nodes in [&big.nodes, &uniform.nodes, &small.nodes, &trees] {
+        let (roots, choice, wide_nodes) = wide::Plan::solve(nodes);
+        let (one_roots, one_choice, one_wide_nodes) = wide::Plan::solve_one_pass(nodes);
+        let bits = |r: &[[(f32, u32); wide::WIDTH]]| -> Vec<_> {
+            r.iter().flatten().map(|&(a, n)| (a.to_bits(), n)).collect()
+        };
+        assert_eq!(bits(&roots), bits(&one_roots), "root costs");
+        assert!(choice == one_choice, "choices");
+        assert!(wide_nodes == one_wide_nodes, "wide node counts");
+    }
+}
+
+/// The collapse lays its wide nodes out depth first, each followed by its slots' subtrees in
+/// slot order (the layout the recursion on one thread wrote), whichever thread wrote them, and
+/// a forest's roots are its trees' collapses one after another.
+#[test]
+fn parallel_collapse_lays_out_nodes_depth_first() {
+    let mut rng = Pcg::new(29);
+    let big = Bvh::build(&soup(&mut rng, 120_000, ALL_KINDS));
+    let small = Bvh::build(&soup(&mut rng, 300, ALL_KINDS));
+    let leaf = Bvh::build(&soup(&mut rng, 1, ALL_KINDS));
+    let empty = Bvh::build(&[]);
+    let (nodes, roots) = forest(&[&small.nodes, &big.nodes, &empty.nodes, &leaf.nodes]);
+    let wide = WideBvh::collapse(&nodes, &roots);
+    assert!(
+        wide.nodes.len() > 4 * wide::PARALLEL_NODES,
+        "{}",
+        wide.nodes.len()
+    );
+    // Pre-order from each root in turn numbers the nodes 0, 1, 2, … with no gap.
+    let mut next = 0;
+    for &root in &roots {
+        let Some(w) = wide.root(root) else {
+            assert_eq!(root, roots[2], "only the empty tree has no wide root");
+            continue;
+        };
+        let mut todo = vec![w];
+        while let Some(w) = todo.pop() {
+            assert_eq!(w, next, "depth-first order");
+            next += 1;
+            let (_, child, _, valid) = wide.nodes[w as usize].parts();
+            let interior =
+                (0..wide::WIDTH).filter(|&s| valid & (1 << s) != 0 && child[s] & wide::LEAF == 0);
+            todo.extend(interior.map(|s| child[s]).rev());
+        }
+    }
+    assert_eq!(next as usize, wide.nodes.len(), "every node reached once");
+    // Each tree's collapse is the one it makes alone (its node indices shifted).
+    let alone = WideBvh::collapse(&big.nodes, &[0]);
+    let start = wide.root(roots[1]).unwrap() as usize;
+    for (a, b) in alone.nodes.iter().zip(&wide.nodes[start..]) {
+        let (ba, ca, na, va) = a.parts();
+        let (bb, cb, nb, vb) = b.parts();
+        assert!(
+            ba == bb && na == nb && va == vb,
+            "the same boxes and leaves"
+        );
+        for s in (0..wide::WIDTH).filter(|&s| va & (1 << s) != 0) {
+            let shifted = if ca[s] & wide::LEAF != 0 {
+                ca[s]
+            } else {
+                ca[s] + start as u32
+            };
+            assert_eq!(shifted, cb[s], "slot {s}");
+        }
+    }
+    validate_wide(&big, &alone);
+}

@@ -21,6 +21,7 @@ use super::{pop_entered, Hierarchy, Ray, SLAB_SLACK};
 use crate::layout::BvhNode;
 use arrayvec::ArrayVec;
 use glam::Vec4;
+use std::mem::MaybeUninit;
 
 /// Children per wide node.
 pub const WIDTH: usize = 4;
@@ -197,75 +198,148 @@ impl<N> WideBvh<N> {
 impl WideBvh<WideNode> {
     /// The wide form of the trees rooted at `roots` in `nodes` (the depth-first binary layout of
     /// `bvh.rs`: an interior node's left child follows it, `offset` is its right child).
+    ///
+    /// The wide nodes come out depth first, each followed by its slots' subtrees in slot order.
+    /// Since [`Plan`] knows how many wide nodes each subtree becomes, every subtree's range of
+    /// the output is known before it is collapsed, and large subtrees are collapsed on separate
+    /// threads into their ranges: the same nodes in the same places as one recursion would
+    /// write (test `bvh::tests::parallel_collapse_lays_out_nodes_depth_first`).
     pub fn collapse(nodes: &[BvhNode], roots: &[u32]) -> WideBvh {
         // Each root once (instances share bottom levels), in order: `root` searches them.
         let mut distinct = roots.to_vec();
         distinct.sort_unstable();
         distinct.dedup();
-        let mut wide = WideBvh {
-            nodes: Vec::with_capacity(nodes.len() / 2 + 1),
-            roots: Vec::with_capacity(distinct.len()),
-            prefetches: false,
-        };
         let plan = Plan::of(nodes);
-        for root in distinct {
-            // The tree of no triangles (one node with inverted bounds, `Bvh::is_empty`) has no
-            // wide root: its walks miss.
-            let empty = nodes
-                .get(root as usize)
-                .is_none_or(|n| !n.is_leaf() && n.bounds_min[0] > n.bounds_max[0]);
-            if empty {
+        // Wide nodes per root: none for the tree of no triangles (one node with inverted
+        // bounds, `Bvh::is_empty`: its walks miss), one holding a tree that is one leaf.
+        let sizes: Vec<usize> = distinct
+            .iter()
+            .map(|&root| match nodes.get(root as usize) {
+                None => 0,
+                Some(n) if n.is_leaf() => 1,
+                Some(n) if n.bounds_min[0] > n.bounds_max[0] => 0,
+                Some(_) => plan.wide_nodes[root as usize] as usize,
+            })
+            .collect();
+        // Written in place by the threads that collapse each part: fresh memory's pages are
+        // faulted in by the thread that first writes them (a 1M-triangle tree's wide nodes are
+        // 27 MiB, about 13 ms of faults on one thread on this project's VM), and nothing clears
+        // them first (an allocation zeroed at this alignment is one thread's memset).
+        let total = sizes.iter().sum();
+        let mut out: Vec<WideNode> = Vec::with_capacity(total);
+        let mut wide_roots = Vec::with_capacity(distinct.len());
+        let (mut rest, mut base) = (&mut out.spare_capacity_mut()[..total], 0);
+        for (&root, &size) in distinct.iter().zip(&sizes) {
+            if size == 0 {
                 continue;
             }
-            let at = if nodes[root as usize].is_leaf() {
-                // A tree that is one leaf: one wide node holding it.
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(size);
+            if nodes[root as usize].is_leaf() {
                 let mut node = WideNode::EMPTY;
-                wide.fill_slot(&mut node, 0, nodes, &plan, root);
-                wide.nodes.push(node);
-                wide.nodes.len() as u32 - 1
+                fill_slot(&mut node, 0, &nodes[root as usize]);
+                mine[0].write(node);
             } else {
-                wide.collapse_interior(nodes, &plan, root)
-            };
-            wide.roots.push((root, at));
+                collapse_interior(nodes, &plan, root, base, mine);
+            }
+            wide_roots.push((root, base));
+            (rest, base) = (tail, base + size as u32);
         }
-        wide.prefetches = wide.nodes.len() * std::mem::size_of::<WideNode>() >= PREFETCH_MIN_BYTES;
-        wide
-    }
-
-    /// The wide node of binary interior node `at`, its subtrees after it depth first.
-    fn collapse_interior(&mut self, nodes: &[BvhNode], plan: &Plan, at: u32) -> u32 {
-        let mut open = ArrayVec::<u32, WIDTH>::new();
-        let (k1, k2) = plan.children_slots(at);
-        plan.open(nodes, at + 1, k1, &mut open);
-        plan.open(nodes, nodes[at as usize].right_child(), k2, &mut open);
-        let index = self.nodes.len();
-        self.nodes.push(WideNode::EMPTY);
-        let mut node = WideNode::EMPTY;
-        for (s, &i) in open.iter().enumerate() {
-            self.fill_slot(&mut node, s, nodes, plan, i);
+        // SAFETY: the roots' ranges partition the first `total` elements, and
+        // `collapse_interior` writes the first element of its range and partitions the rest
+        // between its subtrees' ranges (it asserts that they fill it), so every element is
+        // written.
+        unsafe { out.set_len(total) };
+        let prefetches = out.len() * std::mem::size_of::<WideNode>() >= PREFETCH_MIN_BYTES;
+        WideBvh {
+            nodes: out,
+            roots: wide_roots,
+            prefetches,
         }
-        // The slots in use come first (`WideSlots::slots`).
-        debug_assert_eq!(node.valid & (node.valid + 1), 0);
-        self.nodes[index] = node;
-        index as u32
-    }
-
-    /// Slot s of `node` for binary node `i`: its box, and its leaf or its collapsed subtree.
-    fn fill_slot(&mut self, node: &mut WideNode, s: usize, nodes: &[BvhNode], plan: &Plan, i: u32) {
-        let n = &nodes[i as usize];
-        for a in 0..3 {
-            node.bounds[0][a][s] = n.bounds_min[a];
-            node.bounds[1][a][s] = n.bounds_max[a];
-        }
-        if n.is_leaf() {
-            node.child[s] = n.first_triangle() | LEAF;
-            node.count[s] = n.count as u8;
-        } else {
-            node.child[s] = self.collapse_interior(nodes, plan, i);
-        }
-        node.valid |= 1 << s;
     }
 }
+
+/// Writes the wide subtree of binary interior node `at` into `out` (its
+/// `plan.wide_nodes[at]` nodes, the first at index `base`): its own wide node, then each
+/// interior slot's subtree in slot order. Every element of `out` is written (see `collapse`).
+fn collapse_interior(
+    nodes: &[BvhNode],
+    plan: &Plan,
+    at: u32,
+    base: u32,
+    out: &mut [MaybeUninit<WideNode>],
+) {
+    let mut open = ArrayVec::<u32, WIDTH>::new();
+    let (k1, k2) = plan.children_slots(at);
+    plan.open(nodes, at + 1, k1, &mut open);
+    plan.open(nodes, nodes[at as usize].right_child(), k2, &mut open);
+    let parallel = out.len() >= PARALLEL_NODES;
+    let (first, mut rest) = out.split_first_mut().expect("a wide node's room");
+    let mut node = WideNode::EMPTY;
+    let mut subtrees = ArrayVec::<(u32, u32, &mut [MaybeUninit<WideNode>]), WIDTH>::new();
+    let mut next = base + 1;
+    for (s, &i) in open.iter().enumerate() {
+        let n = &nodes[i as usize];
+        fill_slot(&mut node, s, n);
+        if !n.is_leaf() {
+            let size = plan.wide_nodes[i as usize];
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(size as usize);
+            node.child[s] = next;
+            subtrees.push((i, next, mine));
+            (rest, next) = (tail, next + size);
+        }
+    }
+    // The slots in use come first (`WideSlots::slots`).
+    debug_assert_eq!(node.valid & (node.valid + 1), 0);
+    // What makes `collapse`'s `set_len` sound: the subtrees' ranges fill the rest.
+    assert!(rest.is_empty(), "the plan's count of wide nodes");
+    first.write(node);
+    if parallel {
+        rayon::scope(|scope| {
+            for (i, base, out) in subtrees {
+                scope.spawn(move |_| collapse_interior(nodes, plan, i, base, out));
+            }
+        });
+    } else {
+        for (i, base, out) in subtrees {
+            collapse_interior(nodes, plan, i, base, out);
+        }
+    }
+}
+
+/// Slot s of `node` for binary node `n`: its box, and its leaf (an interior node's wide node
+/// is set by the caller).
+fn fill_slot(node: &mut WideNode, s: usize, n: &BvhNode) {
+    for a in 0..3 {
+        node.bounds[0][a][s] = n.bounds_min[a];
+        node.bounds[1][a][s] = n.bounds_max[a];
+    }
+    if n.is_leaf() {
+        node.child[s] = n.first_triangle() | LEAF;
+        node.count[s] = n.count as u8;
+    }
+    node.valid |= 1 << s;
+}
+
+/// Subtrees of at least this many nodes (binary nodes in [`Plan::solve`], wide nodes in the
+/// collapse) have their parts done on separate threads.
+pub(super) const PARALLEL_NODES: usize = 1 << 12;
+
+/// One past the last node of the subtree rooted at `i` in the depth-first layout: the end of
+/// its rightmost path. A node without children (the tree of no triangles' one node) or with a
+/// right child that is not after its left one ends with itself.
+fn subtree_end(nodes: &[BvhNode], mut i: usize) -> usize {
+    loop {
+        let n = &nodes[i];
+        let right = n.right_child() as usize;
+        if n.is_leaf() || right <= i + 1 || right >= nodes.len() {
+            return i + 1;
+        }
+        i = right;
+    }
+}
+
+/// A subtree's least cost per number of slots (area, wide nodes), as [`Plan::solve`] keeps it.
+type Cost = [(f32, u32); WIDTH];
 
 /// Which binary nodes the collapse opens: the least expected cost of a walk in the SAH's model
 /// (Ylitie et al. 2017, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
@@ -284,72 +358,51 @@ pub(super) struct Plan {
     /// cost less; for k = 1 the two children's shares of their wide node's four slots (left in
     /// the high nibble).
     choice: Vec<[u8; WIDTH]>,
+    /// Per interior node: how many wide nodes its subtree becomes when it is a wide node of its
+    /// own (the count in its cost for one slot), which places each subtree in the collapse's
+    /// output before it is collapsed.
+    wide_nodes: Vec<u32>,
 }
 
 impl Plan {
     fn of(nodes: &[BvhNode]) -> Plan {
-        Plan {
-            choice: Plan::solve(nodes).1,
-        }
+        let (_, choice, wide_nodes) = Plan::solve(nodes);
+        Plan { choice, wide_nodes }
     }
 
-    /// The program's choices per node, and the `cost` of every tree's root (last root first).
-    /// Costs compare by area, then by the number of wide nodes: of two collapses the model
-    /// cannot tell apart (boxes of no area), the one with fewer nodes.
+    /// The program's choices and wide node counts per node, and the cost of every tree's root
+    /// (last root first). Costs compare by area, then by the number of wide nodes: of two
+    /// collapses the model cannot tell apart (boxes of no area), the one with fewer nodes.
     ///
-    /// Children follow their parents in the depth-first layout (left child next, then its
-    /// subtree, then the right child's), so visiting the nodes last to first finishes a node's
-    /// right subtree, then its left subtree, then the node: the costs of the subtrees no parent
-    /// has taken yet form a stack, a node's two children on top (left above right). A stack as
-    /// deep as the tree instead of a cost per node (32 MiB of fresh memory for a 1M-triangle
-    /// tree, whose page faults and far reads of right children's costs were most of this
-    /// pass's time: terrain-1M 34-36 -> 15-24 ms).
+    /// Each tree of the array (the top level's and each bottom level's, one after another) is
+    /// solved by [`solve_subtree`], which splits large subtrees between threads; a node's
+    /// choice depends only on its subtree, so the choices are those of one pass over the whole
+    /// array ([`solve_run`]; test `bvh::tests::parallel_plan_equals_one_pass`).
     #[allow(clippy::type_complexity)]
-    fn solve(nodes: &[BvhNode]) -> (Vec<[(f32, u32); WIDTH]>, Vec<[u8; WIDTH]>) {
-        let half_area = super::build::node_half_area;
-        let less = |a: (f32, u32), b: (f32, u32)| a.0 < b.0 || (a.0 == b.0 && a.1 < b.1);
-        let add = |a: (f32, u32), b: (f32, u32)| (a.0 + b.0, a.1 + b.1);
-        let mut pending: Vec<[(f32, u32); WIDTH]> = Vec::with_capacity(2 * super::MAX_DEPTH + 2);
+    pub(super) fn solve(nodes: &[BvhNode]) -> (Vec<Cost>, Vec<[u8; WIDTH]>, Vec<u32>) {
         let mut choice = vec![[0u8; WIDTH]; nodes.len()];
-        for i in (0..nodes.len()).rev() {
-            let n = &nodes[i];
-            // Leaves, and an empty tree's one node (no children: its right child is itself),
-            // cost nothing.
-            if n.is_leaf() || n.right_child() as usize <= i + 1 || pending.len() < 2 {
-                pending.push([(0.0, 0); WIDTH]);
-                continue;
-            }
-            let l = pending.pop().unwrap_or_default();
-            let r = pending.pop().unwrap_or_default();
-            let mut cost = [(0.0f32, 0u32); WIDTH];
-            // A wide node: its four slots split between the children (each child's cost is of
-            // at most so many slots, so splits of all four are enough). Ties keep the first.
-            let mut best = (add(l[0], r[2]), 1 << 4 | 3);
-            for k1 in 2..WIDTH {
-                let c = add(l[k1 - 1], r[WIDTH - k1 - 1]);
-                if less(c, best.0) {
-                    best = (c, (k1 << 4 | (WIDTH - k1)) as u8);
-                }
-            }
-            cost[0] = add((half_area(n), 1), best.0);
-            choice[i][0] = best.1;
-            for k in 2..=WIDTH {
-                let mut best = (add(l[0], r[k - 2]), 1u8);
-                for k1 in 2..k {
-                    let c = add(l[k1 - 1], r[k - k1 - 1]);
-                    if less(c, best.0) {
-                        best = (c, k1 as u8);
-                    }
-                }
-                if less(cost[k - 2], best.0) {
-                    best = (cost[k - 2], 0);
-                }
-                cost[k - 1] = best.0;
-                choice[i][k - 1] = best.1;
-            }
-            pending.push(cost);
+        let mut wide_nodes = vec![0u32; nodes.len()];
+        let mut roots = Vec::new();
+        let (mut c, mut w, mut start) = (&mut choice[..], &mut wide_nodes[..], 0);
+        while start < nodes.len() {
+            let end = subtree_end(nodes, start);
+            let (c0, c1) = std::mem::take(&mut c).split_at_mut(end - start);
+            let (w0, w1) = std::mem::take(&mut w).split_at_mut(end - start);
+            roots.push(solve_subtree(nodes, start, c0, w0));
+            (c, w, start) = (c1, w1, end);
         }
-        (pending, choice)
+        roots.reverse();
+        (roots, choice, wide_nodes)
+    }
+
+    /// [`Plan::solve`] as one pass over the whole array on one thread (for tests).
+    #[cfg(test)]
+    #[allow(clippy::type_complexity)]
+    pub(super) fn solve_one_pass(nodes: &[BvhNode]) -> (Vec<Cost>, Vec<[u8; WIDTH]>, Vec<u32>) {
+        let mut choice = vec![[0u8; WIDTH]; nodes.len()];
+        let mut wide_nodes = vec![0u32; nodes.len()];
+        let roots = solve_run(nodes, 0, &mut choice, &mut wide_nodes);
+        (roots, choice, wide_nodes)
     }
 
     /// The slots of interior node `i`'s wide node that go to its left and right children.
@@ -379,10 +432,108 @@ impl Plan {
     /// builds.
     #[cfg(test)]
     pub(super) fn cost_of(nodes: &[BvhNode]) -> f32 {
-        let (roots, _) = Plan::solve(nodes);
+        let (roots, _, _) = Plan::solve(nodes);
         assert_eq!(roots.len(), 1, "one tree");
         roots[0][0].0
     }
+}
+
+/// The cost of the subtree rooted at `start` (its nodes `choice.len()` long from there), its
+/// nodes' choices and wide node counts written into `choice` and `wide_nodes` (indexed from
+/// `start`). A large subtree's two children are solved on separate threads.
+fn solve_subtree(
+    nodes: &[BvhNode],
+    start: usize,
+    choice: &mut [[u8; WIDTH]],
+    wide_nodes: &mut [u32],
+) -> Cost {
+    let len = choice.len();
+    let n = &nodes[start];
+    let right = n.right_child() as usize;
+    if len < PARALLEL_NODES || n.is_leaf() || right <= start + 1 || right >= start + len {
+        let roots = solve_run(nodes, start, choice, wide_nodes);
+        debug_assert_eq!(roots.len(), 1, "one subtree");
+        return roots.first().copied().unwrap_or_default();
+    }
+    let (own_choice, choice) = choice.split_at_mut(1);
+    let (own_wide, wide_nodes) = wide_nodes.split_at_mut(1);
+    let (lc, rc) = choice.split_at_mut(right - start - 1);
+    let (lw, rw) = wide_nodes.split_at_mut(right - start - 1);
+    let (l, r) = rayon::join(
+        || solve_subtree(nodes, start + 1, lc, lw),
+        || solve_subtree(nodes, right, rc, rw),
+    );
+    let (cost, c) = node_cost(n, &l, &r);
+    (own_choice[0], own_wide[0]) = (c, cost[0].1);
+    cost
+}
+
+/// The program over the nodes `choice.len()` long from `start`, visited last to first.
+/// Children follow their parents in the depth-first layout (left child next, then its
+/// subtree, then the right child's), so visiting the nodes last to first finishes a node's
+/// right subtree, then its left subtree, then the node: the costs of the subtrees no parent
+/// has taken yet form a stack, a node's two children on top (left above right), and what is
+/// left on it at the end are the costs of the trees in the range (last first). A stack as
+/// deep as the tree instead of a cost per node (32 MiB of fresh memory for a 1M-triangle
+/// tree, whose page faults and far reads of right children's costs were most of this
+/// pass's time: terrain-1M 34-36 -> 15-24 ms).
+fn solve_run(
+    nodes: &[BvhNode],
+    start: usize,
+    choice: &mut [[u8; WIDTH]],
+    wide_nodes: &mut [u32],
+) -> Vec<Cost> {
+    let mut pending: Vec<Cost> = Vec::with_capacity(2 * super::MAX_DEPTH + 2);
+    for k in (0..choice.len()).rev() {
+        let i = start + k;
+        let n = &nodes[i];
+        // Leaves, and an empty tree's one node (no children: its right child is itself),
+        // cost nothing.
+        if n.is_leaf() || n.right_child() as usize <= i + 1 || pending.len() < 2 {
+            pending.push([(0.0, 0); WIDTH]);
+            continue;
+        }
+        let l = pending.pop().unwrap_or_default();
+        let r = pending.pop().unwrap_or_default();
+        let (cost, c) = node_cost(n, &l, &r);
+        (choice[k], wide_nodes[k]) = (c, cost[0].1);
+        pending.push(cost);
+    }
+    pending
+}
+
+/// Interior node `n`'s cost per number of slots and its choices, from its children's costs.
+fn node_cost(n: &BvhNode, l: &Cost, r: &Cost) -> (Cost, [u8; WIDTH]) {
+    let less = |a: (f32, u32), b: (f32, u32)| a.0 < b.0 || (a.0 == b.0 && a.1 < b.1);
+    let add = |a: (f32, u32), b: (f32, u32)| (a.0 + b.0, a.1 + b.1);
+    let mut cost = [(0.0f32, 0u32); WIDTH];
+    let mut choice = [0u8; WIDTH];
+    // A wide node: its four slots split between the children (each child's cost is of at most
+    // so many slots, so splits of all four are enough). Ties keep the first.
+    let mut best = (add(l[0], r[2]), 1 << 4 | 3);
+    for k1 in 2..WIDTH {
+        let c = add(l[k1 - 1], r[WIDTH - k1 - 1]);
+        if less(c, best.0) {
+            best = (c, (k1 << 4 | (WIDTH - k1)) as u8);
+        }
+    }
+    cost[0] = add((super::build::node_half_area(n), 1), best.0);
+    choice[0] = best.1;
+    for k in 2..=WIDTH {
+        let mut best = (add(l[0], r[k - 2]), 1u8);
+        for k1 in 2..k {
+            let c = add(l[k1 - 1], r[k - k1 - 1]);
+            if less(c, best.0) {
+                best = (c, k1 as u8);
+            }
+        }
+        if less(cost[k - 2], best.0) {
+            best = (cost[k - 2], 0);
+        }
+        cost[k - 1] = best.0;
+        choice[k - 1] = best.1;
+    }
+    (cost, choice)
 }
 
 impl<N: WideSlots> WideBvh<N> {
