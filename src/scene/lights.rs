@@ -6,6 +6,7 @@ use crate::layout::{
     LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT, MATERIAL_DOUBLE_SIDED,
 };
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Photometric luminance of linear Rec. 709 RGB (ITU-R BT.709 weights).
 pub fn luminance(rgb: Vec3) -> f32 {
@@ -59,8 +60,10 @@ pub fn build_light_table_with(
     punctual: &[GpuPunctualLight],
     scene_radius: f32,
 ) -> (Vec<LightEntry>, f64) {
+    // Per triangle on every core; the sums and the CDF below stay in triangle order (the same
+    // floats as one pass), over the emitting triangles alone.
     let power: Vec<f64> = triangles
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, tri)| {
             let scale = scales.get(i).copied().unwrap_or(1.0);
@@ -93,20 +96,23 @@ pub fn build_light_table_with(
         .collect();
     let total: f64 = power.iter().chain(&punctual_power).sum();
 
-    let mut table = Vec::new();
+    triangles
+        .par_iter_mut()
+        .zip(&power)
+        .for_each(|(tri, &p)| tri.light_pmf = if p > 0.0 { (p / total) as f32 } else { 0.0 });
+    let emitting: Vec<u32> = (0..power.len() as u32)
+        .into_par_iter()
+        .filter(|&i| power[i as usize] > 0.0)
+        .collect();
+    let mut table = Vec::with_capacity(emitting.len());
     let mut running = 0.0f64;
-    for (i, (tri, &p)) in triangles.iter_mut().zip(&power).enumerate() {
-        if p <= 0.0 {
-            tri.light_pmf = 0.0;
-            continue;
-        }
+    for i in emitting {
+        let p = power[i as usize];
         running += p;
-        let pmf = (p / total) as f32;
-        tri.light_pmf = pmf;
         table.push(LightEntry {
             cdf: (running / total) as f32,
-            triangle: i as u32,
-            pmf,
+            triangle: i,
+            pmf: (p / total) as f32,
             pad: 0,
         });
     }
