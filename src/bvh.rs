@@ -539,15 +539,25 @@ pub fn gpu_triangles(
         materials.is_empty() || materials.len() == triangles.len(),
         "one material per triangle"
     );
+    gpu_triangles_with(order, |i| {
+        (triangles[i], materials.get(i).copied().unwrap_or(0))
+    })
+}
+
+/// [`gpu_triangles`] of the triangles whose corners and material `triangle(i)` gives.
+pub fn gpu_triangles_with(
+    order: &[u32],
+    triangle: impl Fn(usize) -> ([Vec3; 3], u32) + Sync,
+) -> Vec<GpuTriangle> {
     // In BVH order, on every core (a collect keeps the order).
     order
         .par_iter()
         .map(|&i| {
-            let [p0, p1, p2] = triangles[i as usize];
+            let ([p0, p1, p2], material) = triangle(i as usize);
             let (e1, e2) = (p1 - p0, p2 - p0);
             GpuTriangle {
                 p0: p0.into(),
-                material: materials.get(i as usize).copied().unwrap_or(0),
+                material,
                 e1: e1.into(),
                 light_pmf: 0.0,
                 e2: e2.into(),

@@ -1,7 +1,7 @@
 //! What both integrators share: render settings, the scene prepared for tracing (BVH, triangles
 //! in BVH order, materials, emitter table), the per-render constants and the render's output.
 
-use crate::bvh::{gpu_triangles, Bvh, WideBvh};
+use crate::bvh::{gpu_triangles_with, Bvh, WideBvh};
 use crate::bvh::{Hit, Ray};
 use crate::environment::EnvironmentMap;
 use crate::film::Film;
@@ -433,10 +433,8 @@ impl PreparedScene {
             .collect();
         let mut add_blas = |nodes: &mut Vec<crate::layout::BvhNode>,
                             tris: &[crate::scene::Triangle]| {
-            // Each pass over the triangles on every core (the collects keep their order).
-            let positions: Vec<[Vec3; 3]> = tris.par_iter().map(|t| t.p).collect();
-            let material_ids: Vec<u32> = tris.par_iter().map(|t| t.material).collect();
-            let mut bvh = Bvh::build(&positions);
+            // Each pass over the triangles on every core, reading the scene's records in place.
+            let mut bvh = Bvh::build_with(tris.len(), |i| tris[i].p);
             // The first tree's nodes are already where they go (base 0, first triangle 0):
             // moved, not copied.
             let root = if nodes.is_empty() && triangles.is_empty() {
@@ -446,7 +444,7 @@ impl PreparedScene {
                 append_blas(nodes, &bvh, triangles.len() as u32)
             };
             // The any-hit tests ride in the material's top bits (`TRIANGLE_TEST_*`).
-            let mut ordered = gpu_triangles(&positions, &material_ids, &bvh.order);
+            let mut ordered = gpu_triangles_with(&bvh.order, |i| (tris[i].p, tris[i].material));
             ordered.par_iter_mut().zip(&bvh.order).for_each(|(g, &i)| {
                 let t = &tris[i as usize];
                 if t.flags & TRIANGLE_ALPHA != 0 {

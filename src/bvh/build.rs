@@ -699,9 +699,16 @@ impl Bvh {
     /// Binned SAH build (see the module docs). Works for 0 triangles (traversal then misses) and
     /// for millions (recursion no deeper than [`MAX_DEPTH`]).
     pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+        Bvh::build_with(triangles.len(), |i| triangles[i])
+    }
+
+    /// [`Bvh::build`] over `count` triangles whose corners `corners(i)` gives: the same tree,
+    /// without a copy of the corners where they live in larger records (a scene's triangles).
+    pub fn build_with(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync) -> Bvh {
         let start_time = Instant::now();
-        let mut refs = with_node_room(triangles.len());
-        refs.par_extend(triangles.par_iter().enumerate().map(|(i, t)| {
+        let mut refs = with_node_room(count);
+        refs.par_extend((0..count).into_par_iter().map(|i| {
+            let t = corners(i);
             PrimRef::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
         }));
         Bvh::build_refs(refs, start_time)
