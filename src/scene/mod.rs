@@ -388,13 +388,18 @@ pub(crate) fn bounds_of(triangles: &[Triangle]) -> (Vec3, Vec3) {
     if triangles.is_empty() {
         return (Vec3::ZERO, Vec3::ZERO);
     }
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for p in triangles.iter().flat_map(|t| t.p) {
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    (lo, hi)
+    // On every core: min and max are exact, so any grouping gives the same bounds.
+    use rayon::prelude::*;
+    let empty = || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    triangles
+        .par_iter()
+        .fold(empty, |(lo, hi), t| {
+            (
+                lo.min(t.p[0]).min(t.p[1]).min(t.p[2]),
+                hi.max(t.p[0]).max(t.p[1]).max(t.p[2]),
+            )
+        })
+        .reduce(empty, |(a, b), (c, d)| (a.min(c), b.max(d)))
 }
 
 /// Bounds of the baked triangles and of every instance's transformed mesh bounds.
