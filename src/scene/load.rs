@@ -45,6 +45,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Primitive};
 use gltf::Document;
 use gltf::Semantic;
+use rayon::prelude::*;
 use std::io::Read;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
@@ -1563,7 +1564,9 @@ impl Builder<'_> {
                 })
                 .collect()
         } else {
+            // Per vertex on every core (a collect keeps the order).
             (0..positions.len())
+                .into_par_iter()
                 .map(|v| {
                     (
                         positions[v],
@@ -1592,59 +1595,97 @@ impl Builder<'_> {
         let determinant = linear.determinant();
         let mirrored = determinant < 0.0;
         let normal_matrix = linear.inverse().transpose();
-        let mut vertex_flat = Vec::with_capacity(local.len());
-        for &(_, n, t, uv, color, flat) in &local {
-            let normal = (normal_matrix * n).normalize_or_zero();
-            let tangent = (linear * t.truncate()).normalize_or_zero();
-            let sign = if (t.w < 0.0) != mirrored { -1.0 } else { 1.0 };
-            vertex_flat.push(flat || normal == Vec3::ZERO || !normal.is_finite());
-            self.vertices.push(GpuVertex {
-                tangent: tangent.extend(sign).to_array(),
-                normal: normal.to_array(),
-                pad: 0,
-                uv: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
-                color: color.to_array(),
-            });
-        }
+        // Per vertex on every core, written in place in order; a vertex shades flat where its
+        // normal is missing, invalid or vanishes in world space.
+        self.vertices
+            .par_extend(local.par_iter().map(|&(_, n, t, uv, color, _)| {
+                let normal = (normal_matrix * n).normalize_or_zero();
+                let tangent = (linear * t.truncate()).normalize_or_zero();
+                let sign = if (t.w < 0.0) != mirrored { -1.0 } else { 1.0 };
+                GpuVertex {
+                    tangent: tangent.extend(sign).to_array(),
+                    normal: normal.to_array(),
+                    pad: 0,
+                    uv: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
+                    color: color.to_array(),
+                }
+            }));
+        let vertex_flat: Vec<bool> = local
+            .par_iter()
+            .zip(&self.vertices[first_vertex as usize..])
+            .map(|(l, v)| {
+                let normal = Vec3::from(v.normal);
+                l.5 || normal == Vec3::ZERO || !normal.is_finite()
+            })
+            .collect();
 
-        for (t, c) in corners.iter().enumerate() {
-            let mut p = c.map(|v| world.transform_point3(positions[v as usize]));
-            if let Some(k) = p.iter().position(|q| !q.is_finite()) {
-                bail!(
-                    "vertex {} (corner {k} of triangle {t}) has a non-finite world-space position {}",
-                    c[k],
-                    p[k]
-                );
-            }
-            let local_index = |k: usize| if unweld { 3 * t + k } else { c[k] as usize };
-            let mut corner_vertices = if plain {
-                [NO_VERTEX; 3]
-            } else {
-                [0, 1, 2].map(|k| (first_vertex + local_index(k) as u64) as u32)
+        // Triangle t in world space: the index and position of its first non-finite corner,
+        // or the triangle, or `None` where it is degenerate (dropped).
+        let make =
+            |t: usize, c: &[u32; 3]| -> std::result::Result<Option<Triangle>, (usize, Vec3)> {
+                let mut p = c.map(|v| world.transform_point3(positions[v as usize]));
+                if let Some(k) = p.iter().position(|q| !q.is_finite()) {
+                    return Err((k, p[k]));
+                }
+                let local_index = |k: usize| if unweld { 3 * t + k } else { c[k] as usize };
+                let mut corner_vertices = if plain {
+                    [NO_VERTEX; 3]
+                } else {
+                    [0, 1, 2].map(|k| (first_vertex + local_index(k) as u64) as u32)
+                };
+                let flat = plain || (0..3).any(|k| vertex_flat[local_index(k)]);
+                if mirrored {
+                    p.swap(1, 2);
+                    corner_vertices.swap(1, 2);
+                }
+                let mut flags = if flat { TRIANGLE_FLAT } else { 0 };
+                if plain {
+                    flags |= TRIANGLE_PLAIN;
+                }
+                if alpha_tested {
+                    flags |= TRIANGLE_ALPHA;
+                }
+                let triangle = Triangle {
+                    p,
+                    material,
+                    vertices: corner_vertices,
+                    flags,
+                };
+                Ok(triangle
+                    .geometric_normal()
+                    .try_normalize()
+                    .is_some()
+                    .then_some(triangle))
             };
-            let flat = plain || (0..3).any(|k| vertex_flat[local_index(k)]);
-            if mirrored {
-                p.swap(1, 2);
-                corner_vertices.swap(1, 2);
+        // Checked on every core first (nothing stored); where every triangle is finite and
+        // kept, as in most files, they are made again and written in place on every core
+        // (the capacity is reserved above) — a million triangles' 56 MiB of fresh memory is
+        // faulted in by the threads that write it, and no copy of them is collected first.
+        // Otherwise one pass in triangle order: the first non-finite corner is the error
+        // reported and degenerate triangles are dropped.
+        let all_kept = corners
+            .par_iter()
+            .enumerate()
+            .all(|(t, c)| matches!(make(t, c), Ok(Some(_))));
+        if all_kept {
+            self.triangles.par_extend(
+                corners
+                    .par_iter()
+                    .enumerate()
+                    .map(|(t, c)| make(t, c).ok().flatten().expect("checked above")),
+            );
+        } else {
+            for (t, c) in corners.iter().enumerate() {
+                match make(t, c) {
+                    Ok(Some(triangle)) => self.triangles.push(triangle),
+                    Ok(None) => self.dropped_degenerate += 1,
+                    Err((k, p)) => bail!(
+                        "vertex {} (corner {k} of triangle {t}) has a non-finite world-space \
+                         position {p}",
+                        c[k]
+                    ),
+                }
             }
-            let mut flags = if flat { TRIANGLE_FLAT } else { 0 };
-            if plain {
-                flags |= TRIANGLE_PLAIN;
-            }
-            if alpha_tested {
-                flags |= TRIANGLE_ALPHA;
-            }
-            let triangle = Triangle {
-                p,
-                material,
-                vertices: corner_vertices,
-                flags,
-            };
-            if triangle.geometric_normal().try_normalize().is_none() {
-                self.dropped_degenerate += 1;
-                continue;
-            }
-            self.triangles.push(triangle);
         }
         // The decoded accessors and corners are freed on return.
         self.budget.release(
