@@ -435,14 +435,11 @@ impl PreparedScene {
                             tris: &[crate::scene::Triangle]| {
             // Each pass over the triangles on every core, reading the scene's records in place.
             let mut bvh = Bvh::build_with(tris.len(), |i| tris[i].p);
-            // The first tree's nodes are already where they go (base 0, first triangle 0):
-            // moved, not copied.
-            let root = if nodes.is_empty() && triangles.is_empty() {
-                *nodes = std::mem::take(&mut bvh.nodes);
-                0
-            } else {
-                append_blas(nodes, &bvh, triangles.len() as u32)
-            };
+            let root = append_blas(
+                nodes,
+                std::mem::take(&mut bvh.nodes),
+                triangles.len() as u32,
+            );
             // The any-hit tests ride in the material's top bits (`TRIANGLE_TEST_*`).
             let mut ordered = gpu_triangles_with(&bvh.order, |i| (tris[i].p, tris[i].material));
             ordered.par_iter_mut().zip(&bvh.order).for_each(|(g, &i)| {
@@ -492,7 +489,7 @@ impl PreparedScene {
             .collect();
         let tlas = Bvh::build_boxes(&boxes);
         let instances: Vec<GpuInstance> = tlas.order.iter().map(|&k| placed[k as usize]).collect();
-        let tlas_root = append_blas(&mut nodes, &tlas, 0);
+        let tlas_root = append_blas(&mut nodes, tlas.nodes, 0);
         // Emitters are chosen by power; an emissive texture scales it by its mean. Emitting
         // meshes are always baked (the loader never instances them), so the table covers the
         // bottom level at root 0 only.

@@ -9,7 +9,7 @@
 //! the top level: its traversal is exactly the one-level traversal.
 
 use crate::bvh::wide::prefetch_range;
-use crate::bvh::{any_triangle, closest_triangle, Bvh, Hierarchy, Hit, Ray};
+use crate::bvh::{any_triangle, closest_triangle, Hierarchy, Hit, Ray};
 use crate::layout::{BvhNode, GpuInstance, GpuTriangle, INSTANCE_IDENTITY, INSTANCE_MIRRORED};
 use glam::{Mat4, UVec4, Vec3, Vec4};
 use rayon::prelude::*;
@@ -86,13 +86,17 @@ pub fn instance_bounds(root: &BvhNode, instance: &GpuInstance) -> (Vec3, Vec3) {
     (min, max)
 }
 
-/// Appends `blas` (its nodes with triangle indices offset by `first_triangle`) to `nodes`;
-/// returns the index of its root.
-pub fn append_blas(nodes: &mut Vec<BvhNode>, blas: &Bvh, first_triangle: u32) -> u32 {
+/// Appends the tree `blas` (its nodes with triangle indices offset by `first_triangle`) to
+/// `nodes`; returns the index of its root. The first tree of an array with no offset is moved
+/// in as it is; others are copied on every core (a 1M-triangle tree's 35 MiB are fresh memory,
+/// faulted in by the writer).
+pub fn append_blas(nodes: &mut Vec<BvhNode>, blas: Vec<BvhNode>, first_triangle: u32) -> u32 {
     let base = nodes.len() as u32;
-    // On every core: a 1M-triangle tree's 35 MiB are fresh memory, faulted in by the writer.
-    nodes.par_extend(blas.nodes.par_iter().map(|n| {
-        let mut n = *n;
+    if base == 0 && first_triangle == 0 {
+        *nodes = blas;
+        return 0;
+    }
+    nodes.par_extend(blas.into_par_iter().map(|mut n| {
         n.offset += if n.is_leaf() { first_triangle } else { base };
         n
     }));

@@ -752,21 +752,13 @@ fn wide_ray_equals_slab_ray() {
 }
 
 /// A forest as the scene's node array holds one (the top level and the bottom levels one after
-/// another): each tree's nodes with their right children moved past the trees before it.
+/// another, `tlas::append_blas`), and its roots.
 fn forest(trees: &[&[BvhNode]]) -> (Vec<BvhNode>, Vec<u32>) {
-    let (mut nodes, mut roots) = (Vec::new(), Vec::new());
-    for tree in trees {
-        let base = nodes.len() as u32;
-        roots.push(base);
-        nodes.extend(tree.iter().map(|n| BvhNode {
-            offset: if n.is_leaf() {
-                n.offset
-            } else {
-                n.offset + base
-            },
-            ..*n
-        }));
-    }
+    let mut nodes = Vec::new();
+    let roots = trees
+        .iter()
+        .map(|tree| crate::tlas::append_blas(&mut nodes, tree.to_vec(), 0))
+        .collect();
     (nodes, roots)
 }
 
