@@ -19,11 +19,13 @@ use std::sync::OnceLock;
 #[global_allocator]
 static ALLOCATOR: CappedAllocator = CappedAllocator;
 
-/// The scene's name: a file in an empty folder of its own, so relative URIs resolve to nothing.
+/// The scene's name: a file in an empty folder, so relative URIs resolve to nothing. One folder
+/// for every fuzzing process (the harness never writes into it): a folder per process was left
+/// behind by each of `-fork`'s jobs, which libFuzzer ends without running destructors.
 fn source() -> &'static PathBuf {
     static SOURCE: OnceLock<PathBuf> = OnceLock::new();
     SOURCE.get_or_init(|| {
-        let dir = std::env::temp_dir().join(format!("wavetrace-fuzz-{}", std::process::id()));
+        let dir = std::env::temp_dir().join("wavetrace-fuzz");
         std::fs::create_dir_all(&dir).expect("a temporary folder");
         // One worker: the fuzzer runs with -jobs=1 on a shared machine.
         rayon::ThreadPoolBuilder::new()
