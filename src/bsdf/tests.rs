@@ -112,29 +112,37 @@ fn chi_square_p(sample: &dyn Fn(Vec3) -> Option<Vec3>, pdf: &dyn Fn(Vec3) -> f32
         }
     }
     let (dt, dp) = (PI as f64 / nt as f64, 2.0 * PI as f64 / np as f64);
-    // Midpoint rule over an (sθ × sφ) sub-grid of cell (a, b); also says whether the pdf was 0 at
-    // some sub-points and positive at others.
-    let integrate = |a: usize, b: usize, st: usize, sp: usize| -> (f64, bool, bool) {
+    // (cos φ, sin φ) of every sub-grid column, shared by all rows of cells: the same values as
+    // taking them at each sub-point, without most of the quadrature's trigonometry.
+    let columns: Vec<(f64, f64)> = (0..np * sub)
+        .map(|k| {
+            let phi = ((k / sub) as f64 + ((k % sub) as f64 + 0.5) / sub as f64) * dp;
+            (phi.cos(), phi.sin())
+        })
+        .collect();
+    // Midpoint rule over an (sθ × sub) sub-grid of cell (a, b); also says whether the pdf was 0
+    // at some sub-points and positive at others.
+    let integrate = |a: usize, b: usize, st: usize| -> (f64, bool, bool) {
         let (mut sum, mut zero, mut positive) = (0.0, false, false);
         for i in 0..st {
             let theta = (a as f64 + (i as f64 + 0.5) / st as f64) * dt;
-            for j in 0..sp {
-                let phi = (b as f64 + (j as f64 + 0.5) / sp as f64) * dp;
+            let (sin_theta, cos_theta) = theta.sin_cos();
+            for &(cos_phi, sin_phi) in &columns[b * sub..(b + 1) * sub] {
                 let w = Vec3::new(
-                    (theta.sin() * phi.cos()) as f32,
-                    (theta.sin() * phi.sin()) as f32,
-                    theta.cos() as f32,
+                    (sin_theta * cos_phi) as f32,
+                    (sin_theta * sin_phi) as f32,
+                    cos_theta as f32,
                 );
                 let p = pdf(w) as f64;
                 zero |= p <= 0.0;
                 positive |= p > 0.0;
-                sum += p * theta.sin();
+                sum += p * sin_theta;
             }
         }
-        (sum * dt * dp / (st * sp) as f64 * n as f64, zero, positive)
+        (sum * dt * dp / (st * sub) as f64 * n as f64, zero, positive)
     };
     let coarse: Vec<(f64, bool, bool)> = (0..nt * np)
-        .map(|k| integrate(k / np, k % np, sub, sub))
+        .map(|k| integrate(k / np, k % np, sub))
         .collect();
     let mut expected = vec![0f64; nt * np + 1];
     for k in 0..nt * np {
@@ -147,7 +155,7 @@ fn chi_square_p(sample: &dyn Fn(Vec3) -> Option<Vec3>, pdf: &dyn Fn(Vec3) -> f32
             .any(|&(x, y)| x < nt && coarse[x * np + y].2);
         let (sum, zero, positive) = coarse[k];
         expected[k] = if zero && (positive || neighbour_positive) {
-            integrate(a, b, 32 * sub, sub).0
+            integrate(a, b, 32 * sub).0
         } else {
             sum
         };
@@ -169,6 +177,25 @@ fn chi_square_p(sample: &dyn Fn(Vec3) -> Option<Vec3>, pdf: &dyn Fn(Vec3) -> f32
         *e = e.max(1e-12);
     }
     chi_square_gof(&observed, &expected).2
+}
+
+/// [`chi_square_p`] of `bsdf_sample`'s directions against `bsdf_pdf` for material `m` seen from
+/// `wo` (leaving out samples of delta lobes where `skip_delta`). The frame, which both build
+/// from (m, wo) alone, is built once for the million samples and the quadrature's pdf values
+/// rather than at each of them: the same numbers, in a third less time.
+fn chi_square_bsdf(m: &GpuMaterial, wo: Vec3, skip_delta: bool) -> f64 {
+    let frame = BsdfFrame::new(m, NG, wo);
+    chi_square_p(
+        &|u| {
+            frame
+                .as_ref()?
+                .sample(u, TransportMode::Radiance)
+                .filter(|s| !(skip_delta && s.delta))
+                .map(|s| s.wi)
+        },
+        &|wi| frame.as_ref().map_or(0.0, |f| f.pdf(wi)),
+        1_000_000,
+    )
 }
 
 #[test]
@@ -205,11 +232,7 @@ fn bsdf_sample_matches_its_pdf() {
     let cases = sweep(&[0.3, 0.7]);
     let alpha = sidak(0.01, cases.len());
     for (m, wo, name) in cases {
-        let p = chi_square_p(
-            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
-            &|wi| bsdf_pdf(&m, NG, wo, wi),
-            1_000_000,
-        );
+        let p = chi_square_bsdf(&m, wo, false);
         assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
     }
 }
@@ -248,15 +271,7 @@ fn assert_sampling_matches_pdf_and_eval(
     let alpha = sidak(0.01, cases.len());
     let mut smallest: f64 = 1.0;
     for (m, wo, name) in cases {
-        let p = chi_square_p(
-            &|u| {
-                bsdf_sample(m, NG, *wo, u, TransportMode::Radiance)
-                    .filter(|s| !(skip_delta && s.delta))
-                    .map(|s| s.wi)
-            },
-            &|wi| bsdf_pdf(m, NG, *wo, wi),
-            1_000_000,
-        );
+        let p = chi_square_bsdf(m, *wo, skip_delta);
         smallest = smallest.min(p);
         assert!(p > alpha, "{name}: χ² p = {p} < {alpha}");
         for mode in [TransportMode::Radiance, TransportMode::Importance] {
@@ -591,11 +606,7 @@ fn specular_color_sampling_matches_its_pdf_and_eval() {
     }
     let alpha = sidak(0.01, cases.len());
     for (m, wo) in cases {
-        let p = chi_square_p(
-            &|u| bsdf_sample(&m, NG, wo, u, TransportMode::Radiance).map(|s| s.wi),
-            &|wi| bsdf_pdf(&m, NG, wo, wi),
-            1_000_000,
-        );
+        let p = chi_square_bsdf(&m, wo, false);
         assert!(p > alpha, "{m:?} from {wo}: χ² p = {p} < {alpha}");
         for i in 0..2000 {
             let Some(s) = bsdf_sample(&m, NG, wo, u3(2, i), TransportMode::Radiance) else {
