@@ -647,6 +647,11 @@ pub struct BenchArgs {
     /// kernel), to measure what counting costs on a device.
     #[arg(long)]
     pub no_fetch_counts: bool,
+    /// Time each scene's GPU render from its kernels' first dispatch: no untimed warm-up render
+    /// first, so that a CPU Vulkan device's kernel compile (lavapipe compiles at the first
+    /// dispatch) is measured inside the render, as a render's start-up on a fresh machine.
+    #[arg(long)]
+    pub no_warm_up: bool,
 }
 
 /// A finite number.

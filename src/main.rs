@@ -99,13 +99,6 @@ const GPU_BYTES_PER_TRIANGLE: u64 =
 /// (for GPU renders) on the device.
 const FILM_BYTES_PER_PIXEL: u64 = 32;
 
-/// Loads a scene and prepares it (BVH); the loader reserved the preparation's memory.
-fn load(path: &Path) -> Result<(Scene, PreparedScene)> {
-    let scene = Scene::load_with(path, &LoadOptions::default())?;
-    let prepared = PreparedScene::new(&scene);
-    Ok((scene, prepared))
-}
-
 /// Reserves the film and, on the GPU, the scene's uploads.
 fn reserve_render_memory(
     budget: &Budget,
@@ -1015,21 +1008,6 @@ fn bench(args: &BenchArgs) -> Result<()> {
             count_fetches: !args.no_fetch_counts,
         })
     };
-    // Warm-up: the first dispatches of a pipeline include the driver's lazy work.
-    if let (Ok(g), Some(first)) = (&gpu, scenes.first()) {
-        let (_, prepared) = load(first)?;
-        let settings = &RenderSettings {
-            integrator: wavetrace::cpu::Integrator::Path,
-            ..settings.clone()
-        };
-        let tiny = RenderSettings {
-            width: 16,
-            height: 16,
-            spp: 1,
-            ..settings.clone()
-        };
-        g.render(&prepared, &tiny, args.wavefront)?;
-    }
     let gpu_name = match &gpu {
         Ok(g) => format!("{} ({})", g.device().name, g.device().driver),
         Err(e) => format!("unavailable: {e:#}"),
@@ -1120,6 +1098,17 @@ fn bench(args: &BenchArgs) -> Result<()> {
             println!("{name:<20} skipped: {why}");
             continue;
         }
+        // Each scene's kernels are specialised for its features, and lavapipe compiles a
+        // kernel's code at its first dispatch (seconds on a cold Mesa shader cache: BDPT on
+        // cornell-materials 10 s), so an untimed render of a few pixels with the same
+        // settings dispatches them first and the timed render reuses its pipelines. Reported
+        // apart, as the start-up a first render of the scene pays.
+        let mut warm_up_ms = None;
+        if let (Ok(g), false) = (&gpu, args.no_warm_up) {
+            let start = std::time::Instant::now();
+            g.render(&prepared, &settings.warm_up(), args.wavefront)?;
+            warm_up_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+        }
         if let Ok(g) = &gpu {
             rows.push(("gpu", g.render(&prepared, &settings, args.wavefront)?.stats));
         }
@@ -1164,6 +1153,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "load_ms": load_ms,
                 "prepare_ms": prepare_ms,
                 "triangles": prepared.triangles.len(),
+                "warm_up_ms": if device == "gpu" { warm_up_ms } else { None },
             }));
             if !s.kernel_seconds.is_empty() {
                 let kernels: Vec<String> = s
@@ -1186,6 +1176,12 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 if let Some(host) = host_phases(&s) {
                     println!("{:<20} {:<6} outside the kernels: {host}", "", "");
                 }
+            }
+            if let (Some(ms), "gpu") = (warm_up_ms, device) {
+                println!(
+                    "{:<20} {:<6} warm-up before timing (pipelines made, first dispatches): {ms:.0} ms",
+                    "", ""
+                );
             }
         }
         println!(

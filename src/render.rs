@@ -109,6 +109,19 @@ impl Default for RenderSettings {
 }
 
 impl RenderSettings {
+    /// The same render at 16² pixels (or fewer) and 1 sample: it dispatches every kernel the
+    /// full render does, specialised alike (`PreparedScene::gpu_features` reads neither size
+    /// nor samples), so `bench` runs it untimed first and lavapipe's compiles at a kernel's
+    /// first dispatch stay out of the timed render.
+    pub fn warm_up(&self) -> RenderSettings {
+        RenderSettings {
+            width: self.width.min(16),
+            height: self.height.min(16),
+            spp: 1,
+            ..self.clone()
+        }
+    }
+
     pub fn pixel_count(&self) -> u64 {
         self.width as u64 * self.height as u64
     }

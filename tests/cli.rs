@@ -337,6 +337,49 @@ fn bench_cpu_only_needs_no_vulkan() {
     );
 }
 
+/// `bench` renders each scene once untimed before timing its GPU row (lavapipe compiles a
+/// kernel at its first dispatch, and each scene's kernels are its own) and reports how long
+/// that took, in the row and its JSON; `--no-warm-up` times the render from its first dispatch
+/// and reports none. The CPU rows have no warm-up.
+#[test]
+fn bench_warms_each_scene_up_before_timing_its_gpu_render() {
+    if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
+        eprintln!("skipping: WAVETRACE_SKIP_GPU=1");
+        return;
+    }
+    for (extra, warmed) in [(None, true), (Some("--no-warm-up"), false)] {
+        let json = temp(&format!("bench-warm-up-{warmed}.json"));
+        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+            .arg("bench")
+            .args(TINY_LEAF_BENCH)
+            .args(["scenes/prism.gltf", "--json"])
+            .arg(&json)
+            .args(extra)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let rows = doc["rows"].as_array().unwrap();
+        assert_eq!(rows.len(), 4, "{doc}");
+        for row in rows {
+            let warm_up = &row["warm_up_ms"];
+            if row["device"] == "gpu" && warmed {
+                assert!(warm_up.as_f64().is_some_and(|ms| ms > 0.0), "{row}");
+            } else {
+                assert!(warm_up.is_null(), "{row}");
+            }
+        }
+        assert_eq!(
+            out.matches("warm-up before timing").count(),
+            if warmed { 2 } else { 0 },
+            "{out}"
+        );
+    }
+}
+
 /// `bench --sampler --light-sampler` measures that sampling, records it in its JSON rows, and
 /// prints a `--baseline` ratio only against rows sampled alike.
 #[test]

@@ -442,6 +442,18 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
                 ..RenderSettings::default()
             };
             let features = scene.gpu_features(&settings);
+            // `bench`'s untimed warm-up render of a full-size render makes the same kernels.
+            let full = RenderSettings {
+                width: 1920,
+                height: 1080,
+                spp: 1024,
+                ..settings.clone()
+            };
+            assert_eq!(
+                scene.gpu_features(&full.warm_up()),
+                scene.gpu_features(&full),
+                "{name}: the warm-up render's features"
+            );
             if *feature == 0 {
                 // The default sampler only.
                 assert_eq!(
