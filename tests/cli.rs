@@ -309,6 +309,20 @@ const TINY_LEAF_BENCH: [&str; 7] = [
     "2",
 ];
 
+/// The standard output of `wavetrace bench` of [`TINY_LEAF_BENCH`] and `args`, run from the
+/// repository root; fails the test where it fails.
+fn tiny_bench(args: &[&str]) -> String {
+    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .arg("bench")
+        .args(TINY_LEAF_BENCH)
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 /// `bench --cpu-only` opens no Vulkan device (it runs where there is no driver at all) and
 /// writes CPU rows only, with the JSON fields a later `--baseline` reads.
 #[test]
@@ -349,17 +363,9 @@ fn bench_warms_each_scene_up_before_timing_its_gpu_render() {
     }
     for (extra, warmed) in [(None, true), (Some("--no-warm-up"), false)] {
         let json = temp(&format!("bench-warm-up-{warmed}.json"));
-        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-            .arg("bench")
-            .args(TINY_LEAF_BENCH)
-            .args(["scenes/prism.gltf", "--json"])
-            .arg(&json)
-            .args(extra)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", stderr(&o));
-        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let mut args = vec!["scenes/prism.gltf", "--json", json.to_str().unwrap()];
+        args.extend(extra);
+        let out = tiny_bench(&args);
         let doc: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         let rows = doc["rows"].as_array().unwrap();
@@ -386,16 +392,15 @@ fn bench_warms_each_scene_up_before_timing_its_gpu_render() {
 fn bench_baseline_ratios_compare_rows_sampled_alike() {
     let json = temp("bench-independent.json");
     let bench = |extra: &[&str]| {
-        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-            .args(["bench", "--cpu-only"])
-            .args(TINY_LEAF_BENCH)
-            .args(["--sampler", "independent", "--light-sampler", "power"])
-            .args(extra)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", stderr(&o));
-        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let mut args = vec![
+            "--cpu-only",
+            "--sampler",
+            "independent",
+            "--light-sampler",
+            "power",
+        ];
+        args.extend(extra);
+        let out = tiny_bench(&args);
         // The leaf's row: scene, device and five figures, then the ratio where there is one.
         let row = out
             .lines()
