@@ -259,13 +259,87 @@ fn write_exr(
     let mut temporary = path.as_os_str().to_owned();
     temporary.push(format!(".{}.partial", std::process::id()));
     let temporary = std::path::PathBuf::from(temporary);
-    let written = Image::from_layer(layer).write().to_file(&temporary);
+    let written = Image::from_layer(layer)
+        .write()
+        .to_file(&temporary)
+        .map_err(anyhow::Error::from)
+        .and_then(|()| sort_exr_header(&temporary));
     if let Err(e) = written {
         let _ = std::fs::remove_file(&temporary);
-        return Err(e.into());
+        return Err(e);
     }
     std::fs::rename(&temporary, path)?;
     Ok(())
+}
+
+/// Puts the header attributes of the single-part EXR file at `path` in name order, in place, so
+/// that the same render writes the same bytes: the exr crate keeps a layer's own attributes (the
+/// render's record) in a `HashMap` and writes them in its iteration order, which differs from
+/// process to process. OpenEXR gives the order no meaning (a header is a run of name, type, size
+/// and value, ended by an empty name), and sorting keeps the header's length, so the offset
+/// table after it stays right. Files that are not single-part are left as they are.
+fn sort_exr_header(path: &Path) -> anyhow::Result<()> {
+    use std::io::{Read, Seek, SeekFrom, Write};
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(path)?;
+    // The header is a few KiB: read until it ends inside what was read.
+    let (mut head, mut chunk) = (Vec::new(), vec![0u8; 16 << 10]);
+    let (attributes, end) = loop {
+        let n = file.read(&mut chunk)?;
+        head.extend_from_slice(&chunk[..n]);
+        if let Some(found) = exr_header_attributes(&head) {
+            break found;
+        }
+        if n == 0 {
+            return Ok(());
+        }
+    };
+    let name = |r: &std::ops::Range<usize>| {
+        let a = &head[r.clone()];
+        &a[..a.iter().position(|&b| b == 0).unwrap_or(a.len())]
+    };
+    let mut sorted = attributes.clone();
+    sorted.sort_by(|a, b| name(a).cmp(name(b)));
+    let bytes: Vec<u8> = sorted
+        .iter()
+        .flat_map(|r| &head[r.clone()])
+        .copied()
+        .collect();
+    let start = attributes.first().map_or(end, |r| r.start);
+    debug_assert_eq!(start + bytes.len() + 1, end);
+    file.seek(SeekFrom::Start(start as u64))?;
+    file.write_all(&bytes)?;
+    Ok(())
+}
+
+/// The byte ranges of the attributes of a single-part EXR header at the start of `bytes`, and
+/// where the header ends (after its terminating empty name); `None` where `bytes` end first or
+/// the file is not a single-part image (the version field's tiled bit may be set).
+fn exr_header_attributes(bytes: &[u8]) -> Option<(Vec<std::ops::Range<usize>>, usize)> {
+    const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    const MULTIPART_OR_DEEP: u32 = 0x1000 | 0x800;
+    let version = u32::from_le_bytes(bytes.get(4..8)?.try_into().ok()?);
+    if bytes[..4] != MAGIC || version & MULTIPART_OR_DEEP != 0 {
+        return None;
+    }
+    let null_after = |at: usize| Some(at + bytes.get(at..)?.iter().position(|&b| b == 0)?);
+    let (mut at, mut ranges) = (8, Vec::new());
+    loop {
+        let name_end = null_after(at)?;
+        if name_end == at {
+            return Some((ranges, at + 1));
+        }
+        let type_end = null_after(name_end + 1)?;
+        let size = u32::from_le_bytes(bytes.get(type_end + 1..type_end + 5)?.try_into().ok()?);
+        let end = type_end + 5 + size as usize;
+        if end > bytes.len() {
+            return None;
+        }
+        ranges.push(at..end);
+        at = end;
+    }
 }
 
 /// The samples of channel `name` of a flat layer, if it has one.
@@ -394,6 +468,41 @@ mod tests {
             );
             assert_eq!(count[p], film.pixels[p].count);
         }
+    }
+
+    /// The same film and record written twice (each write a new attribute map, whose order the
+    /// exr crate's `HashMap` would change) give the same bytes, and the file reads back whole.
+    #[test]
+    fn exr_files_of_the_same_render_are_byte_identical() {
+        let mut film = Film::new(4, 2);
+        for p in 0..8 {
+            film.add_sample(p, Vec3::new(p as f32, 0.5, 0.25));
+        }
+        let record: Vec<(String, String)> = (0..16)
+            .map(|k| (format!("wavetrace.key{k}"), format!("value {k}")))
+            .collect();
+        let (a, b) = (temp_path("same_a.exr"), temp_path("same_b.exr"));
+        write_image_with(&film, &a, 0.0, &record).unwrap();
+        write_image_with(&film, &b, 0.0, &record).unwrap();
+        let bytes = std::fs::read(&a).unwrap();
+        assert!(bytes == std::fs::read(&b).unwrap(), "two writes differ");
+        let (read, attributes) = read_film_exact(&a).unwrap();
+        assert!(read.pixels == film.pixels, "the film read back differs");
+        for (name, value) in &record {
+            assert!(
+                attributes.iter().any(|(n, v)| n == name && v == value),
+                "{name} lost"
+            );
+        }
+        // The header's attributes are in name order.
+        let (ranges, _) = exr_header_attributes(&bytes).unwrap();
+        let names: Vec<&[u8]> = ranges
+            .iter()
+            .map(|r| {
+                &bytes[r.start..r.start + bytes[r.clone()].iter().position(|&x| x == 0).unwrap()]
+            })
+            .collect();
+        assert!(names.windows(2).all(|w| w[0] < w[1]), "{names:?}");
     }
 
     #[test]
