@@ -289,6 +289,9 @@ fn sort_exr_header(path: &Path) -> anyhow::Result<()> {
     let (attributes, end) = loop {
         let n = file.read(&mut chunk)?;
         head.extend_from_slice(&chunk[..n]);
+        if head.len() >= 8 && !single_part_exr(&head) {
+            return Ok(());
+        }
         if let Some(found) = exr_header_attributes(&head) {
             break found;
         }
@@ -296,12 +299,8 @@ fn sort_exr_header(path: &Path) -> anyhow::Result<()> {
             return Ok(());
         }
     };
-    let name = |r: &std::ops::Range<usize>| {
-        let a = &head[r.clone()];
-        &a[..a.iter().position(|&b| b == 0).unwrap_or(a.len())]
-    };
     let mut sorted = attributes.clone();
-    sorted.sort_by(|a, b| name(a).cmp(name(b)));
+    sorted.sort_by(|a, b| exr_attribute_name(&head, a).cmp(exr_attribute_name(&head, b)));
     let bytes: Vec<u8> = sorted
         .iter()
         .flat_map(|r| &head[r.clone()])
@@ -314,16 +313,18 @@ fn sort_exr_header(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The byte ranges of the attributes of a single-part EXR header at the start of `bytes`, and
-/// where the header ends (after its terminating empty name); `None` where `bytes` end first or
-/// the file is not a single-part image (the version field's tiled bit may be set).
-fn exr_header_attributes(bytes: &[u8]) -> Option<(Vec<std::ops::Range<usize>>, usize)> {
+/// Whether `bytes` (at least 8) open a single-part EXR image: the magic number, and neither the
+/// multi-part nor the deep bit of the version field (the tiled bit may be set).
+fn single_part_exr(bytes: &[u8]) -> bool {
     const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
     const MULTIPART_OR_DEEP: u32 = 0x1000 | 0x800;
-    let version = u32::from_le_bytes(bytes.get(4..8)?.try_into().ok()?);
-    if bytes[..4] != MAGIC || version & MULTIPART_OR_DEEP != 0 {
-        return None;
-    }
+    let version = u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]);
+    bytes[..4] == MAGIC && version & MULTIPART_OR_DEEP == 0
+}
+
+/// The byte ranges of the attributes of the single-part EXR header at the start of `bytes`, and
+/// where the header ends (after its terminating empty name); `None` where `bytes` end first.
+fn exr_header_attributes(bytes: &[u8]) -> Option<(Vec<std::ops::Range<usize>>, usize)> {
     let null_after = |at: usize| Some(at + bytes.get(at..)?.iter().position(|&b| b == 0)?);
     let (mut at, mut ranges) = (8, Vec::new());
     loop {
@@ -340,6 +341,12 @@ fn exr_header_attributes(bytes: &[u8]) -> Option<(Vec<std::ops::Range<usize>>, u
         ranges.push(at..end);
         at = end;
     }
+}
+
+/// The name of the attribute at `range` of an EXR header (up to its null).
+fn exr_attribute_name<'a>(bytes: &'a [u8], range: &std::ops::Range<usize>) -> &'a [u8] {
+    let a = &bytes[range.clone()];
+    &a[..a.iter().position(|&b| b == 0).unwrap_or(a.len())]
 }
 
 /// The samples of channel `name` of a flat layer, if it has one.
@@ -495,12 +502,11 @@ mod tests {
             );
         }
         // The header's attributes are in name order.
+        assert!(single_part_exr(&bytes));
         let (ranges, _) = exr_header_attributes(&bytes).unwrap();
         let names: Vec<&[u8]> = ranges
             .iter()
-            .map(|r| {
-                &bytes[r.start..r.start + bytes[r.clone()].iter().position(|&x| x == 0).unwrap()]
-            })
+            .map(|r| exr_attribute_name(&bytes, r))
             .collect();
         assert!(names.windows(2).all(|w| w[0] < w[1]), "{names:?}");
     }

@@ -1093,7 +1093,8 @@ fn bench(args: &BenchArgs) -> Result<()> {
             .and_then(|s| s.to_str())
             .unwrap_or("?")
             .to_owned();
-        let mut rows: Vec<(&str, RenderStats)> = Vec::new();
+        // (device, stats, the untimed warm-up's ms before it where one ran)
+        let mut rows: Vec<(&str, RenderStats, Option<f64>)> = Vec::new();
         if let Err(why) = wavetrace::cpu::bidir::check(&prepared, &settings) {
             println!("{name:<20} skipped: {why}");
             continue;
@@ -1103,19 +1104,26 @@ fn bench(args: &BenchArgs) -> Result<()> {
         // cornell-materials 10 s), so an untimed render of a few pixels with the same
         // settings dispatches them first and the timed render reuses its pipelines. Reported
         // apart, as the start-up a first render of the scene pays.
-        let mut warm_up_ms = None;
-        if let (Ok(g), false) = (&gpu, args.no_warm_up) {
-            let start = std::time::Instant::now();
-            g.render(&prepared, &settings.warm_up(), args.wavefront)?;
-            warm_up_ms = Some(start.elapsed().as_secs_f64() * 1e3);
-        }
         if let Ok(g) = &gpu {
-            rows.push(("gpu", g.render(&prepared, &settings, args.wavefront)?.stats));
+            let start = std::time::Instant::now();
+            let warm_up_ms = match args.no_warm_up {
+                true => None,
+                false => {
+                    g.render(&prepared, &settings.warm_up(), args.wavefront)?;
+                    Some(start.elapsed().as_secs_f64() * 1e3)
+                }
+            };
+            let stats = g.render(&prepared, &settings, args.wavefront)?.stats;
+            rows.push(("gpu", stats, warm_up_ms));
         }
         if !args.gpu_only {
-            rows.push(("cpu", wavetrace::cpu::render(&prepared, &settings).stats));
+            rows.push((
+                "cpu",
+                wavetrace::cpu::render(&prepared, &settings).stats,
+                None,
+            ));
         }
-        for (device, s) in rows {
+        for (device, s, warm_up_ms) in rows {
             let ratio = baseline
                 .get(&(name.clone(), device.to_owned()))
                 .filter(|_| settings.integrator == wavetrace::cpu::Integrator::Path)
@@ -1153,7 +1161,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "load_ms": load_ms,
                 "prepare_ms": prepare_ms,
                 "triangles": prepared.triangles.len(),
-                "warm_up_ms": if device == "gpu" { warm_up_ms } else { None },
+                "warm_up_ms": warm_up_ms,
             }));
             if !s.kernel_seconds.is_empty() {
                 let kernels: Vec<String> = s
@@ -1177,7 +1185,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                     println!("{:<20} {:<6} outside the kernels: {host}", "", "");
                 }
             }
-            if let (Some(ms), "gpu") = (warm_up_ms, device) {
+            if let Some(ms) = warm_up_ms {
                 println!(
                     "{:<20} {:<6} warm-up before timing (pipelines made, first dispatches): {ms:.0} ms",
                     "", ""

@@ -45,7 +45,7 @@ fn cpu_render_writes_an_exr_with_variance() {
 
 #[test]
 fn gpu_render_writes_a_png() {
-    if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
+    if common::skip_gpu() {
         return;
     }
     let out = temp("gpu.png");
@@ -260,7 +260,7 @@ fn compare_tells_agreeing_renders_from_different_ones() {
         assert!(o.status.success(), "{}", stderr(&o));
         out
     };
-    let gpu = std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1");
+    let gpu = common::skip_gpu();
     let a = render("a.exr", if gpu { "cpu" } else { "gpu" }, "1", "6");
     let b = render("b.exr", "cpu", "2", "6");
     let direct = render("direct.exr", "cpu", "3", "1");
@@ -357,8 +357,7 @@ fn bench_cpu_only_needs_no_vulkan() {
 /// and reports none. The CPU rows have no warm-up.
 #[test]
 fn bench_warms_each_scene_up_before_timing_its_gpu_render() {
-    if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
-        eprintln!("skipping: WAVETRACE_SKIP_GPU=1");
+    if common::skip_gpu() {
         return;
     }
     for (extra, warmed) in [(None, true), (Some("--no-warm-up"), false)] {

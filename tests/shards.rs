@@ -18,14 +18,6 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-fn skip_gpu() -> bool {
-    let skip = std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1");
-    if skip {
-        eprintln!("skipping: WAVETRACE_SKIP_GPU=1");
-    }
-    skip
-}
-
 /// Renders the Cornell box with `extra` options to `out`; panics unless it succeeds.
 fn render(device: &str, size: u32, spp: u32, extra: &[&str], out: &Path) {
     let o = run_render(device, size, spp, extra, out);
@@ -126,7 +118,7 @@ fn cpu_shards_merge_into_the_single_render() {
 
 #[test]
 fn gpu_shards_merge_into_the_single_render() {
-    if skip_gpu() {
+    if common::skip_gpu() {
         return;
     }
     shards_merge_into_the_single_render("gpu", 16, 8);
@@ -366,7 +358,7 @@ fn cpu_resume_completes_a_partial_render() {
 
 #[test]
 fn gpu_resume_completes_a_partial_render() {
-    if skip_gpu() {
+    if common::skip_gpu() {
         return;
     }
     resume_completes_a_partial("gpu", 16);
@@ -455,7 +447,7 @@ fn sigterm_during_a_cpu_render_writes_a_resumable_partial() {
 
 #[test]
 fn sigint_during_a_gpu_render_writes_a_resumable_partial() {
-    if skip_gpu() {
+    if common::skip_gpu() {
         return;
     }
     a_signal_writes_a_resumable_partial("gpu", libc::SIGINT);
@@ -466,7 +458,7 @@ fn sigint_during_a_gpu_render_writes_a_resumable_partial() {
 /// and each device's share is reported.
 #[test]
 fn a_render_split_over_devices_is_the_single_render() {
-    if skip_gpu() {
+    if common::skip_gpu() {
         return;
     }
     let (one, two) = (temp("devices-one.exr"), temp("devices-two.exr"));

@@ -12,14 +12,6 @@ fn temp(name: &str) -> PathBuf {
     common::temp("verify", name)
 }
 
-fn skip_without_gpu() -> bool {
-    let skip = std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1");
-    if skip {
-        eprintln!("skipping: WAVETRACE_SKIP_GPU=1");
-    }
-    skip
-}
-
 /// Validates a JUnit file against `tests/schemas/junit.xsd` with xmllint (libxml2-utils).
 /// `.ci/run` installs it and sets WAVETRACE_NEED_XMLLINT=1, so CI cannot skip this; elsewhere a
 /// missing xmllint skips the check with a notice.
@@ -54,7 +46,7 @@ fn json(path: &PathBuf) -> serde_json::Value {
 
 #[test]
 fn every_committed_scene_verifies_and_the_reports_say_so() {
-    if skip_without_gpu() {
+    if common::skip_gpu() {
         return;
     }
     let report = temp("all");
@@ -108,7 +100,7 @@ fn every_committed_scene_verifies_and_the_reports_say_so() {
 
 #[test]
 fn a_biased_gpu_render_fails_and_the_heat_map_marks_its_tiles() {
-    if skip_without_gpu() {
+    if common::skip_gpu() {
         return;
     }
     // --debug-flags 1 drops next event estimation on the GPU side only.
@@ -178,7 +170,7 @@ fn a_biased_gpu_render_fails_and_the_heat_map_marks_its_tiles() {
 
 #[test]
 fn a_render_verifies_against_a_stored_reference() {
-    if skip_without_gpu() {
+    if common::skip_gpu() {
         return;
     }
     let reference = temp("reference.exr");

@@ -61,6 +61,16 @@ pub fn test_kernels() -> Option<MutexGuard<'static, TestKernels>> {
     })
 }
 
+/// Whether WAVETRACE_SKIP_GPU=1 says to skip the GPU tests (said on stderr when it does): for
+/// tests that run the binary on the GPU rather than through [`gpu`].
+pub fn skip_gpu() -> bool {
+    let skip = std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1");
+    if skip {
+        eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
+    }
+    skip
+}
+
 /// The one `T` of a test binary, made by `open` on first use and named on stderr with its
 /// device, or none where WAVETRACE_SKIP_GPU=1.
 fn one_device<T>(
@@ -69,8 +79,7 @@ fn one_device<T>(
     open: impl FnOnce() -> (T, DeviceInfo, bool),
 ) -> Option<MutexGuard<'static, T>> {
     let made = cell.get_or_init(|| {
-        if std::env::var("WAVETRACE_SKIP_GPU").is_ok_and(|v| v == "1") {
-            eprintln!("skipping GPU tests: WAVETRACE_SKIP_GPU=1");
+        if skip_gpu() {
             return None;
         }
         let (t, device, validating) = open();
