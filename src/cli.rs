@@ -614,6 +614,15 @@ pub struct BenchArgs {
     /// in that collapse quantised (the GPU's walk: boxes per ray, M rays/s).
     #[arg(long)]
     pub bvh: bool,
+    /// Make each scene's GPU kernels without rendering (those a render with these settings
+    /// uses, specialised alike) and print the driver's statistics of each: registers, spills,
+    /// instructions, as the device names them (`VK_KHR_pipeline_executable_properties`, which
+    /// AMD's and NVIDIA's drivers offer and lavapipe does not). Submits no work, so it also
+    /// runs on a device that compiles but cannot render: Mesa RADV's null device
+    /// (`RADV_FORCE_FAMILY=navi31` with RADV's ICD) gives AMD's compiler's view of every
+    /// kernel on any machine.
+    #[arg(long, conflicts_with_all = ["bvh", "cpu_only", "gpu_only", "baseline"])]
+    pub kernels: bool,
     /// How many times `--bvh` builds each scene's tree after the first (reported apart: it pays
     /// for fresh memory, as a render's one build does; the median and best are of the rest).
     #[arg(long, requires = "bvh", default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=1000))]

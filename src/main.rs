@@ -993,6 +993,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
         light_sampler: args.light_sampler.code(),
         ..RenderSettings::default()
     };
+    if args.kernels {
+        return bench_kernels(&scenes, &settings, args.gpu_index, args.json.as_deref());
+    }
     // How the rows sample, as `--sampler` and `--light-sampler` name it: part of a row's key
     // against a baseline (rows written before these options existed used the defaults).
     let (sampler, light_sampler) = (value_name(&args.sampler), value_name(&args.light_sampler));
@@ -1211,6 +1214,78 @@ fn bench(args: &BenchArgs) -> Result<()> {
             "cpu_threads": rayon::current_num_threads(),
             "rows": json_rows,
         });
+        std::fs::write(file, serde_json::to_string_pretty(&doc)?)
+            .with_context(|| format!("writing {}", file.display()))?;
+        println!("wrote {}", file.display());
+    }
+    Ok(())
+}
+
+/// `bench --kernels`: each scene's kernels made on the GPU for `settings`, without rendering,
+/// and the driver's statistics of each.
+fn bench_kernels(
+    scenes: &[PathBuf],
+    settings: &RenderSettings,
+    gpu_index: Option<usize>,
+    json: Option<&Path>,
+) -> Result<()> {
+    let compiler = wavetrace::gpu::KernelCompiler::new(gpu_index)?;
+    let device = compiler.device();
+    let gpu_name = format!("{} ({})", device.name, device.driver);
+    println!(
+        "wavetrace bench --kernels ({:?} integrator): each scene's kernels made on {gpu_name}, without rendering",
+        settings.integrator
+    );
+    if !compiler.reports_statistics() {
+        println!(
+            "notice: this device reports no statistics of its kernels (it lacks VK_KHR_pipeline_executable_properties); the kernels were made"
+        );
+    }
+    let mut rows = Vec::new();
+    for path in scenes {
+        let scene = Scene::load_with(path, &LoadOptions::default())?;
+        let prepared = PreparedScene::new(&scene);
+        drop(scene);
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("?")
+            .to_owned();
+        if let Err(why) = wavetrace::cpu::bidir::check(&prepared, settings) {
+            println!("{name}: skipped: {why}");
+            continue;
+        }
+        let compiled = compiler
+            .compile(&prepared, settings)
+            .with_context(|| format!("{}: making its kernels", path.display()))?;
+        let features = wavetrace::layout::feature_names(compiled.features);
+        println!(
+            "{name}: kernels made for {}; deferred slots per lane: {}",
+            match features.len() {
+                0 => "no optional feature (the plain path)".to_string(),
+                _ => features.join(", "),
+            },
+            wavetrace::layout::qbvh_stack_size(compiled.features)
+        );
+        for (kernel, statistics) in &compiled.kernels {
+            println!(
+                "  {kernel:<17} {}",
+                match statistics.is_empty() {
+                    true => "(no statistics)".to_string(),
+                    false => wavetrace::render::statistics_line(statistics),
+                }
+            );
+        }
+        rows.push(serde_json::json!({
+            "scene": name,
+            "integrator": format!("{:?}", settings.integrator).to_lowercase(),
+            "features": features,
+            "deferred_slots": wavetrace::layout::qbvh_stack_size(compiled.features),
+            "kernel_statistics": compiled.kernels.iter().map(|(k, list)| (k.clone(), serde_json::Value::Object(list.iter().map(|st| (st.name.clone(), st.value.to_json())).collect()))).collect::<serde_json::Map<_, _>>(),
+        }));
+    }
+    if let Some(file) = json {
+        let doc = serde_json::json!({ "gpu": gpu_name, "rows": rows });
         std::fs::write(file, serde_json::to_string_pretty(&doc)?)
             .with_context(|| format!("writing {}", file.display()))?;
         println!("wrote {}", file.display());

@@ -994,10 +994,13 @@ impl StatisticValue {
     }
 }
 
-/// A kernel's statistics in one line: `name value` pairs, comma-separated.
+/// A kernel's statistics in one line: `name value` pairs, comma-separated, without the
+/// hashes that identify the compiled code (RADV's "Driver pipeline hash" and "Hash"; the JSON
+/// keeps them).
 pub fn statistics_line(statistics: &[KernelStatistic]) -> String {
     statistics
         .iter()
+        .filter(|s| !s.name.to_lowercase().contains("hash"))
         .map(|s| format!("{} {}", s.name, s.value))
         .collect::<Vec<_>>()
         .join(", ")

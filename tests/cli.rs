@@ -548,3 +548,92 @@ fn ab_bench_tables_a_build_against_itself() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("no-such-scene.gltf"), "{}", stderr(&o));
 }
+
+/// This machine's Mesa RADV ICD file (AMD's Vulkan driver), where installed.
+fn radv_icd() -> Option<PathBuf> {
+    ["/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d"]
+        .iter()
+        .filter_map(|dir| std::fs::read_dir(dir).ok())
+        .flatten()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("radeon_icd") && n.ends_with(".json"))
+        })
+}
+
+/// `bench --kernels` makes every committed scene's kernels on a real GPU compiler without
+/// rendering: on Mesa RADV's null device (`RADV_FORCE_FAMILY=navi31`: AMD's compiler, ACO, with
+/// no AMD GPU; it cannot run work, so the command must submit none) every kernel of the path
+/// tracer and of BDPT comes back with its registers, and none spills vector registers or uses
+/// scratch memory, which on a GPU is per-lane memory traffic on every access: a change that
+/// makes a kernel spill fails here, on any machine. `.ci/run` sets WAVETRACE_NEED_RADV=1, so
+/// CI cannot skip it; elsewhere a Mesa without RADV skips it with a notice.
+#[test]
+fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
+    if common::skip_gpu() {
+        return;
+    }
+    let Some(icd) = radv_icd() else {
+        assert!(
+            std::env::var("WAVETRACE_NEED_RADV").is_err(),
+            "Mesa's RADV is required (WAVETRACE_NEED_RADV) but no radeon_icd*.json is installed"
+        );
+        eprintln!("skipping: no Mesa RADV ICD (radeon_icd*.json) installed");
+        return;
+    };
+    let scenes: Vec<PathBuf> = {
+        let mut found: Vec<PathBuf> =
+            std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"))
+                .unwrap()
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
+                .collect();
+        found.sort();
+        found
+    };
+    assert!(scenes.len() >= 9, "{scenes:?}");
+    for integrator in [
+        wavetrace::cpu::Integrator::Path,
+        wavetrace::cpu::Integrator::Bdpt,
+    ] {
+        let name = format!("{integrator:?}").to_lowercase();
+        let json = temp(&format!("kernels-{name}.json"));
+        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+            .args(["bench", "--kernels", "--integrator", &name, "--json"])
+            .arg(&json)
+            .args(&scenes)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .env("VK_DRIVER_FILES", &icd)
+            .env("VK_ICD_FILENAMES", &icd)
+            .env("RADV_FORCE_FAMILY", "navi31")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert!(
+            doc["gpu"].as_str().unwrap().contains("RADV"),
+            "{}",
+            doc["gpu"]
+        );
+        let rows = doc["rows"].as_array().unwrap();
+        assert_eq!(rows.len(), scenes.len(), "{doc}");
+        for row in rows {
+            let statistics = row["kernel_statistics"].as_object().unwrap();
+            let kernels: Vec<&str> = statistics.keys().map(String::as_str).collect();
+            let mut expected = wavetrace::gpu::wavefront::kernels(integrator).to_vec();
+            expected.sort_unstable();
+            let mut kernels_sorted = kernels.clone();
+            kernels_sorted.sort_unstable();
+            assert_eq!(kernels_sorted, expected, "{}", row["scene"]);
+            for (kernel, s) in statistics {
+                let at = format!("{} {name} {kernel}: {s}", row["scene"]);
+                assert!(s["VGPRs"].as_u64().is_some_and(|v| v > 0), "{at}");
+                assert_eq!(s["Spilled VGPRs"].as_u64(), Some(0), "{at}");
+                assert_eq!(s["Scratch size"].as_u64(), Some(0), "{at}");
+            }
+        }
+    }
+}

@@ -20,7 +20,7 @@
 #
 # `run` writes under $OUT (the tool brings back at most 8 files): device_check.log (every
 # step's output, its wall time and exit status), tests.log (the test binaries' whole output),
-# bench-cornell.json and bench-large.json
+# bench-cornell.json, bench-large.json, kernels-path.json, kernels-bdpt.json
 # (`wavetrace bench --json`) and cornell-box.png. A step that fails or runs past its limit is
 # logged and the next one runs. The steps, figures first:
 #   1. nvidia-smi, and `render --device auto` of the Cornell box, which must choose the GPU;
@@ -36,7 +36,8 @@
 #      (tools/mitsuba_bench.py), then wavetrace sampling as Mitsuba does;
 #   5. the Cornell box with a quarter, half and twice the default paths in flight; every scene
 #      with its data in storage buffers and without the fetch counters; BDPT;
-#   6. `bench --bvh` of the large scenes on the machine's cores;
+#   6. `bench --bvh` of the large scenes on the machine's cores, and `bench --kernels` (every
+#      kernel's registers and local memory as the driver compiles it, path tracer and BDPT);
 #   7. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
 #   8. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
 #      (the binaries read files under the path they were built in, which `run` links to).
@@ -202,6 +203,13 @@ figures() {
     step "bench light tracing and BDPT" 120 "$wt" bench --gpu-only --width $size --height $size \
         --spp $((spp / 4)) --integrator bdpt scenes/cornell-box.gltf scenes/caustic.gltf
     step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
+    # The driver's registers, spills and local memory of every kernel of every committed scene
+    # and of the large ones, path tracer and BDPT (made, not run: seconds), against what AMD's
+    # compiler says of the same kernels (tools/kernels-radv-path.json, kernels-radv-bdpt.json).
+    for i in path bdpt; do
+        step "bench --kernels --integrator $i" 120 "$wt" bench --kernels --integrator $i \
+            --json "$out/kernels-$i.json" scenes/*.gltf "${scenes[@]}"
+    done
 }
 
 run() {

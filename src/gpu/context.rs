@@ -94,6 +94,10 @@ pub struct Context {
     /// The driver's statistics of a compiled kernel (registers, spills, instructions: whatever
     /// it names), where the device offers `VK_KHR_pipeline_executable_properties`.
     pub executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
+    /// Set once work has been submitted to the queue (`Commands::submit_and_wait`): only then
+    /// does dropping the context wait for the device, which a device that cannot run work
+    /// (Mesa RADV's null device, which `bench --kernels` compiles for) does not survive.
+    pub submitted: std::sync::atomic::AtomicBool,
 }
 
 unsafe extern "system" fn on_validation_message(
@@ -408,6 +412,7 @@ impl Context {
             allocator,
             validation_errors,
             executable_properties,
+            submitted: std::sync::atomic::AtomicBool::new(false),
         })
     }
 
@@ -470,7 +475,9 @@ impl Context {
 impl Drop for Context {
     fn drop(&mut self) {
         unsafe {
-            let _ = self.device.device_wait_idle();
+            if self.submitted.load(std::sync::atomic::Ordering::Acquire) {
+                let _ = self.device.device_wait_idle();
+            }
             // Frees the allocator's blocks (every buffer is gone by now).
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);

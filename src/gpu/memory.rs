@@ -379,6 +379,8 @@ impl Commands {
             let cmds = [self.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             before().map_err(explain)?;
+            ctx.submitted
+                .store(true, std::sync::atomic::Ordering::Release);
             self.device
                 .queue_submit(ctx.queue, &submit, self.fence)
                 .map_err(explain)?;

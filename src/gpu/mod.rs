@@ -154,39 +154,7 @@ impl GpuRenderer {
 
     /// How `scene`'s large arrays are laid over this device's bindings.
     pub fn scene_split(&self, scene: &PreparedScene) -> Result<SceneSplit> {
-        let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let len = |n: usize| n as u64;
-        // Arrays read from images need no buffer.
-        let max_rows = self.ctx.properties.limits.max_image_dimension2_d as u64;
-        let images = self.scene_images != SceneImages::Buffers
-            && pipelines::SceneImage::ALL
-                .iter()
-                .all(|i| i.rows(scene) <= max_rows);
-        let in_buffers = |n: usize| if images { 0 } else { len(n) };
-        let mut split = SceneSplit::plan(
-            [
-                in_buffers(scene.gpu_bvh().nodes.len()),
-                in_buffers(scene.triangles.len()),
-                in_buffers(scene.triangle_vertices.len()),
-                in_buffers(scene.vertices.len()),
-                in_buffers(scene.texels.len()),
-            ],
-            [
-                size_of::<crate::layout::BvhNode>() as u64,
-                size_of::<crate::layout::GpuTriangle>() as u64,
-                16,
-                size_of::<crate::layout::GpuVertex>() as u64,
-                4,
-            ],
-            self.binding_limits
-                .unwrap_or([u64::MAX; 5])
-                .map(|b| b.min(range)),
-        )?;
-        split.reads = match images {
-            true => self.scene_images,
-            false => SceneImages::Buffers,
-        };
-        Ok(split)
+        scene_split(&self.ctx, self.scene_images, self.binding_limits, scene)
     }
 
     pub fn device(&self) -> &DeviceInfo {
@@ -903,6 +871,112 @@ struct Checkpoint {
     end: u32,
     taken: Instant,
     every: std::time::Duration,
+}
+
+/// How `scene`'s large arrays are laid over `ctx`'s bindings, read as `scene_images` says where
+/// their images fit, each binding at most `binding_limits` bytes where given.
+fn scene_split(
+    ctx: &Context,
+    scene_images: SceneImages,
+    binding_limits: Option<[u64; 5]>,
+    scene: &PreparedScene,
+) -> Result<SceneSplit> {
+    let range = ctx.properties.limits.max_storage_buffer_range as u64;
+    let len = |n: usize| n as u64;
+    // Arrays read from images need no buffer.
+    let max_rows = ctx.properties.limits.max_image_dimension2_d as u64;
+    let images = scene_images != SceneImages::Buffers
+        && pipelines::SceneImage::ALL
+            .iter()
+            .all(|i| i.rows(scene) <= max_rows);
+    let in_buffers = |n: usize| if images { 0 } else { len(n) };
+    let mut split = SceneSplit::plan(
+        [
+            in_buffers(scene.gpu_bvh().nodes.len()),
+            in_buffers(scene.triangles.len()),
+            in_buffers(scene.triangle_vertices.len()),
+            in_buffers(scene.vertices.len()),
+            in_buffers(scene.texels.len()),
+        ],
+        [
+            size_of::<crate::layout::BvhNode>() as u64,
+            size_of::<crate::layout::GpuTriangle>() as u64,
+            16,
+            size_of::<crate::layout::GpuVertex>() as u64,
+            4,
+        ],
+        binding_limits
+            .unwrap_or([u64::MAX; 5])
+            .map(|b| b.min(range)),
+    )?;
+    split.reads = match images {
+        true => scene_images,
+        false => SceneImages::Buffers,
+    };
+    Ok(split)
+}
+
+/// A device's shader compiler without the renderer: makes the kernels a scene renders with
+/// (specialised for its features and its arrays' bindings, as a render makes them) and reads
+/// the driver's statistics of each, submitting no work (`bench --kernels`). It therefore also
+/// runs on a device that compiles but cannot run work, such as Mesa RADV's null device
+/// (`RADV_FORCE_FAMILY=navi31`: AMD's compiler, ACO, with no AMD GPU present), whose registers,
+/// spills and instruction counts are a real GPU compiler's view of each kernel.
+pub struct KernelCompiler {
+    ctx: Context,
+    scene_images: SceneImages,
+}
+
+/// The kernels one render of a scene is made of, with the driver's statistics of each.
+#[derive(Clone, Debug)]
+pub struct CompiledKernels {
+    /// The features they were specialised for (`PreparedScene::gpu_features`).
+    pub features: u32,
+    /// Every kernel of the integrator, in `wavefront::kernels` order, with its statistics
+    /// (empty where the device reports none).
+    pub kernels: Vec<(String, Vec<crate::render::KernelStatistic>)>,
+}
+
+impl KernelCompiler {
+    pub fn new(device_index: Option<usize>) -> Result<KernelCompiler> {
+        let ctx = Context::new(device_index, false)?;
+        let scene_images = SceneImages::for_device(
+            ctx.is_cpu(),
+            std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
+        )?;
+        Ok(KernelCompiler { ctx, scene_images })
+    }
+
+    pub fn device(&self) -> &DeviceInfo {
+        &self.ctx.info
+    }
+
+    /// Whether the device reports its kernels' statistics
+    /// (`VK_KHR_pipeline_executable_properties`).
+    pub fn reports_statistics(&self) -> bool {
+        self.ctx.executable_properties.is_some()
+    }
+
+    /// Makes the kernels that render `scene` with `settings` would use and reads their
+    /// statistics.
+    pub fn compile(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+    ) -> Result<CompiledKernels> {
+        let split = scene_split(&self.ctx, self.scene_images, None, scene)?;
+        let pipelines = Pipelines::with_kernels(&self.ctx, &split, false)?;
+        let features = scene.gpu_features(settings);
+        let names = wavefront::kernels(settings.integrator);
+        pipelines.prepare(names, features)?;
+        Ok(CompiledKernels {
+            features,
+            kernels: names
+                .iter()
+                .map(|&name| (name.to_string(), pipelines.statistics(name, features)))
+                .collect(),
+        })
+    }
 }
 
 /// What one render holds between its passes: the paths in flight, the band height, the frame
