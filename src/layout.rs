@@ -313,9 +313,14 @@ pub const FEATURE_LIGHT_BVH: u32 = 1 << 12;
 pub const FEATURE_IRIDESCENCE: u32 = 1 << 13;
 /// Every feature: a pipeline that serves any scene.
 pub const FEATURES_ALL: u32 = u32::MAX;
-/// The feature bits proper; the top byte is the quantised walks' deferred array
-/// ([`qbvh_stack_size`]).
-pub const FEATURE_FLAGS: u32 = (1 << 24) - 1;
+/// The feature bits proper; above them the top level's deferred array ([`tlas_stack_size`])
+/// and, in the top byte, the bottom levels' ([`qbvh_stack_size`]).
+pub const FEATURE_FLAGS: u32 = (1 << FEATURE_TLAS_STACK_SHIFT) - 1;
+/// Where `gpu_features` puts the entries of the top level's array of deferred slots
+/// (`TLAS_STACK_SIZE`, the kernels' specialisation constant 8), six bits: the top level's walk
+/// runs while an instance's walk holds its own array, and a top level over a few instances
+/// defers far fewer slots than a bottom level over thousands of triangles.
+pub const FEATURE_TLAS_STACK_SHIFT: u32 = 16;
 /// Where `gpu_features` puts the entries of the quantised walks' per-lane array of deferred
 /// slots made for the scene (`QBVH_STACK_SIZE`, the kernels' specialisation constant 7).
 pub const FEATURE_STACK_SHIFT: u32 = 24;
@@ -327,6 +332,15 @@ pub const QBVH_STACK_MAX: u32 = 48;
 /// byte where it is 1 to [`QBVH_STACK_MAX`], else (every feature) the largest.
 pub fn qbvh_stack_size(features: u32) -> u32 {
     match features >> FEATURE_STACK_SHIFT {
+        n @ 1..=QBVH_STACK_MAX => n,
+        _ => QBVH_STACK_MAX,
+    }
+}
+
+/// The entries of the top level's deferred array of kernels made for `features`: bits 16 to 21
+/// where they are 1 to [`QBVH_STACK_MAX`], else (every feature) the largest.
+pub fn tlas_stack_size(features: u32) -> u32 {
+    match (features >> FEATURE_TLAS_STACK_SHIFT) & 63 {
         n @ 1..=QBVH_STACK_MAX => n,
         _ => QBVH_STACK_MAX,
     }
@@ -1043,6 +1057,24 @@ mod tests {
         }
         assert_eq!(qbvh_stack_size(49 << FEATURE_STACK_SHIFT), QBVH_STACK_MAX);
         assert!(FEATURE_LIGHT_BVH < 1 << FEATURE_STACK_SHIFT);
+    }
+
+    /// The top level's deferred array comes from bits 16 to 21, apart from the bottom levels'
+    /// and from every feature; kernels made with every feature keep the largest.
+    #[test]
+    fn top_level_array_comes_from_its_own_bits() {
+        assert_eq!(tlas_stack_size(FEATURES_ALL), QBVH_STACK_MAX);
+        assert_eq!(tlas_stack_size(FEATURE_TOP_LEVEL), QBVH_STACK_MAX);
+        for (top, bottom) in [(1, 48), (3, 19), (48, 1), (17, 17)] {
+            let flags = FEATURE_TOP_LEVEL | FEATURE_IRIDESCENCE;
+            let features = flags | top << FEATURE_TLAS_STACK_SHIFT | bottom << FEATURE_STACK_SHIFT;
+            assert_eq!(tlas_stack_size(features), top);
+            assert_eq!(qbvh_stack_size(features), bottom);
+            assert_eq!(features & FEATURE_FLAGS, flags);
+            assert_eq!(feature_names(features), feature_names(flags));
+        }
+        assert!(FEATURE_IRIDESCENCE < 1 << FEATURE_TLAS_STACK_SHIFT);
+        assert!(QBVH_STACK_MAX < 64 && FEATURE_TLAS_STACK_SHIFT + 6 <= FEATURE_STACK_SHIFT);
     }
 
     /// The material image marks exactly the materials whose extension parameters (past the

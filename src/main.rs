@@ -131,6 +131,20 @@ fn fetches_per_ray(stats: &RenderStats, kernel: &str) -> Option<(f64, &'static s
     Some((*n as f64 / rays.max(1) as f64, what))
 }
 
+/// The deferred arrays kernels made for `features` keep per lane: the bottom levels', and the
+/// top level's where there is one ("16", "16, top level 2").
+fn deferred_slots(features: u32) -> String {
+    use wavetrace::layout::{qbvh_stack_size, tlas_stack_size, FEATURE_TOP_LEVEL};
+    match features & FEATURE_TOP_LEVEL != 0 {
+        true => format!(
+            "{}, top level {}",
+            qbvh_stack_size(features),
+            tlas_stack_size(features)
+        ),
+        false => qbvh_stack_size(features).to_string(),
+    }
+}
+
 fn print_stats(stats: &RenderStats, per_kernel: bool) {
     println!(
         "done in {:.3} s: {:.3} M samples/s, {:.3} M rays/s ({} extension + {} shadow rays); {} NaN/Inf samples dropped",
@@ -152,7 +166,7 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
                 0 => "no optional feature (the plain path)".to_string(),
                 _ => names.join(", "),
             },
-            wavetrace::layout::qbvh_stack_size(features)
+            deferred_slots(features)
         );
     }
     if per_kernel && !stats.kernel_seconds.is_empty() {
@@ -1265,7 +1279,7 @@ fn bench_kernels(
                 0 => "no optional feature (the plain path)".to_string(),
                 _ => features.join(", "),
             },
-            wavetrace::layout::qbvh_stack_size(compiled.features)
+            deferred_slots(compiled.features)
         );
         for (kernel, statistics) in &compiled.kernels {
             println!(
@@ -1281,6 +1295,8 @@ fn bench_kernels(
             "integrator": format!("{:?}", settings.integrator).to_lowercase(),
             "features": features,
             "deferred_slots": wavetrace::layout::qbvh_stack_size(compiled.features),
+            "top_level_deferred_slots": (compiled.features & wavetrace::layout::FEATURE_TOP_LEVEL != 0)
+                .then(|| wavetrace::layout::tlas_stack_size(compiled.features)),
             "kernel_statistics": compiled.kernels.iter().map(|(k, list)| (k.clone(), serde_json::Value::Object(list.iter().map(|st| (st.name.clone(), st.value.to_json())).collect()))).collect::<serde_json::Map<_, _>>(),
         }));
     }

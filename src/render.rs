@@ -152,9 +152,11 @@ pub struct GpuBvh {
     /// The top level's quantised root in `nodes` (`FrameParams::tlas_wide_root`), or
     /// `NO_WIDE_ROOT` where it is walked in its binary nodes.
     pub tlas_wide_root: u32,
-    /// The most slots a walk of any quantised level can have deferred at once
-    /// (`WideBvh::deferred_bound`; 0 where no level is quantised).
+    /// The most slots a walk of any quantised bottom level can have deferred at once
+    /// (`WideBvh::deferred_bound`; 0 where none is quantised).
     pub deferred_max: u32,
+    /// The same for the top level (0 where it is walked in its binary nodes).
+    pub tlas_deferred: u32,
 }
 
 /// The scene in the form both integrators trace: the two-level BVH (`tlas.rs`) and triangles
@@ -663,16 +665,17 @@ impl PreparedScene {
             // A level of no primitives, or whose walk could defer more slots than the GPU
             // keeps, is walked in its binary nodes (`tlas.glsl`); the largest bound of the others
             // sizes the kernels' deferred array (`gpu_features`).
+            // The bottom levels' bound and the top level's size two arrays apart
+            // (`layout::FEATURE_TLAS_STACK_SHIFT`).
             let mut bounds = std::collections::HashMap::new();
-            let mut deferred_max = 0;
-            let mut wide_root = |binary: u32| {
+            let mut wide_root = |binary: u32, deferred: &mut u32| {
                 quant
                     .root(binary)
                     .filter(|&w| {
                         let bound = *bounds.entry(w).or_insert_with(|| quant.deferred_bound(w));
                         let walked = bound <= crate::bvh::quantized::GPU_DEFERRED_MAX;
                         if walked {
-                            deferred_max = deferred_max.max(bound);
+                            *deferred = (*deferred).max(bound);
                         }
                         walked
                     })
@@ -680,20 +683,23 @@ impl PreparedScene {
                         crate::bvh::quantized::gpu_node_index(base, w)
                     })
             };
+            let mut deferred_max = 0;
             let instances = self
                 .instances
                 .iter()
                 .map(|inst| GpuInstance {
-                    wide_root: wide_root(inst.blas_root),
+                    wide_root: wide_root(inst.blas_root, &mut deferred_max),
                     ..*inst
                 })
                 .collect();
-            let tlas_wide_root = wide_root(self.tlas_root);
+            let mut tlas_deferred = 0;
+            let tlas_wide_root = wide_root(self.tlas_root, &mut tlas_deferred);
             GpuBvh {
                 nodes,
                 instances,
                 tlas_wide_root,
                 deferred_max,
+                tlas_deferred,
             }
         })
     }
@@ -813,9 +819,10 @@ impl PreparedScene {
     /// as it is (the top level skipped, `tlas.glsl`), every level with a quantised root, every
     /// material plain, no alpha-tested triangle, no texture, no environment, no punctual light,
     /// no dispersive material, no attenuation, no path expression, no thin film, and of the
-    /// samplers and the light samplers all but the one chosen. The top byte is the quantised
-    /// walks' array of deferred slots made for the scene (`layout::qbvh_stack_size`): its levels'
-    /// largest deferred bound less the two slots the walks keep in registers, at least 1.
+    /// samplers and the light samplers all but the one chosen. The top byte is the bottom levels'
+    /// quantised walks' array of deferred slots made for the scene (`layout::qbvh_stack_size`):
+    /// their largest deferred bound less the two slots the walks keep in registers, at least 1;
+    /// bits 16 to 21 the top level's, alike (`layout::tlas_stack_size`; 1 without a top level).
     pub fn gpu_features(&self, settings: &RenderSettings) -> u32 {
         use crate::layout::*;
         let frame = self.frame_params(settings);
@@ -829,6 +836,13 @@ impl PreparedScene {
             .iter()
             .any(|t| t.material & TRIANGLE_TEST_ALPHA != 0);
         let volume = self.attenuates;
+        // A deferred array for walks that defer at most `bound` slots: less the ones the walks
+        // keep in registers, at least one.
+        let slots = |bound: u32| {
+            bound
+                .saturating_sub(crate::bvh::quantized::GPU_DEFERRED_REGISTERS)
+                .clamp(1, QBVH_STACK_MAX)
+        };
         [
             (top_level, FEATURE_TOP_LEVEL),
             (binary_walk, FEATURE_BINARY_WALK),
@@ -851,11 +865,8 @@ impl PreparedScene {
         .into_iter()
         .filter(|&(needed, _)| needed)
         .fold(0, |features, (_, f)| features | f)
-            | bvh
-                .deferred_max
-                .saturating_sub(crate::bvh::quantized::GPU_DEFERRED_REGISTERS)
-                .clamp(1, QBVH_STACK_MAX)
-                << FEATURE_STACK_SHIFT
+            | slots(bvh.deferred_max) << FEATURE_STACK_SHIFT
+            | slots(if top_level { bvh.tlas_deferred } else { 0 }) << FEATURE_TLAS_STACK_SHIFT
     }
 
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {

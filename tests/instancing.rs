@@ -180,3 +180,35 @@ fn wide_and_binary_walks_find_the_same_hits() {
     assert!(hits > 5000, "{hits} hits: the test is too weak");
     assert!(ties < hits / 50, "{ties} ties in {hits} hits of two walks");
 }
+
+/// The kernels' two deferred arrays are made for their own levels
+/// (`PreparedScene::gpu_features`): the top level's walk holds its array while an instance's walk
+/// holds the bottom levels' one, so each takes its own levels' largest deferred bound
+/// (`WideBvh::deferred_bound`) less the two slots kept in registers — here a top level over 1 000
+/// placements and bottom levels over two meshes, whose bounds differ. A scene without a top level
+/// makes the smallest top-level array (its walk is compiled out).
+#[test]
+fn the_top_level_and_the_bottom_levels_have_deferred_arrays_of_their_own() {
+    use wavetrace::bvh::quantized::GPU_DEFERRED_REGISTERS;
+    use wavetrace::bvh::WideBvh;
+    use wavetrace::layout::{qbvh_stack_size, tlas_stack_size, FEATURE_TOP_LEVEL};
+    let scene = PreparedScene::new(&load(true, 1 << 30).unwrap());
+    let quant = WideBvh::collapse(&scene.bvh.nodes, &scene.level_roots()).quantized();
+    let bound = |binary: u32| quant.root(binary).map_or(0, |w| quant.deferred_bound(w));
+    let top = bound(scene.tlas_root);
+    let bottom = scene
+        .instances
+        .iter()
+        .map(|i| bound(i.blas_root))
+        .max()
+        .unwrap();
+    assert_ne!(top, bottom, "the test needs levels of different bounds");
+    let features = scene.gpu_features(&settings(1));
+    assert_ne!(features & FEATURE_TOP_LEVEL, 0);
+    assert_eq!(tlas_stack_size(features), top - GPU_DEFERRED_REGISTERS);
+    assert_eq!(qbvh_stack_size(features), bottom - GPU_DEFERRED_REGISTERS);
+    let baked = PreparedScene::new(&load(false, 1 << 30).unwrap());
+    let features = baked.gpu_features(&settings(1));
+    assert_eq!(features & FEATURE_TOP_LEVEL, 0);
+    assert_eq!(tlas_stack_size(features), 1);
+}

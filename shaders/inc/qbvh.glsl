@@ -23,6 +23,10 @@
 // least 1; the default, 48, in kernels made with every feature and the test kernels: made to
 // measure because its size costs time.
 layout(constant_id = 7) const uint QBVH_STACK_SIZE = 48u;
+// The top level's array (tlas.glsl), made for its own bound (src/layout.rs, tlas_stack_size):
+// its walk holds it while an instance's walk holds the one above, so each is sized for its own
+// levels rather than both for the largest (instances.gltf: 19 slots and 16, where both were 19).
+layout(constant_id = 8) const uint TLAS_STACK_SIZE = 48u;
 
 // The node's scale per axis, 2^(e − 127) from its biased exponent e (src/bvh/quantized.rs,
 // scale): made once per node, for all four slots.
@@ -155,14 +159,15 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
 // levels share them with their own leaf tests (an array passed to a GLSL function is copied).
 // The deferred slots: BVH_DEFER's array and the nearest in registers (three for a closest hit,
 // two for an any hit: bvh.glsl).
-#define QBVH_CLOSEST_STATE                           \
-    uvec2 stack[QBVH_STACK_SIZE];                    \
-    float stack_enter[QBVH_STACK_SIZE];              \
+// SIZE: QBVH_STACK_SIZE for the bottom levels, TLAS_STACK_SIZE for the top level.
+#define QBVH_CLOSEST_STATE(SIZE)                     \
+    uvec2 stack[SIZE];                               \
+    float stack_enter[SIZE];                         \
     uint sp = 0u;                                    \
     uvec2 top = uvec2(0u), mid = uvec2(0u), below = uvec2(0u);        \
     float top_enter = 0.0, mid_enter = 0.0, below_enter = 0.0;
-#define QBVH_ANY_STATE                               \
-    uvec2 stack[QBVH_STACK_SIZE];                    \
+#define QBVH_ANY_STATE(SIZE)                         \
+    uvec2 stack[SIZE];                               \
     uint sp = 0u;                                    \
     uvec2 top = uvec2(0u), below = uvec2(0u);
 // While-while (Aila & Laine 2009), as in bvh.glsl: from `at`, descends through nodes until every
@@ -225,7 +230,7 @@ uint qbvh_entered(QuantNode node, BvhSlabRay ray, float t_min, float t_far,
 bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     if (root == NO_WIDE_ROOT) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    QBVH_CLOSEST_STATE
+    QBVH_CLOSEST_STATE(QBVH_STACK_SIZE)
     uvec2 at = uvec2(root, 0u);
     float t_far = hit.t;
     bool found = false;
@@ -248,7 +253,7 @@ bool qbvh_closest_from(uint root, vec3 origin, vec3 dir, float t_min, uvec4 key,
 bool qbvh_any_from(uint root, vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     if (root == NO_WIDE_ROOT) return false;
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    QBVH_ANY_STATE
+    QBVH_ANY_STATE(QBVH_STACK_SIZE)
     uvec2 at = uvec2(root, 0u);
     for (;;) {
         bool at_leaf;

@@ -74,7 +74,7 @@ bool tlas_leaf_any(uint first, uint count, vec3 origin, vec3 dir, float t_min, f
 // over WideBvh<QuantNode>).
 bool tlas_closest_quantised(vec3 origin, vec3 dir, float t_min, uvec4 key, inout HitRecord hit) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    QBVH_CLOSEST_STATE
+    QBVH_CLOSEST_STATE(TLAS_STACK_SIZE)
     uvec2 at = uvec2(frame.tlas_wide_root, 0u);
     float t_far = hit.t;
     for (;;) {
@@ -92,7 +92,7 @@ bool tlas_closest_quantised(vec3 origin, vec3 dir, float t_min, uvec4 key, inout
 
 bool tlas_any_quantised(vec3 origin, vec3 dir, float t_min, float t_max, uvec4 key) {
     BvhSlabRay ray = bvh_slab_ray(origin, dir);
-    QBVH_ANY_STATE
+    QBVH_ANY_STATE(TLAS_STACK_SIZE)
     uvec2 at = uvec2(frame.tlas_wide_root, 0u);
     for (;;) {
         bool at_leaf;

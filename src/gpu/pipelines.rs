@@ -521,8 +521,9 @@ pub struct Pipelines {
     /// The split the kernels are specialised for.
     pub split: SceneSplit,
     /// The specialisation constants of every kernel: the split's shifts, then how the scene
-    /// arrays are read (then the scene's features and the quantised walks' deferred array, per
-    /// pipeline: `layout::qbvh_stack_size`).
+    /// arrays are read (then the scene's features and the quantised walks' deferred arrays, the
+    /// bottom levels' and the top level's, per pipeline: `layout::qbvh_stack_size`,
+    /// `layout::tlas_stack_size`).
     constants: Vec<u32>,
     /// The pipelines created, by kernel and scene features (`layout::FEATURE_*`).
     pipelines: Mutex<HashMap<(&'static str, u32), vk::Pipeline>>,
@@ -702,11 +703,12 @@ impl Pipelines {
     fn create(&self, name: &'static str, features: u32) -> Result<vk::Pipeline> {
         let device = &self.device;
         let stack = crate::layout::qbvh_stack_size(features);
+        let tlas_stack = crate::layout::tlas_stack_size(features);
         let constants: Vec<u32> = self
             .constants
             .iter()
             .copied()
-            .chain([features, stack])
+            .chain([features, stack, tlas_stack])
             .collect();
         let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
             .map(|k| {
