@@ -568,8 +568,9 @@ fn radv_icd() -> Option<PathBuf> {
 /// no AMD GPU; it cannot run work, so the command must submit none) every kernel of the path
 /// tracer and of BDPT comes back with its registers, and none spills vector registers or uses
 /// scratch memory, which on a GPU is per-lane memory traffic on every access: a change that
-/// makes a kernel spill fails here, on any machine. `.ci/run` sets WAVETRACE_NEED_RADV=1, so
-/// CI cannot skip it; elsewhere a Mesa without RADV skips it with a notice.
+/// makes a kernel spill fails here, on any machine. A render there ends in one clear error.
+/// `.ci/run` sets WAVETRACE_NEED_RADV=1, so CI cannot skip it; elsewhere a Mesa without RADV
+/// skips it with a notice.
 #[test]
 fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
     if common::skip_gpu() {
@@ -636,4 +637,30 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
             }
         }
     }
+    // Rendering there is refused with one error naming the device, not a crash: the device
+    // cannot even make a fence, and the context it opened is closed without waiting on a queue
+    // that never ran anything (which the null device does not survive).
+    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args([
+            "render",
+            "scenes/cornell-box.gltf",
+            "--device",
+            "gpu",
+            "--width",
+            "8",
+        ])
+        .args(["--height", "8", "--spp", "1", "-o"])
+        .arg(temp("null-device.png"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("VK_DRIVER_FILES", &icd)
+        .env("VK_ICD_FILENAMES", &icd)
+        .env("RADV_FORCE_FAMILY", "navi31")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("RADV") && stderr(&o).contains("cannot render"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -315,8 +315,17 @@ impl Commands {
             .command_buffer_count(1);
         let cmd = unsafe { device.allocate_command_buffers(&alloc) }
             .context("allocating a command buffer")?[0];
+        // A device that compiles kernels but cannot run them, such as Mesa RADV's null device
+        // (RADV_FORCE_FAMILY, which `bench --kernels` compiles for), fails first here.
         let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-            .context("creating a fence")?;
+            .with_context(|| {
+                format!(
+                    "creating a fence on {} (a device that only compiles, such as Mesa RADV's null \
+                     device under RADV_FORCE_FAMILY, cannot render: `wavetrace bench --kernels` \
+                     reads its kernels' statistics)",
+                    ctx.info.name
+                )
+            })?;
         Ok(Commands {
             device: device.clone(),
             pool,
