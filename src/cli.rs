@@ -620,8 +620,9 @@ pub struct BenchArgs {
     /// AMD's and NVIDIA's drivers offer and lavapipe does not). Submits no work, so it also
     /// runs on a device that compiles but cannot render: Mesa RADV's null device
     /// (`RADV_FORCE_FAMILY=navi31` with RADV's ICD) gives AMD's compiler's view of every
-    /// kernel on any machine.
-    #[arg(long, conflicts_with_all = ["bvh", "cpu_only", "gpu_only", "baseline"])]
+    /// kernel on any machine. With `--baseline` (an earlier `bench --kernels --json`), each
+    /// kernel's figures that changed are printed beside the baseline's.
+    #[arg(long, conflicts_with_all = ["bvh", "cpu_only", "gpu_only"])]
     pub kernels: bool,
     /// How many times `--bvh` builds each scene's tree after the first (reported apart: it pays
     /// for fresh memory, as a render's one build does; the median and best are of the rest).

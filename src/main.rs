@@ -1008,7 +1008,13 @@ fn bench(args: &BenchArgs) -> Result<()> {
         ..RenderSettings::default()
     };
     if args.kernels {
-        return bench_kernels(&scenes, &settings, args.gpu_index, args.json.as_deref());
+        return bench_kernels(
+            &scenes,
+            &settings,
+            args.gpu_index,
+            args.json.as_deref(),
+            args.baseline.as_deref(),
+        );
     }
     // How the rows sample, as `--sampler` and `--light-sampler` name it: part of a row's key
     // against a baseline (rows written before these options existed used the defaults).
@@ -1242,7 +1248,34 @@ fn bench_kernels(
     settings: &RenderSettings,
     gpu_index: Option<usize>,
     json: Option<&Path>,
+    baseline: Option<&Path>,
 ) -> Result<()> {
+    let integrator = format!("{:?}", settings.integrator).to_lowercase();
+    // An earlier `bench --kernels --json`'s statistics by (scene, kernel), of this integrator.
+    let baseline: std::collections::HashMap<(String, String), serde_json::Value> = match baseline {
+        Some(file) => {
+            let text = std::fs::read_to_string(file)
+                .with_context(|| format!("reading {}", file.display()))?;
+            let v: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not JSON", file.display()))?;
+            let rows = v["rows"].as_array().with_context(|| {
+                format!(
+                    "{}: no \"rows\" (write it with bench --kernels --json)",
+                    file.display()
+                )
+            })?;
+            rows.iter()
+                .filter(|r| r["integrator"].as_str() == Some(integrator.as_str()))
+                .filter_map(|r| Some((r["scene"].as_str()?, r["kernel_statistics"].as_object()?)))
+                .flat_map(|(scene, kernels)| {
+                    kernels
+                        .iter()
+                        .map(move |(k, s)| ((scene.to_owned(), k.clone()), s.clone()))
+                })
+                .collect()
+        }
+        None => Default::default(),
+    };
     let compiler = wavetrace::gpu::KernelCompiler::new(gpu_index)?;
     let device = compiler.device();
     let gpu_name = format!("{} ({})", device.name, device.driver);
@@ -1289,6 +1322,13 @@ fn bench_kernels(
                     false => wavetrace::render::statistics_line(statistics),
                 }
             );
+            if let Some(before) = baseline.get(&(name.clone(), kernel.clone())) {
+                println!(
+                    "  {:<17} against the baseline: {}",
+                    "",
+                    statistics_changes(before, statistics)
+                );
+            }
         }
         rows.push(serde_json::json!({
             "scene": name,
@@ -1307,6 +1347,27 @@ fn bench_kernels(
         println!("wrote {}", file.display());
     }
     Ok(())
+}
+
+/// A kernel's statistics that differ from a baseline's (`before`: name → value, as
+/// `bench --kernels --json` writes them), "name before → now" (hashes left out), or "the same".
+fn statistics_changes(
+    before: &serde_json::Value,
+    now: &[wavetrace::render::KernelStatistic],
+) -> String {
+    let changed: Vec<String> = now
+        .iter()
+        .filter(|s| !s.name.to_lowercase().contains("hash"))
+        .filter_map(|s| {
+            let old = before.get(&s.name)?;
+            let new = s.value.to_json();
+            (*old != new).then(|| format!("{} {old} → {new}", s.name))
+        })
+        .collect();
+    match changed.is_empty() {
+        true => "the same".to_string(),
+        false => changed.join(", "),
+    }
 }
 
 /// Boxes tested per ray and rays per second of `RAYS` closest-hit rays `ray(i)` through `tree`.

@@ -636,6 +636,25 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
                 assert_eq!(s["Scratch size"].as_u64(), Some(0), "{at}");
             }
         }
+        // The same kernels made again compare as the same against that run (`--baseline`).
+        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+            .args(["bench", "--kernels", "--integrator", &name, "--baseline"])
+            .arg(&json)
+            .args(&scenes)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .env("VK_DRIVER_FILES", &icd)
+            .env("VK_ICD_FILENAMES", &icd)
+            .env("RADV_FORCE_FAMILY", "navi31")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        let kernels = wavetrace::gpu::wavefront::kernels(integrator).len();
+        assert_eq!(
+            stdout.matches("against the baseline: the same").count(),
+            kernels * scenes.len(),
+            "{stdout}"
+        );
     }
     // Rendering there is refused with one error naming the device, not a crash: the device
     // cannot even make a fence, and the context it opened is closed without waiting on a queue
