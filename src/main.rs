@@ -1111,11 +1111,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
         let prepared = PreparedScene::new(&scene);
         let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
         drop(scene);
-        let name = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("?")
-            .to_owned();
+        let name = scene_name(path);
         // (device, stats, the untimed warm-up's ms before it where one ran)
         let mut rows: Vec<(&str, RenderStats, Option<f64>)> = Vec::new();
         if let Err(why) = wavetrace::cpu::bidir::check(&prepared, &settings) {
@@ -1177,7 +1173,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
                 "host_ms": s.host_seconds.iter().map(|(k, t)| (k.clone(), serde_json::json!(t * 1e3))).collect::<serde_json::Map<_, _>>(),
                 "submissions": s.submissions,
                 "scene_reads": s.device_memory.as_ref().map(|m| m.scene_reads),
-                "kernel_statistics": s.kernel_statistics.iter().map(|(k, list)| (k.clone(), serde_json::Value::Object(list.iter().map(|st| (st.name.clone(), st.value.to_json())).collect()))).collect::<serde_json::Map<_, _>>(),
+                "kernel_statistics": statistics_json(&s.kernel_statistics),
                 "kernel_fetches_per_ray": s.kernel_seconds.iter().filter_map(|(k, _)| Some((k.clone(), serde_json::json!(fetches_per_ray(&s, k)?.0)))).collect::<serde_json::Map<_, _>>(),
                 "bvh_build_ms": prepared.bvh.stats.build_time.as_secs_f64() * 1e3,
                 "light_bvh_build_ms": prepared.light_bvh_time.as_secs_f64() * 1e3,
@@ -1293,11 +1289,7 @@ fn bench_kernels(
         let scene = Scene::load_with(path, &LoadOptions::default())?;
         let prepared = PreparedScene::new(&scene);
         drop(scene);
-        let name = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("?")
-            .to_owned();
+        let name = scene_name(path);
         if let Err(why) = wavetrace::cpu::bidir::check(&prepared, settings) {
             println!("{name}: skipped: {why}");
             continue;
@@ -1337,7 +1329,7 @@ fn bench_kernels(
             "deferred_slots": wavetrace::layout::qbvh_stack_size(compiled.features),
             "top_level_deferred_slots": (compiled.features & wavetrace::layout::FEATURE_TOP_LEVEL != 0)
                 .then(|| wavetrace::layout::tlas_stack_size(compiled.features)),
-            "kernel_statistics": compiled.kernels.iter().map(|(k, list)| (k.clone(), serde_json::Value::Object(list.iter().map(|st| (st.name.clone(), st.value.to_json())).collect()))).collect::<serde_json::Map<_, _>>(),
+            "kernel_statistics": statistics_json(&compiled.kernels),
         }));
     }
     if let Some(file) = json {
@@ -1347,6 +1339,28 @@ fn bench_kernels(
         println!("wrote {}", file.display());
     }
     Ok(())
+}
+
+/// A scene's name in `bench`'s rows: its file name without the extension.
+fn scene_name(path: &Path) -> String {
+    path.file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("?")
+        .to_owned()
+}
+
+/// Kernels' statistics as JSON: kernel → statistic name → value (`bench --json`'s
+/// `kernel_statistics`).
+fn statistics_json(
+    kernels: &[(String, Vec<wavetrace::render::KernelStatistic>)],
+) -> serde_json::Map<String, serde_json::Value> {
+    kernels
+        .iter()
+        .map(|(k, list)| {
+            let values = list.iter().map(|s| (s.name.clone(), s.value.to_json()));
+            (k.clone(), serde_json::Value::Object(values.collect()))
+        })
+        .collect()
 }
 
 /// A kernel's statistics that differ from a baseline's (`before`: name → value, as

@@ -563,6 +563,19 @@ fn radv_icd() -> Option<PathBuf> {
         })
 }
 
+/// `wavetrace ARGS` from the repository root on Mesa RADV's null device (`RADV_FORCE_FAMILY=navi31`
+/// with the RADV ICD file `icd`).
+fn on_radv_null_device(icd: &Path, args: &[&std::ffi::OsStr]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wavetrace"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("VK_DRIVER_FILES", icd)
+        .env("VK_ICD_FILENAMES", icd)
+        .env("RADV_FORCE_FAMILY", "navi31")
+        .output()
+        .unwrap()
+}
+
 /// `bench --kernels` makes every committed scene's kernels on a real GPU compiler without
 /// rendering: on Mesa RADV's null device (`RADV_FORCE_FAMILY=navi31`: AMD's compiler, ACO, with
 /// no AMD GPU; it cannot run work, so the command must submit none) every kernel of the path
@@ -601,17 +614,17 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
     ] {
         let name = format!("{integrator:?}").to_lowercase();
         let json = temp(&format!("kernels-{name}.json"));
-        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-            .args(["bench", "--kernels", "--integrator", &name, "--json"])
-            .arg(&json)
-            .args(&scenes)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .env("VK_DRIVER_FILES", &icd)
-            .env("VK_ICD_FILENAMES", &icd)
-            .env("RADV_FORCE_FAMILY", "navi31")
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", stderr(&o));
+        // bench --kernels --integrator NAME OPTION FILE SCENES…
+        let bench = |option: &str, file: &Path| {
+            let words = ["bench", "--kernels", "--integrator", name.as_str(), option];
+            let mut args: Vec<&std::ffi::OsStr> = words.iter().map(std::ffi::OsStr::new).collect();
+            args.push(file.as_os_str());
+            args.extend(scenes.iter().map(|p| p.as_os_str()));
+            let o = on_radv_null_device(&icd, &args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            String::from_utf8_lossy(&o.stdout).into_owned()
+        };
+        bench("--json", &json);
         let doc: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert!(
@@ -637,18 +650,7 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
             }
         }
         // The same kernels made again compare as the same against that run (`--baseline`).
-        let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-            .args(["bench", "--kernels", "--integrator", &name, "--baseline"])
-            .arg(&json)
-            .args(&scenes)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .env("VK_DRIVER_FILES", &icd)
-            .env("VK_ICD_FILENAMES", &icd)
-            .env("RADV_FORCE_FAMILY", "navi31")
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", stderr(&o));
-        let stdout = String::from_utf8_lossy(&o.stdout);
+        let stdout = bench("--baseline", &json);
         let kernels = wavetrace::gpu::wavefront::kernels(integrator).len();
         assert_eq!(
             stdout.matches("against the baseline: the same").count(),
@@ -659,23 +661,11 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
     // Rendering there is refused with one error naming the device, not a crash: the device
     // cannot even make a fence, and the context it opened is closed without waiting on a queue
     // that never ran anything (which the null device does not survive).
-    let o = Command::new(env!("CARGO_BIN_EXE_wavetrace"))
-        .args([
-            "render",
-            "scenes/cornell-box.gltf",
-            "--device",
-            "gpu",
-            "--width",
-            "8",
-        ])
-        .args(["--height", "8", "--spp", "1", "-o"])
-        .arg(temp("null-device.png"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("VK_DRIVER_FILES", &icd)
-        .env("VK_ICD_FILENAMES", &icd)
-        .env("RADV_FORCE_FAMILY", "navi31")
-        .output()
-        .unwrap();
+    let out = temp("null-device.png");
+    let render = "render scenes/cornell-box.gltf --device gpu --width 8 --height 8 --spp 1 -o";
+    let mut args: Vec<&std::ffi::OsStr> = render.split(' ').map(std::ffi::OsStr::new).collect();
+    args.push(out.as_os_str());
+    let o = on_radv_null_device(&icd, &args);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("RADV") && stderr(&o).contains("cannot render"),
