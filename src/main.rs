@@ -1048,10 +1048,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
     // Rows of an earlier `bench --json` sampled as these are, by (scene, device): samples/s.
     let baseline: std::collections::HashMap<(String, String), f64> = match &args.baseline {
         Some(file) => {
-            let text = std::fs::read_to_string(file)
-                .with_context(|| format!("reading {}", file.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("{}: not JSON", file.display()))?;
+            let (v, rows) = read_rows_json(file, "bench --json")?;
             if let Some(notice) = baseline_machine_notice(
                 &v,
                 &cpu,
@@ -1060,15 +1057,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
             ) {
                 println!("{notice}");
             }
-            v["rows"]
-                .as_array()
-                .with_context(|| {
-                    format!(
-                        "{}: no \"rows\" (write it with bench --json)",
-                        file.display()
-                    )
-                })?
-                .iter()
+            rows.iter()
                 .filter(|r| {
                     r["sampler"].as_str().unwrap_or("sobol") == sampler
                         && r["light_sampler"].as_str().unwrap_or("bvh") == light_sampler
@@ -1250,16 +1239,7 @@ fn bench_kernels(
     // An earlier `bench --kernels --json`'s statistics by (scene, kernel), of this integrator.
     let baseline: std::collections::HashMap<(String, String), serde_json::Value> = match baseline {
         Some(file) => {
-            let text = std::fs::read_to_string(file)
-                .with_context(|| format!("reading {}", file.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("{}: not JSON", file.display()))?;
-            let rows = v["rows"].as_array().with_context(|| {
-                format!(
-                    "{}: no \"rows\" (write it with bench --kernels --json)",
-                    file.display()
-                )
-            })?;
+            let (_, rows) = read_rows_json(file, "bench --kernels --json")?;
             rows.iter()
                 .filter(|r| r["integrator"].as_str() == Some(integrator.as_str()))
                 .filter_map(|r| Some((r["scene"].as_str()?, r["kernel_statistics"].as_object()?)))
@@ -1324,7 +1304,7 @@ fn bench_kernels(
         }
         rows.push(serde_json::json!({
             "scene": name,
-            "integrator": format!("{:?}", settings.integrator).to_lowercase(),
+            "integrator": integrator,
             "features": features,
             "deferred_slots": wavetrace::layout::qbvh_stack_size(compiled.features),
             "top_level_deferred_slots": (compiled.features & wavetrace::layout::FEATURE_TOP_LEVEL != 0)
@@ -1339,6 +1319,27 @@ fn bench_kernels(
         println!("wrote {}", file.display());
     }
     Ok(())
+}
+
+/// A JSON document with "rows" (as `written_by` writes it) and those rows.
+fn read_rows_json(
+    file: &Path,
+    written_by: &str,
+) -> Result<(serde_json::Value, Vec<serde_json::Value>)> {
+    let text =
+        std::fs::read_to_string(file).with_context(|| format!("reading {}", file.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;
+    let rows = v["rows"]
+        .as_array()
+        .with_context(|| {
+            format!(
+                "{}: no \"rows\" (write it with {written_by})",
+                file.display()
+            )
+        })?
+        .clone();
+    Ok((v, rows))
 }
 
 /// A scene's name in `bench`'s rows: its file name without the extension.
@@ -1371,7 +1372,7 @@ fn statistics_changes(
 ) -> String {
     let changed: Vec<String> = now
         .iter()
-        .filter(|s| !s.name.to_lowercase().contains("hash"))
+        .filter(|s| !s.is_hash())
         .filter_map(|s| {
             let old = before.get(&s.name)?;
             let new = s.value.to_json();

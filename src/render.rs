@@ -973,6 +973,14 @@ pub struct KernelStatistic {
     pub value: StatisticValue,
 }
 
+impl KernelStatistic {
+    /// Whether it is a hash that identifies the compiled code (RADV's "Driver pipeline hash" and
+    /// "Hash"), which the printed lines leave out (the JSON keeps them).
+    pub fn is_hash(&self) -> bool {
+        self.name.to_lowercase().contains("hash")
+    }
+}
+
 /// A driver statistic's value, in the four forms Vulkan gives them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StatisticValue {
@@ -1005,13 +1013,12 @@ impl StatisticValue {
     }
 }
 
-/// A kernel's statistics in one line: `name value` pairs, comma-separated, without the
-/// hashes that identify the compiled code (RADV's "Driver pipeline hash" and "Hash"; the JSON
-/// keeps them).
+/// A kernel's statistics in one line: `name value` pairs, comma-separated, without hashes
+/// ([`KernelStatistic::is_hash`]).
 pub fn statistics_line(statistics: &[KernelStatistic]) -> String {
     statistics
         .iter()
-        .filter(|s| !s.name.to_lowercase().contains("hash"))
+        .filter(|s| !s.is_hash())
         .map(|s| format!("{} {}", s.name, s.value))
         .collect::<Vec<_>>()
         .join(", ")

@@ -65,11 +65,7 @@ pub struct GpuRenderer {
 impl GpuRenderer {
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer> {
         let ctx = Context::new(options.device_index, options.validation)?;
-        // WAVETRACE_SCENE_IMAGES=buffers|storage|sampled chooses, to measure them.
-        let scene_images = SceneImages::for_device(
-            ctx.is_cpu(),
-            std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
-        )?;
+        let scene_images = scene_images_for(&ctx)?;
         let pipelines = Pipelines::with_kernels(&ctx, &SceneSplit::whole(scene_images), false)?;
         let commands = Commands::new(&ctx)?;
         let timing = options.timing
@@ -873,6 +869,15 @@ struct Checkpoint {
     every: std::time::Duration,
 }
 
+/// How kernels on `ctx` read the scene arrays: the device's default, or what
+/// WAVETRACE_SCENE_IMAGES=buffers|storage|sampled chooses, to measure them.
+fn scene_images_for(ctx: &Context) -> Result<SceneImages> {
+    SceneImages::for_device(
+        ctx.is_cpu(),
+        std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
+    )
+}
+
 /// How `scene`'s large arrays are laid over `ctx`'s bindings, read as `scene_images` says where
 /// their images fit, each binding at most `binding_limits` bytes where given.
 fn scene_split(
@@ -940,10 +945,7 @@ pub struct CompiledKernels {
 impl KernelCompiler {
     pub fn new(device_index: Option<usize>) -> Result<KernelCompiler> {
         let ctx = Context::new(device_index, false)?;
-        let scene_images = SceneImages::for_device(
-            ctx.is_cpu(),
-            std::env::var("WAVETRACE_SCENE_IMAGES").ok().as_deref(),
-        )?;
+        let scene_images = scene_images_for(&ctx)?;
         Ok(KernelCompiler { ctx, scene_images })
     }
 
