@@ -161,12 +161,13 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
     if let Some(features) = stats.kernel_features.filter(|_| per_kernel) {
         let names = wavetrace::layout::feature_names(features);
         println!(
-            "kernels made for: {}; deferred slots per lane: {}",
+            "kernels made for: {}; deferred slots per lane: {}{}",
             match names.len() {
                 0 => "no optional feature (the plain path)".to_string(),
                 _ => names.join(", "),
             },
-            deferred_slots(features)
+            deferred_slots(features),
+            stats.kernels_made.map_or(String::new(), kernels_made_words)
         );
     }
     if per_kernel && !stats.kernel_seconds.is_empty() {
@@ -191,6 +192,16 @@ fn print_stats(stats: &RenderStats, per_kernel: bool) {
         if let Some(host) = host_phases(stats) {
             println!("  outside the kernels: {host}");
         }
+    }
+}
+
+/// How many pipelines the render made before its first sample and how long that took
+/// (`RenderStats::kernels_made`), in words.
+fn kernels_made_words((made, seconds): (usize, f64)) -> String {
+    match made {
+        0 => "; its pipelines made for an earlier render".to_string(),
+        1 => format!("; 1 pipeline made before the render, in {seconds:.3} s"),
+        n => format!("; {n} pipelines made before the render, in {seconds:.3} s"),
     }
 }
 

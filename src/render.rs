@@ -959,6 +959,11 @@ pub struct RenderStats {
     pub device_memory: Option<DeviceMemory>,
     /// GPU only: the features its kernels were made for (`PreparedScene::gpu_features`).
     pub kernel_features: Option<u32>,
+    /// GPU only: how many of its kernels the render made before its first sample (pipelines
+    /// not made for an earlier render of the renderer) and the seconds that took, which
+    /// `seconds` leaves out: on lavapipe nearly all of a small render's start-up (README,
+    /// "Performance").
+    pub kernels_made: Option<(usize, f64)>,
     /// GPU only, on a device that reports them: per kernel, the driver's statistics of its
     /// compiled code (`VK_KHR_pipeline_executable_properties`).
     pub kernel_statistics: Vec<(String, Vec<KernelStatistic>)>,

@@ -58,12 +58,23 @@ fn gpu_render_writes_a_png() {
         "--spp",
         "2",
         "--validate",
+        "--stats",
         "-o",
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let png = image::open(&out).unwrap();
     assert_eq!((png.width(), png.height()), (16, 16));
+    // A fresh process makes every kernel of the path tracer before its first sample, and
+    // --stats says how long that took, which "done in" leaves out.
+    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::cpu::Integrator::Path).len();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains(&format!(
+            "; {kernels} pipelines made before the render, in "
+        )),
+        "{stdout}"
+    );
 }
 
 #[test]

@@ -370,6 +370,29 @@ fn fetch_counts_are_deterministic_and_change_nothing() {
     assert!(fetches("shade") >= counted.stats.extension_rays);
 }
 
+/// A render reports how many kernels it made before its first sample: a second render with
+/// the same features makes none (the renderer keeps its pipelines), and no render makes more
+/// than its integrator dispatches.
+#[test]
+fn a_render_reports_the_kernels_it_made_and_a_second_makes_none() {
+    let scene = prepared("cornell-box.gltf");
+    let Some(gpu) = common::gpu() else { return };
+    let first = gpu.render(&scene, &small(14), None).unwrap();
+    let second = gpu.render(&scene, &small(15), None).unwrap();
+    drop(gpu);
+    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::cpu::Integrator::Path).len();
+    let (made, seconds) = first
+        .stats
+        .kernels_made
+        .expect("a GPU render reports its kernels");
+    assert!(made <= kernels, "{made} of {kernels} kernels made");
+    assert!(
+        seconds >= 0.0 && (made == 0 || seconds > 0.0),
+        "{made} made in {seconds} s"
+    );
+    assert_eq!(second.stats.kernels_made.map(|(n, _)| n), Some(0));
+}
+
 /// `render --stats` and `bench` show what the driver made of each kernel where the device
 /// reports it (`VK_KHR_pipeline_executable_properties`: NVIDIA's registers and local memory,
 /// for instance): then every kernel the path tracer dispatches has statistics, each named and

@@ -298,6 +298,7 @@ impl GpuRenderer {
         let mut stats = RenderStats {
             device_memory: Some(self.device_memory(&setup)),
             kernel_features: Some(setup.features),
+            kernels_made: Some(setup.kernels_made),
             kernel_statistics: self.kernel_statistics(&setup, settings.integrator),
             ..RenderStats::default()
         };
@@ -379,10 +380,12 @@ impl GpuRenderer {
             true => scene.gpu_features(settings),
             false => crate::layout::FEATURES_ALL,
         };
-        pipelines
+        let making = Instant::now();
+        let made = pipelines
             .as_ref()
             .unwrap_or(&self.pipelines)
             .prepare(wavefront::kernels(settings.integrator), features)?;
+        let kernels_made = (made, making.elapsed().as_secs_f64());
         let buffers = RenderBuffers::new(
             ctx,
             pipelines.as_ref().unwrap_or(&self.pipelines),
@@ -418,6 +421,7 @@ impl GpuRenderer {
             buffers,
             pipelines,
             features,
+            kernels_made,
             query_pool,
         })
     }
@@ -478,6 +482,7 @@ impl GpuRenderer {
         let mut stats = RenderStats {
             device_memory: Some(self.device_memory(setup)),
             kernel_features: Some(setup.features),
+            kernels_made: Some(setup.kernels_made),
             kernel_statistics: self.kernel_statistics(setup, settings.integrator),
             ..RenderStats::default()
         };
@@ -992,6 +997,9 @@ struct Setup {
     pipelines: Option<Pipelines>,
     /// The scene's features, for which the kernels were specialised.
     features: u32,
+    /// How many of the render's kernels its setup made (the others were made for an earlier
+    /// render) and how long that took (`RenderStats::kernels_made`).
+    kernels_made: (usize, f64),
     /// Bindings each `SplitArray` uses.
     split_bindings: [u32; 5],
     /// How the kernels read the scene arrays (`SceneImages::describe`).

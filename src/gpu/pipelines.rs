@@ -670,7 +670,7 @@ impl Pipelines {
     /// as its pipeline is created (lavapipe, Cornell box: 0.3–0.9 s each for the large ones) and
     /// the rest at its first dispatch, so a render compiles only the kernels its integrator
     /// dispatches (`wavefront::kernels`), without the code of features its scene lacks.
-    pub fn prepare(&self, names: &[&'static str], features: u32) -> Result<()> {
+    pub fn prepare(&self, names: &[&'static str], features: u32) -> Result<usize> {
         let missing: Vec<&'static str> = {
             let created = self.created();
             names
@@ -696,7 +696,7 @@ impl Pipelines {
                 }
             }
         }
-        first_error.map_or(Ok(()), Err)
+        first_error.map_or(Ok(missing.len()), Err)
     }
 
     /// The pipeline of kernel `name`, specialised by `self.constants` and `features`.
