@@ -998,7 +998,16 @@ fn bench(args: &BenchArgs) -> Result<()> {
         args.scenes.clone()
     };
     if args.bvh {
-        return bench_bvh(&scenes, args.builds as usize, args.json.as_deref());
+        // The GPU's walk beside the CPU's, unless --cpu-only (no Vulkan device is opened).
+        let gpu = (!args.cpu_only).then(|| {
+            GpuRenderer::new(&GpuOptions {
+                device_index: args.gpu_index,
+                validation: false,
+                timing: true,
+                count_fetches: false,
+            })
+        });
+        return bench_bvh(&scenes, args.builds as usize, args.json.as_deref(), gpu);
     }
     let settings = RenderSettings {
         width: args.width,
@@ -1433,11 +1442,22 @@ fn build_parts_ms(stats: &wavetrace::bvh::BvhStats) -> [f64; 3] {
 }
 
 /// `bench --bvh`: build time, tree statistics and closest-hit traversal cost per scene.
-fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<()> {
+fn bench_bvh(
+    scenes: &[PathBuf],
+    builds: usize,
+    json: Option<&Path>,
+    gpu: Option<Result<GpuRenderer>>,
+) -> Result<()> {
     use wavetrace::bvh::{gpu_triangles, Bvh, Ray, WideBvh};
     let cpu = host_cpu();
+    let gpu_name = match &gpu {
+        None => "not opened (--cpu-only)".to_string(),
+        Some(Ok(g)) => format!("{} ({})", g.device().name, g.device().driver),
+        Some(Err(e)) => format!("unavailable: {e:#}"),
+    };
+    let gpu = gpu.and_then(|g| g.ok());
     println!(
-        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {cpu}, {} threads",
+        "wavetrace bench --bvh: {builds} builds (median and best), {RAYS} random closest-hit rays through the binary tree (the GPU's fallback), its 4-wide collapse (the CPU's) and that collapse with boxes quantised to a byte per plane (the GPU's); cpu = {cpu}, {} threads; gpu = {gpu_name}",
         rayon::current_num_threads()
     );
     println!(
@@ -1560,11 +1580,26 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
             "quantized_boxes_per_ray": quant_boxes,
             "quantized_rays_per_second": quant_rays_per_second,
         }));
+        if let Some(gpu) = &gpu {
+            let rays: Vec<Ray> = (0..RAYS).map(ray).collect();
+            let walks = bench_gpu_walk(gpu, &scene, &rays)?;
+            println!("{:<32} {}", "", walks.describe(gpu));
+            if let Some(row) = rows.last_mut() {
+                row["gpu"] = serde_json::json!(gpu_name);
+                row["gpu_rays_per_second"] = serde_json::json!(walks.gpu_rays_per_second);
+                row["gpu_timed_by"] = serde_json::json!(walks.timed_by);
+                row["cpu_reference_rays_per_second"] = serde_json::json!(walks.cpu_rays_per_second);
+                row["gpu_hits_same"] = serde_json::json!(walks.same);
+                row["gpu_hits_other_t"] = serde_json::json!(walks.other_t);
+                row["gpu_hits_other_triangle"] = serde_json::json!(walks.other_triangle);
+            }
+        }
     }
     if let Some(file) = json {
         let doc = serde_json::json!({
             "cpu": cpu,
             "cpu_threads": rayon::current_num_threads(),
+            "gpu": gpu_name,
             "rays": RAYS,
             "rows": rows,
         });
@@ -1573,6 +1608,97 @@ fn bench_bvh(scenes: &[PathBuf], builds: usize, json: Option<&Path>) -> Result<(
         println!("wrote {}", file.display());
     }
     Ok(())
+}
+
+/// The render's own walks on `bench --bvh`'s rays: the GPU's `extend` (closest hits) against
+/// the CPU reference's `PreparedScene::intersect_closest`, their rates and how their hits
+/// compare.
+struct WalkComparison {
+    gpu_rays_per_second: f64,
+    /// "timestamps" (the kernel's own time) or "submissions" (wall time of the submissions).
+    timed_by: &'static str,
+    cpu_rays_per_second: f64,
+    /// Rays whose hits are the same: both miss, or the same triangle at the same t, bit for bit.
+    same: u64,
+    /// The same triangle at another t (the largest relative difference in `largest_dt`).
+    other_t: u64,
+    largest_dt: f32,
+    /// Another triangle, or a hit where the other walk misses.
+    other_triangle: u64,
+}
+
+impl WalkComparison {
+    fn describe(&self, gpu: &GpuRenderer) -> String {
+        let rays = self.same + self.other_t + self.other_triangle;
+        format!(
+            "the render's walks: GPU extend ({}) {:.2} M rays/s by its {}, the CPU reference {:.2} M rays/s; hits: {} of {rays} the same, {} at another t (largest |Δt|/t {:.1e}), {} on another triangle",
+            gpu.device().name,
+            self.gpu_rays_per_second * 1e-6,
+            self.timed_by,
+            self.cpu_rays_per_second * 1e-6,
+            self.same,
+            self.other_t,
+            self.largest_dt,
+            self.other_triangle
+        )
+    }
+}
+
+/// Traces `rays` on the GPU (`GpuRenderer::trace_closest`, best of three rounds) and with the
+/// CPU reference, with the keys the GPU gives them (ray i: pixel i mod 1024², sample i / 1024²,
+/// depth 0).
+fn bench_gpu_walk(
+    gpu: &GpuRenderer,
+    scene: &Scene,
+    rays: &[wavetrace::bvh::Ray],
+) -> Result<WalkComparison> {
+    const SEED: u32 = 11;
+    const PIXELS: u32 = 1024 * 1024;
+    let prepared = PreparedScene::new(scene);
+    let pairs: Vec<(Vec3, Vec3)> = rays.iter().map(|r| (r.origin, r.dir)).collect();
+    let traced = gpu.trace_closest(&prepared, &pairs, SEED, 3)?;
+    let started = std::time::Instant::now();
+    let cpu_hits: Vec<Option<wavetrace::bvh::Hit>> = rays
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let i = i as u32;
+            let key = wavetrace::surface::alpha_key(SEED, i % PIXELS, i / PIXELS, 0, false);
+            prepared
+                .intersect_closest(r, 0.0, f32::MAX, key)
+                .map(|(hit, _)| hit)
+        })
+        .collect();
+    let cpu_seconds = started.elapsed().as_secs_f64();
+    let mut walks = WalkComparison {
+        gpu_rays_per_second: rays.len() as f64 / traced.extend_seconds.max(1e-12),
+        timed_by: if traced.timed {
+            "timestamps"
+        } else {
+            "submissions"
+        },
+        cpu_rays_per_second: rays.len() as f64 / cpu_seconds.max(1e-12),
+        same: 0,
+        other_t: 0,
+        largest_dt: 0.0,
+        other_triangle: 0,
+    };
+    for (g, c) in traced.hits.iter().zip(&cpu_hits) {
+        match (g.triangle == wavetrace::layout::NO_HIT, c) {
+            (true, None) => walks.same += 1,
+            (false, Some(c)) if c.triangle == g.triangle => {
+                if c.t.to_bits() == g.t.to_bits() {
+                    walks.same += 1;
+                } else {
+                    walks.other_t += 1;
+                    let dt = (c.t - g.t).abs() / c.t.abs().max(f32::MIN_POSITIVE);
+                    walks.largest_dt = walks.largest_dt.max(dt);
+                }
+            }
+            _ => walks.other_triangle += 1,
+        }
+    }
+    Ok(walks)
 }
 
 /// Prints the per-tile comparison of two saved renders; true if they agree.

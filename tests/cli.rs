@@ -468,7 +468,9 @@ fn bench_baseline_ratios_compare_rows_sampled_alike() {
 /// `bench --bvh` measures the three walks on the same seeded rays and writes them to JSON: the
 /// quantised nodes' boxes contain the full-precision ones, so on average a ray tests at least
 /// as many of them, and, the quantisation being tight, not many more (the figures are the same
-/// on every run of a build: the rays are seeded and the walks deterministic).
+/// on every run of a build: the rays are seeded and the walks deterministic). With a GPU, the
+/// row also has the render's own walks on those rays — the GPU's `extend` and the CPU
+/// reference's — whose hits agree (on llvmpipe, every one bit for bit).
 #[test]
 fn bench_bvh_reports_the_quantised_walk() {
     let json = temp("bench-bvh.json");
@@ -496,6 +498,20 @@ fn bench_bvh_reports_the_quantised_walk() {
     );
     assert!(wide > 1.0 && quant >= wide && quant <= 1.1 * wide, "{row}");
     assert!(field("quantized_rays_per_second") > 0.0, "{row}");
+    if common::skip_gpu() {
+        return;
+    }
+    let gpu = doc["gpu"].as_str().unwrap_or_default();
+    assert!(field("gpu_rays_per_second") > 0.0, "{row}");
+    assert!(field("cpu_reference_rays_per_second") > 0.0, "{row}");
+    let rays = doc["rays"].as_f64().unwrap();
+    if gpu.contains("llvmpipe") {
+        assert_eq!(field("gpu_hits_same"), rays, "{row}");
+    } else {
+        // A GPU that fuses a multiply and an add may send a ray through an edge to the
+        // neighbouring triangle (tests/gpu_vs_cpu.rs, the_gpu_walk_finds_the_cpu_references_hits).
+        assert!(field("gpu_hits_other_triangle") * 1000.0 <= rays, "{row}");
+    }
 }
 
 /// Runs `python3 ARGS` in the repository; `None` (with a notice) where python3 is not installed.

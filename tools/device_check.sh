@@ -36,8 +36,10 @@
 #      (tools/mitsuba_bench.py), then wavetrace sampling as Mitsuba does;
 #   5. the Cornell box with a quarter, half and twice the default paths in flight; every scene
 #      with its data in storage buffers and without the fetch counters; BDPT;
-#   6. `bench --bvh` of the large scenes on the machine's cores, and `bench --kernels` (every
-#      kernel's registers and local memory as the driver compiles it, path tracer and BDPT);
+#   6. `bench --bvh` of the large scenes on the machine's cores and, on the GPU, `extend` alone
+#      on the same 2^20 random rays (the traversal's rate without the wavefront around it, and
+#      its hits against the CPU reference's), and `bench --kernels` (every kernel's registers
+#      and local memory as the driver compiles it, path tracer and BDPT);
 #   7. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
 #   8. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
 #      (the binaries read files under the path they were built in, which `run` links to).
@@ -202,7 +204,8 @@ figures() {
         --height $size --spp $spp --environment 1 scenes/cornell-box.gltf "${scenes[@]}"
     step "bench light tracing and BDPT" 120 "$wt" bench --gpu-only --width $size --height $size \
         --spp $((spp / 4)) --integrator bdpt scenes/cornell-box.gltf scenes/caustic.gltf
-    step "bench --bvh" 120 "$wt" bench --bvh --builds 5 "${scenes[@]}"
+    step "bench --bvh" 180 "$wt" bench --bvh --builds 5 --json "$out/bvh.json" \
+        scenes/cornell-box.gltf "${scenes[@]}"
     # The driver's registers, spills and local memory of every kernel of every committed scene
     # and of the large ones, path tracer and BDPT (made, not run: seconds), against what AMD's
     # compiler says of the same kernels (tools/kernels-radv-path.json, kernels-radv-bdpt.json).

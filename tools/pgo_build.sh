@@ -66,7 +66,7 @@ if [ -f "$samples/env/studio_small_03_1k.hdr" ] && [ -f "$samples/valid/DamagedH
         --env "$samples/env/studio_small_03_1k.hdr"
 fi
 python3 tools/gen_large.py terrain --triangles 100000 "$out/terrain.gltf" >/dev/null 2>&1
-"$trainee" bench --bvh "$out/terrain.gltf" --builds 3 >/dev/null
+"$trainee" bench --bvh --cpu-only "$out/terrain.gltf" --builds 3 >/dev/null
 "$profdata" merge -o "$data/wavetrace.profdata" "$data/raw"
 
 echo "pgo_build: 3/3 the build that uses the profile (target/pgo)"

@@ -426,6 +426,191 @@ impl GpuRenderer {
         })
     }
 
+    /// The closest hits of `rays` (origin, unit direction) as the GPU's `extend` finds them —
+    /// the render's kernel, made for the scene's features, alone: no shading, no queues between
+    /// kernels — and the kernel's time. `bench --bvh`'s GPU walk: it sets the traversal's rate
+    /// on a device beside the wavefront's, and its hits beside the CPU reference's. Ray i is
+    /// pixel i of a 1024² image at sample 0 (1024² + i, sample 1, past it) and depth 0, for the
+    /// alpha key and the culling of camera rays (`surface::alpha_key` with `seed`).
+    pub fn trace_closest(
+        &self,
+        scene: &PreparedScene,
+        rays: &[(glam::Vec3, glam::Vec3)],
+        seed: u32,
+        rounds: u32,
+    ) -> Result<Traced> {
+        let ctx = &self.ctx;
+        let settings = RenderSettings {
+            width: 1024,
+            height: 1024,
+            spp: 1,
+            max_depth: 0,
+            seed,
+            ..RenderSettings::default()
+        };
+        let capacity = (rays.len() as u32).clamp(1, self.max_wavefront());
+        let setup = self.setup(scene, &settings, Some(capacity), false)?;
+        let result = self.trace_batches(&settings, &setup, rays, rounds);
+        setup.destroy(ctx);
+        result
+    }
+
+    fn trace_batches(
+        &self,
+        settings: &RenderSettings,
+        setup: &Setup,
+        rays: &[(glam::Vec3, glam::Vec3)],
+        rounds: u32,
+    ) -> Result<Traced> {
+        use vk::BufferUsageFlags as U;
+        let ctx = &self.ctx;
+        let buffers = &setup.buffers;
+        let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
+        let frame = Self::band_frame(setup, settings.width, (0, settings.height));
+        buffers.frame.write(bytemuck::bytes_of(&frame));
+        let capacity = setup.capacity as usize;
+        let row_texels = memory::SCENE_IMAGE_WIDTH as usize;
+        let staging = memory::Buffer::new(
+            ctx,
+            "trace_rays",
+            (capacity * size_of::<QueuedRay>()) as u64,
+            U::TRANSFER_SRC,
+            memory::Location::Host,
+        )?;
+        let hits_back = memory::Buffer::new(
+            ctx,
+            "trace_hits",
+            (capacity.div_ceil(row_texels) * row_texels * 16) as u64,
+            U::TRANSFER_DST,
+            memory::Location::Host,
+        )?;
+        let mut hits = Vec::with_capacity(rays.len());
+        let mut best: Option<f64> = None;
+        for round in 0..rounds.max(1) {
+            let mut extend_seconds = 0.0;
+            for (b, chunk) in rays.chunks(capacity).enumerate() {
+                let queued: Vec<QueuedRay> = chunk
+                    .iter()
+                    .enumerate()
+                    .map(|(i, (origin, dir))| QueuedRay {
+                        origin: origin.to_array(),
+                        path: i as u32,
+                        dir: dir.to_array(),
+                        pad: 0,
+                    })
+                    .collect();
+                staging.write(bytemuck::cast_slice(&queued));
+                self.commands.begin()?;
+                let bytes = std::mem::size_of_val(queued.as_slice()) as u64;
+                self.commands.copy(&staging, &buffers.rays, bytes);
+                unsafe {
+                    ctx.device.cmd_bind_descriptor_sets(
+                        self.commands.cmd,
+                        vk::PipelineBindPoint::COMPUTE,
+                        pipelines.layout,
+                        0,
+                        &[pipelines.set],
+                        &[],
+                    );
+                }
+                let mut recorder = Recorder {
+                    device: &ctx.device,
+                    labels: ctx.labels.as_ref(),
+                    pipelines,
+                    cmd: self.commands.cmd,
+                    args: &buffers.args,
+                    counters: &buffers.counters,
+                    pixel_count: frame.band_pixel_count,
+                    features: setup.features,
+                    timestamps: setup.query_pool,
+                    timed: Vec::new(),
+                };
+                let batch = wavefront::Batch {
+                    first_sample: 0,
+                    first_pixel: (b * capacity) as u32,
+                    size: chunk.len() as u32,
+                };
+                recorder.record_trace(batch);
+                let timed = std::mem::take(&mut recorder.timed);
+                memory::barrier(
+                    &ctx.device,
+                    self.commands.cmd,
+                    (
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::AccessFlags::SHADER_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::TRANSFER_READ,
+                    ),
+                );
+                let rows = chunk.len().div_ceil(row_texels) as u32;
+                let region = [vk::BufferImageCopy::default()
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width: memory::SCENE_IMAGE_WIDTH,
+                        height: rows,
+                        depth: 1,
+                    })];
+                unsafe {
+                    ctx.device.cmd_copy_image_to_buffer(
+                        self.commands.cmd,
+                        buffers.hit_image.image,
+                        vk::ImageLayout::GENERAL,
+                        hits_back.buffer,
+                        &region,
+                    );
+                }
+                let started = Instant::now();
+                self.commands
+                    .submit_batch(ctx, "tracing rays", SUBMIT_TIMEOUT_S)?;
+                extend_seconds += match setup.query_pool {
+                    Some(pool) => {
+                        let mut ticks = vec![0u64; timed.len() + 1];
+                        unsafe {
+                            ctx.device.get_query_pool_results(
+                                pool,
+                                0,
+                                &mut ticks,
+                                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                            )
+                        }?;
+                        let period = ctx.properties.limits.timestamp_period as f64 * 1e-9;
+                        timed
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, name)| **name == "extend")
+                            .map(|(k, _)| ticks[k + 1].saturating_sub(ticks[k]) as f64 * period)
+                            .sum::<f64>()
+                    }
+                    None => started.elapsed().as_secs_f64(),
+                };
+                if round == 0 {
+                    let texels: Vec<[u32; 4]> = hits_back.read_pod(16 * chunk.len());
+                    hits.extend(texels.iter().map(|h| crate::layout::HitRecord {
+                        t: f32::from_bits(h[0]),
+                        triangle: h[1],
+                        u: f32::from_bits(h[2]),
+                        v: f32::from_bits(h[3]),
+                        ..Default::default()
+                    }));
+                }
+            }
+            best = Some(best.map_or(extend_seconds, |b: f64| b.min(extend_seconds)));
+        }
+        self.ctx.check_validation()?;
+        Ok(Traced {
+            hits,
+            extend_seconds: best.unwrap_or(0.0),
+            timed: setup.query_pool.is_some(),
+        })
+    }
+
     /// The device memory `setup` holds and how its scene lies over the bindings.
     fn device_memory(&self, setup: &Setup) -> crate::render::DeviceMemory {
         let report = match self.ctx.allocator.lock() {
@@ -924,6 +1109,15 @@ fn scene_split(
         false => SceneImages::Buffers,
     };
     Ok(split)
+}
+
+/// What [`GpuRenderer::trace_closest`] found: the hits in ray order (`triangle` = `NO_HIT` on
+/// a miss; the instance is not read back) and the seconds `extend` took, the best of the rounds.
+pub struct Traced {
+    pub hits: Vec<crate::layout::HitRecord>,
+    pub extend_seconds: f64,
+    /// Whether `extend_seconds` are the kernel's timestamps (else the submissions' wall time).
+    pub timed: bool,
 }
 
 /// A device's shader compiler without the renderer: makes the kernels a scene renders with

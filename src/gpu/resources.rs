@@ -33,6 +33,11 @@ pub struct RenderBuffers {
     /// Light tracing's splat sums over the whole image (`Binding::Splats`), 24 bytes a pixel.
     pub splats: Buffer,
     pub path_dfa: Buffer,
+    /// The ray queues (`Binding::Rays`) and the hit records `extend` writes
+    /// (`Binding::HitImage`): [`super::GpuRenderer::trace_closest`] fills the one and reads the
+    /// other back.
+    pub rays: Buffer,
+    pub hit_image: Image,
     /// Bindings each `SplitArray` uses (1 where it is not split).
     pub split_bindings: [u32; 5],
     /// Scene and queue buffers: only the descriptor set refers to them.
@@ -391,7 +396,6 @@ impl RenderBuffers {
                 materials,
                 lights,
                 paths,
-                rays,
                 hit_instances,
                 shadows,
                 textures,
@@ -408,11 +412,9 @@ impl RenderBuffers {
             .into_iter()
             .chain(chunks.into_iter().map(|(_, _, buffer, _)| buffer))
             .collect(),
-            _images: images
-                .into_iter()
-                .map(|(_, image)| image)
-                .chain([hit_image])
-                .collect(),
+            _images: images.into_iter().map(|(_, image)| image).collect(),
+            rays,
+            hit_image,
         })
     }
 }

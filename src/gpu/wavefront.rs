@@ -152,6 +152,14 @@ impl Recorder<'_> {
         self.accumulate(batch);
     }
 
+    /// The closest hits of the batch's rays, already in queue 0 (`bench --bvh`'s GPU walk):
+    /// `extend` alone, as a render's first bounce runs it.
+    pub fn record_trace(&mut self, batch: Batch) {
+        self.reset_counters(batch.size);
+        self.start_timing(0);
+        self.extend(batch, 0);
+    }
+
     /// One batch of light tracing (`--integrator light`): generate_light → connect_light, then
     /// (extend → shade_light → connect_light) per scattering vertex; at the end of a pass
     /// (`pass_done`) the splat sums of each of the batch's passes become one film sample per
