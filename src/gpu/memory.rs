@@ -485,24 +485,7 @@ impl Commands {
         first_row: u32,
         rows: u32,
     ) {
-        let region = [vk::BufferImageCopy::default()
-            .buffer_offset(src_offset)
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_offset(vk::Offset3D {
-                x: 0,
-                y: first_row as i32,
-                z: 0,
-            })
-            .image_extent(vk::Extent3D {
-                width: SCENE_IMAGE_WIDTH,
-                height: rows,
-                depth: 1,
-            })];
+        let region = [rows_region(src_offset, first_row, rows)];
         unsafe {
             self.device.cmd_copy_buffer_to_image(
                 self.cmd,
@@ -513,6 +496,44 @@ impl Commands {
             )
         };
     }
+
+    /// Copies the first `rows` whole rows of `src` (in the general layout the kernels use) to
+    /// the start of `dst`.
+    pub fn copy_rows_from_image(&self, src: &Image, dst: &Buffer, rows: u32) {
+        let region = [rows_region(0, 0, rows)];
+        unsafe {
+            self.device.cmd_copy_image_to_buffer(
+                self.cmd,
+                src.image,
+                vk::ImageLayout::GENERAL,
+                dst.buffer,
+                &region,
+            )
+        };
+    }
+}
+
+/// `rows` whole rows of a scene image from row `first_row`, and a buffer's bytes from
+/// `buffer_offset`, tightly packed.
+fn rows_region(buffer_offset: u64, first_row: u32, rows: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .buffer_offset(buffer_offset)
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_offset(vk::Offset3D {
+            x: 0,
+            y: first_row as i32,
+            z: 0,
+        })
+        .image_extent(vk::Extent3D {
+            width: SCENE_IMAGE_WIDTH,
+            height: rows,
+            depth: 1,
+        })
 }
 
 impl Drop for Commands {

@@ -465,7 +465,6 @@ impl GpuRenderer {
         use vk::BufferUsageFlags as U;
         let ctx = &self.ctx;
         let buffers = &setup.buffers;
-        let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
         let frame = Self::band_frame(setup, settings.width, (0, settings.height));
         buffers.frame.write(bytemuck::bytes_of(&frame));
         let capacity = setup.capacity as usize;
@@ -503,28 +502,7 @@ impl GpuRenderer {
                 self.commands.begin()?;
                 let bytes = std::mem::size_of_val(queued.as_slice()) as u64;
                 self.commands.copy(&staging, &buffers.rays, bytes);
-                unsafe {
-                    ctx.device.cmd_bind_descriptor_sets(
-                        self.commands.cmd,
-                        vk::PipelineBindPoint::COMPUTE,
-                        pipelines.layout,
-                        0,
-                        &[pipelines.set],
-                        &[],
-                    );
-                }
-                let mut recorder = Recorder {
-                    device: &ctx.device,
-                    labels: ctx.labels.as_ref(),
-                    pipelines,
-                    cmd: self.commands.cmd,
-                    args: &buffers.args,
-                    counters: &buffers.counters,
-                    pixel_count: frame.band_pixel_count,
-                    features: setup.features,
-                    timestamps: setup.query_pool,
-                    timed: Vec::new(),
-                };
+                let mut recorder = self.recorder(setup, frame.band_pixel_count);
                 let batch = wavefront::Batch {
                     first_sample: 0,
                     first_pixel: (b * capacity) as u32,
@@ -532,62 +510,19 @@ impl GpuRenderer {
                 };
                 recorder.record_trace(batch);
                 let timed = std::mem::take(&mut recorder.timed);
-                memory::barrier(
-                    &ctx.device,
-                    self.commands.cmd,
-                    (
-                        vk::PipelineStageFlags::COMPUTE_SHADER,
-                        vk::AccessFlags::SHADER_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags::TRANSFER,
-                        vk::AccessFlags::TRANSFER_READ,
-                    ),
-                );
+                self.kernels_to_transfers();
                 let rows = chunk.len().div_ceil(row_texels) as u32;
-                let region = [vk::BufferImageCopy::default()
-                    .image_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: 1,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width: memory::SCENE_IMAGE_WIDTH,
-                        height: rows,
-                        depth: 1,
-                    })];
-                unsafe {
-                    ctx.device.cmd_copy_image_to_buffer(
-                        self.commands.cmd,
-                        buffers.hit_image.image,
-                        vk::ImageLayout::GENERAL,
-                        hits_back.buffer,
-                        &region,
-                    );
-                }
+                self.commands
+                    .copy_rows_from_image(&buffers.hit_image, &hits_back, rows);
                 let started = Instant::now();
                 self.commands
                     .submit_batch(ctx, "tracing rays", SUBMIT_TIMEOUT_S)?;
                 extend_seconds += match setup.query_pool {
-                    Some(pool) => {
-                        let mut ticks = vec![0u64; timed.len() + 1];
-                        unsafe {
-                            ctx.device.get_query_pool_results(
-                                pool,
-                                0,
-                                &mut ticks,
-                                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-                            )
-                        }?;
-                        let period = ctx.properties.limits.timestamp_period as f64 * 1e-9;
-                        timed
-                            .iter()
-                            .enumerate()
-                            .filter(|(_, name)| **name == "extend")
-                            .map(|(k, _)| ticks[k + 1].saturating_sub(ticks[k]) as f64 * period)
-                            .sum::<f64>()
-                    }
+                    Some(pool) => self
+                        .kernel_times(pool, &timed)?
+                        .filter(|(name, _)| *name == "extend")
+                        .map(|(_, dt)| dt)
+                        .sum::<f64>(),
                     None => started.elapsed().as_secs_f64(),
                 };
                 if round == 0 {
@@ -934,9 +869,7 @@ impl GpuRenderer {
         let first_sample = samples.start;
         let ctx = &self.ctx;
         let (capacity, buffers, query_pool) = (setup.capacity, &setup.buffers, setup.query_pool);
-        let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
-        let (counters, counters_back, args) =
-            (&buffers.counters, &buffers.counters_back, &buffers.args);
+        let (counters, counters_back) = (&buffers.counters, &buffers.counters_back);
         for mut batch in batches(pixel_count, samples.len() as u32, capacity) {
             // A batch that starts at pixel 0 starts a sample pass: every pixel has the same samples.
             if batch.first_pixel == 0 && stop.load(std::sync::atomic::Ordering::Relaxed) {
@@ -945,28 +878,7 @@ impl GpuRenderer {
             batch.first_sample += first_sample;
             let submitted = Instant::now();
             self.commands.begin()?;
-            let mut recorder = Recorder {
-                device: &ctx.device,
-                labels: ctx.labels.as_ref(),
-                pipelines,
-                cmd: self.commands.cmd,
-                args,
-                counters,
-                pixel_count,
-                features: setup.features,
-                timestamps: query_pool,
-                timed: Vec::new(),
-            };
-            unsafe {
-                ctx.device.cmd_bind_descriptor_sets(
-                    self.commands.cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    pipelines.layout,
-                    0,
-                    &[pipelines.set],
-                    &[],
-                );
-            }
+            let mut recorder = self.recorder(setup, pixel_count);
             // (A batch of whole passes ends each of them.)
             let pass_done = batch.first_pixel + batch.size >= pixel_count;
             match settings.integrator {
@@ -979,18 +891,7 @@ impl GpuRenderer {
                 }
             }
             let timed = std::mem::take(&mut recorder.timed);
-            memory::barrier(
-                &ctx.device,
-                self.commands.cmd,
-                (
-                    vk::PipelineStageFlags::COMPUTE_SHADER,
-                    vk::AccessFlags::SHADER_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_READ,
-                ),
-            );
+            self.kernels_to_transfers();
             self.commands.copy(counters, counters_back, counters.size);
             self.commands
                 .submit_batch(ctx, "a wavefront batch", SUBMIT_TIMEOUT_S)?;
@@ -1022,28 +923,87 @@ impl GpuRenderer {
                 }
             }
             if let Some(pool) = query_pool {
-                let mut ticks = vec![0u64; timed.len() + 1];
-                unsafe {
-                    ctx.device.get_query_pool_results(
-                        pool,
-                        0,
-                        &mut ticks,
-                        vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-                    )
-                }?;
-                let period = ctx.properties.limits.timestamp_period as f64 * 1e-9;
-                let kernels = ticks[timed.len()].saturating_sub(ticks[0]) as f64 * period;
-                stats.add_host("between batches", (batch_seconds - kernels).max(0.0));
-                for (k, name) in timed.iter().enumerate() {
-                    let dt = ticks[k + 1].saturating_sub(ticks[k]) as f64 * period;
+                let mut kernels = 0.0;
+                for (name, dt) in self.kernel_times(pool, &timed)? {
+                    kernels += dt;
                     match stats.kernel_seconds.iter_mut().find(|(n, _)| n == name) {
                         Some((_, s)) => *s += dt,
                         None => stats.kernel_seconds.push((name.to_string(), dt)),
                     }
                 }
+                stats.add_host("between batches", (batch_seconds - kernels).max(0.0));
             }
         }
         Ok(samples.end)
+    }
+
+    /// A recorder of `setup`'s kernels into the renderer's command buffer, its descriptor set
+    /// bound: `pixel_count` pixels in the band.
+    fn recorder<'a>(&'a self, setup: &'a Setup, pixel_count: u32) -> Recorder<'a> {
+        let ctx = &self.ctx;
+        let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
+        unsafe {
+            ctx.device.cmd_bind_descriptor_sets(
+                self.commands.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipelines.layout,
+                0,
+                &[pipelines.set],
+                &[],
+            );
+        }
+        Recorder {
+            device: &ctx.device,
+            labels: ctx.labels.as_ref(),
+            pipelines,
+            cmd: self.commands.cmd,
+            args: &setup.buffers.args,
+            counters: &setup.buffers.counters,
+            pixel_count,
+            features: setup.features,
+            timestamps: setup.query_pool,
+            timed: Vec::new(),
+        }
+    }
+
+    /// Makes the kernels' writes visible to the transfers recorded after it (read-backs).
+    fn kernels_to_transfers(&self) {
+        memory::barrier(
+            &self.ctx.device,
+            self.commands.cmd,
+            (
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::AccessFlags::SHADER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_READ,
+            ),
+        );
+    }
+
+    /// Each timed dispatch of a finished submission and its seconds, from the timestamps the
+    /// recorder wrote into `pool` (one before the first dispatch, one after each).
+    fn kernel_times<'t>(
+        &self,
+        pool: vk::QueryPool,
+        timed: &'t [&'static str],
+    ) -> Result<impl Iterator<Item = (&'static str, f64)> + 't> {
+        let ctx = &self.ctx;
+        let mut ticks = vec![0u64; timed.len() + 1];
+        unsafe {
+            ctx.device.get_query_pool_results(
+                pool,
+                0,
+                &mut ticks,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }?;
+        let period = ctx.properties.limits.timestamp_period as f64 * 1e-9;
+        Ok(timed
+            .iter()
+            .enumerate()
+            .map(move |(k, name)| (*name, ticks[k + 1].saturating_sub(ticks[k]) as f64 * period)))
     }
 }
 
