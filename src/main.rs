@@ -1582,7 +1582,7 @@ fn bench_bvh(
         }));
         if let Some(gpu) = &gpu {
             let rays: Vec<Ray> = (0..RAYS).map(ray).collect();
-            let walks = bench_gpu_walk(gpu, &scene, &rays)?;
+            let walks = bench_gpu_walk(gpu, &scene, &rays, (hi - lo).length())?;
             println!("{:<32} {}", "", walks.describe(gpu));
             if let Some(row) = rows.last_mut() {
                 row["gpu"] = serde_json::json!(gpu_name);
@@ -1592,6 +1592,12 @@ fn bench_bvh(
                 row["gpu_hits_same"] = serde_json::json!(walks.same);
                 row["gpu_hits_other_t"] = serde_json::json!(walks.other_t);
                 row["gpu_hits_other_triangle"] = serde_json::json!(walks.other_triangle);
+                row["gpu_any_rays_per_second"] = serde_json::json!(walks.gpu_any_rays_per_second);
+                row["cpu_reference_any_rays_per_second"] =
+                    serde_json::json!(walks.cpu_any_rays_per_second);
+                row["gpu_any_same"] = serde_json::json!(walks.any_same);
+                row["gpu_any_other"] = serde_json::json!(walks.any_other);
+                row["any_blocked"] = serde_json::json!(walks.any_blocked);
             }
         }
     }
@@ -1610,13 +1616,14 @@ fn bench_bvh(
     Ok(())
 }
 
-/// The render's own walks on `bench --bvh`'s rays: the GPU's `extend` (closest hits) against
-/// the CPU reference's `PreparedScene::intersect_closest`, their rates and how their hits
-/// compare.
+/// The render's own walks on `bench --bvh`'s rays: the GPU's `extend` (closest hits) and
+/// `connect` (any hit, each ray cut at a random length up to the box's diagonal) against the CPU
+/// reference's `PreparedScene::intersect_closest` and `intersect_any`, their rates and how their
+/// answers compare.
 struct WalkComparison {
-    gpu_rays_per_second: f64,
-    /// "timestamps" (the kernel's own time) or "submissions" (wall time of the submissions).
+    /// "timestamps" (the kernels' own time) or "submissions" (wall time of the submissions).
     timed_by: &'static str,
+    gpu_rays_per_second: f64,
     cpu_rays_per_second: f64,
     /// Rays whose hits are the same: both miss, or the same triangle at the same t, bit for bit.
     same: u64,
@@ -1625,35 +1632,52 @@ struct WalkComparison {
     largest_dt: f32,
     /// Another triangle, or a hit where the other walk misses.
     other_triangle: u64,
+    gpu_any_rays_per_second: f64,
+    cpu_any_rays_per_second: f64,
+    /// Shadow rays both walks find blocked, or both find free; and those they disagree on.
+    any_same: u64,
+    any_other: u64,
+    /// Shadow rays the CPU reference finds blocked.
+    any_blocked: u64,
 }
 
 impl WalkComparison {
     fn describe(&self, gpu: &GpuRenderer) -> String {
         let rays = self.same + self.other_t + self.other_triangle;
         format!(
-            "the render's walks: GPU extend ({}) {:.2} M rays/s by its {}, the CPU reference {:.2} M rays/s; hits: {} of {rays} the same, {} at another t (largest |Δt|/t {:.1e}), {} on another triangle",
+            "the render's walks ({} by its {}; CPU reference): closest hit {:.2} and {:.2} M rays/s, {} of {rays} hits the same, {} at another t (largest |Δt|/t {:.1e}), {} on another triangle; any hit {:.2} and {:.2} M rays/s, {} of {rays} answers the same ({} blocked)",
             gpu.device().name,
-            self.gpu_rays_per_second * 1e-6,
             self.timed_by,
+            self.gpu_rays_per_second * 1e-6,
             self.cpu_rays_per_second * 1e-6,
             self.same,
             self.other_t,
             self.largest_dt,
-            self.other_triangle
+            self.other_triangle,
+            self.gpu_any_rays_per_second * 1e-6,
+            self.cpu_any_rays_per_second * 1e-6,
+            self.any_same,
+            self.any_blocked,
         )
     }
 }
 
-/// Traces `rays` on the GPU (`GpuRenderer::trace_closest`, best of three rounds) and with the
-/// CPU reference, with the keys the GPU gives them (ray i: pixel i mod 1024², sample i / 1024²,
-/// depth 0).
+/// Traces `rays` on the GPU (`GpuRenderer::trace_closest` and `trace_any`, best of three
+/// rounds) and with the CPU reference, with the keys the GPU gives them (ray i: pixel i mod
+/// 1024², sample i / 1024², depth 0). The shadow rays are the same rays cut at lengths drawn
+/// up to `diagonal`.
 fn bench_gpu_walk(
     gpu: &GpuRenderer,
     scene: &Scene,
     rays: &[wavetrace::bvh::Ray],
+    diagonal: f32,
 ) -> Result<WalkComparison> {
     const SEED: u32 = 11;
     const PIXELS: u32 = 1024 * 1024;
+    let key = |i: usize, shadow: bool| {
+        let i = i as u32;
+        wavetrace::surface::alpha_key(SEED, i % PIXELS, i / PIXELS, 0, shadow)
+    };
     let prepared = PreparedScene::new(scene);
     let pairs: Vec<(Vec3, Vec3)> = rays.iter().map(|r| (r.origin, r.dir)).collect();
     let traced = gpu.trace_closest(&prepared, &pairs, SEED, 3)?;
@@ -1662,26 +1686,49 @@ fn bench_gpu_walk(
         .par_iter()
         .enumerate()
         .map(|(i, r)| {
-            let i = i as u32;
-            let key = wavetrace::surface::alpha_key(SEED, i % PIXELS, i / PIXELS, 0, false);
             prepared
-                .intersect_closest(r, 0.0, f32::MAX, key)
+                .intersect_closest(r, 0.0, f32::MAX, key(i, false))
                 .map(|(hit, _)| hit)
         })
         .collect();
     let cpu_seconds = started.elapsed().as_secs_f64();
+    let shadows: Vec<(Vec3, Vec3, f32)> = rays
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let u = wavetrace::sampling::rng_uniform4(SEED, i as u32, 0, 2).x;
+            (r.origin, r.dir, diagonal * u)
+        })
+        .collect();
+    let blocked = gpu.trace_any(&prepared, &shadows, SEED, 3)?;
+    let started = std::time::Instant::now();
+    let cpu_blocked: Vec<bool> = shadows
+        .par_iter()
+        .enumerate()
+        .map(|(i, &(origin, dir, t_max))| {
+            let ray = wavetrace::bvh::Ray { origin, dir };
+            prepared.intersect_any(&ray, 0.0, t_max, key(i, true))
+        })
+        .collect();
+    let cpu_any_seconds = started.elapsed().as_secs_f64();
+    let rate = |seconds: f64| rays.len() as f64 / seconds.max(1e-12);
     let mut walks = WalkComparison {
-        gpu_rays_per_second: rays.len() as f64 / traced.extend_seconds.max(1e-12),
         timed_by: if traced.timed {
             "timestamps"
         } else {
             "submissions"
         },
-        cpu_rays_per_second: rays.len() as f64 / cpu_seconds.max(1e-12),
+        gpu_rays_per_second: rate(traced.kernel_seconds),
+        cpu_rays_per_second: rate(cpu_seconds),
         same: 0,
         other_t: 0,
         largest_dt: 0.0,
         other_triangle: 0,
+        gpu_any_rays_per_second: rate(blocked.kernel_seconds),
+        cpu_any_rays_per_second: rate(cpu_any_seconds),
+        any_same: 0,
+        any_other: 0,
+        any_blocked: cpu_blocked.iter().filter(|&&b| b).count() as u64,
     };
     for (g, c) in traced.hits.iter().zip(&cpu_hits) {
         match (g.triangle == wavetrace::layout::NO_HIT, c) {
@@ -1696,6 +1743,12 @@ fn bench_gpu_walk(
                 }
             }
             _ => walks.other_triangle += 1,
+        }
+    }
+    for (g, &c) in blocked.hits.iter().zip(&cpu_blocked) {
+        match (g.triangle != wavetrace::layout::NO_HIT) == c {
+            true => walks.any_same += 1,
+            false => walks.any_other += 1,
         }
     }
     Ok(walks)

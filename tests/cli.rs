@@ -505,12 +505,19 @@ fn bench_bvh_reports_the_quantised_walk() {
     assert!(field("gpu_rays_per_second") > 0.0, "{row}");
     assert!(field("cpu_reference_rays_per_second") > 0.0, "{row}");
     let rays = doc["rays"].as_f64().unwrap();
+    assert!(field("gpu_any_rays_per_second") > 0.0, "{row}");
+    assert!(
+        field("any_blocked") > 0.0 && field("any_blocked") < rays,
+        "{row}"
+    );
     if gpu.contains("llvmpipe") {
         assert_eq!(field("gpu_hits_same"), rays, "{row}");
+        assert_eq!(field("gpu_any_same"), rays, "{row}");
     } else {
         // A GPU that fuses a multiply and an add may send a ray through an edge to the
         // neighbouring triangle (tests/gpu_vs_cpu.rs, the_gpu_walk_finds_the_cpu_references_hits).
         assert!(field("gpu_hits_other_triangle") * 1000.0 <= rays, "{row}");
+        assert!(field("gpu_any_other") * 1000.0 <= rays, "{row}");
     }
 }
 

@@ -370,7 +370,7 @@ fn fetch_counts_are_deterministic_and_change_nothing() {
     assert!(fetches("shade") >= counted.stats.extension_rays);
 }
 
-/// The GPU's walk is the CPU reference's twin: `extend`, the render's kernel made for each
+/// The GPU's walks are the CPU reference's twins: `extend`, the render's kernel made for each
 /// scene's features, finds for every one of 4096 random rays (uniform points of the scene's
 /// box, uniform directions) the hit `PreparedScene::intersect_closest` finds with the same alpha
 /// key — a plain tree (Cornell box), a top level over instances, a two-sided leaf over a floor,
@@ -378,7 +378,8 @@ fn fetch_counts_are_deterministic_and_change_nothing() {
 /// stochastic alpha test reads the key). On a device whose
 /// arithmetic is IEEE single precision without fused operations (llvmpipe) the same triangle
 /// at the same t, bit for bit; on another (a GPU may fuse a multiply and an add) the same
-/// triangle on all but rays through an edge, at a t within 1e-5 relative.
+/// triangle on all but rays through an edge, at a t within 1e-5 relative. And `connect` finds
+/// the same rays, cut at random lengths, blocked where `PreparedScene::intersect_any` does.
 #[test]
 fn the_gpu_walk_finds_the_cpu_references_hits() {
     use wavetrace::layout::NO_HIT;
@@ -446,6 +447,42 @@ fn the_gpu_walk_finds_the_cpu_references_hits() {
             edges * 1000 <= hits,
             "{name}: {edges} of {hits} hits on another triangle"
         );
+        // The same rays as shadow rays (`connect`), cut at lengths up to the box's diagonal.
+        let shadows: Vec<(glam::Vec3, glam::Vec3, f32)> = rays
+            .iter()
+            .enumerate()
+            .map(|(i, &(o, d))| {
+                (
+                    o,
+                    d,
+                    (hi - lo).length() * wavetrace::sampling::rng_uniform4(5, i as u32, 0, 2).x,
+                )
+            })
+            .collect();
+        let blocked = gpu.trace_any(scene, &shadows, 7, 1).unwrap();
+        let (mut agree, mut occluded) = (0, 0);
+        for (i, (&(origin, dir, t_max), g)) in shadows.iter().zip(&blocked.hits).enumerate() {
+            let key = wavetrace::surface::alpha_key(7, i as u32, 0, 0, true);
+            let ray = wavetrace::bvh::Ray { origin, dir };
+            let c = scene.intersect_any(&ray, 0.0, t_max, key);
+            occluded += c as usize;
+            agree += (c == (g.triangle != NO_HIT)) as usize;
+        }
+        println!(
+            "{name}: {occluded} of {} shadow rays blocked; the GPU agrees on {agree}",
+            rays.len()
+        );
+        assert!(
+            occluded > 0 && occluded < rays.len(),
+            "{name}: {occluded} blocked"
+        );
+        match exact {
+            true => assert_eq!(agree, rays.len(), "{name}: shadow rays"),
+            false => assert!(
+                (rays.len() - agree) * 1000 <= rays.len(),
+                "{name}: shadow rays"
+            ),
+        }
     }
 }
 

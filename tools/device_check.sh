@@ -36,10 +36,11 @@
 #      (tools/mitsuba_bench.py), then wavetrace sampling as Mitsuba does;
 #   5. the Cornell box with a quarter, half and twice the default paths in flight; every scene
 #      with its data in storage buffers and without the fetch counters; BDPT;
-#   6. `bench --bvh` of the large scenes on the machine's cores and, on the GPU, `extend` alone
-#      on the same 2^20 random rays (the traversal's rate without the wavefront around it, and
-#      its hits against the CPU reference's), and `bench --kernels` (every kernel's registers
-#      and local memory as the driver compiles it, path tracer and BDPT);
+#   6. `bench --bvh` of the large scenes on the machine's cores and, on the GPU, `extend` and
+#      `connect` alone on the same 2^20 random rays (the walks' rates without the wavefront
+#      around them, and their answers against the CPU reference's), and `bench --kernels`
+#      (every kernel's registers and local memory as the driver compiles it, path tracer and
+#      BDPT);
 #   7. `verify scenes/*.gltf` as CI runs it: the GPU against the CPU reference on every scene;
 #   8. with the tests packed: each GPU test binary, as `cargo test --release` runs it here
 #      (the binaries read files under the path they were built in, which `run` links to).

@@ -439,7 +439,33 @@ impl GpuRenderer {
         seed: u32,
         rounds: u32,
     ) -> Result<Traced> {
-        let ctx = &self.ctx;
+        let rays: Vec<(glam::Vec3, glam::Vec3, f32)> =
+            rays.iter().map(|&(o, d)| (o, d, f32::MAX)).collect();
+        self.trace(scene, &rays, false, seed, rounds)
+    }
+
+    /// Whether anything blocks each of `rays` (origin, unit direction, t_max) as the GPU's
+    /// `connect` finds it, alone, and the kernel's time: [`GpuRenderer::trace_closest`] for
+    /// shadow rays (their alpha key's `shadow` set). `Traced::hits[i].triangle` is `NO_HIT`
+    /// where ray i is unoccluded and 0 where it is.
+    pub fn trace_any(
+        &self,
+        scene: &PreparedScene,
+        rays: &[(glam::Vec3, glam::Vec3, f32)],
+        seed: u32,
+        rounds: u32,
+    ) -> Result<Traced> {
+        self.trace(scene, rays, true, seed, rounds)
+    }
+
+    fn trace(
+        &self,
+        scene: &PreparedScene,
+        rays: &[(glam::Vec3, glam::Vec3, f32)],
+        any: bool,
+        seed: u32,
+        rounds: u32,
+    ) -> Result<Traced> {
         let settings = RenderSettings {
             width: 1024,
             height: 1024,
@@ -450,8 +476,8 @@ impl GpuRenderer {
         };
         let capacity = (rays.len() as u32).clamp(1, self.max_wavefront());
         let setup = self.setup(scene, &settings, Some(capacity), false)?;
-        let result = self.trace_batches(&settings, &setup, rays, rounds);
-        setup.destroy(ctx);
+        let result = self.trace_batches(&settings, &setup, rays, any, rounds);
+        setup.destroy(&self.ctx);
         result
     }
 
@@ -459,7 +485,8 @@ impl GpuRenderer {
         &self,
         settings: &RenderSettings,
         setup: &Setup,
-        rays: &[(glam::Vec3, glam::Vec3)],
+        rays: &[(glam::Vec3, glam::Vec3, f32)],
+        any: bool,
         rounds: u32,
     ) -> Result<Traced> {
         use vk::BufferUsageFlags as U;
@@ -469,79 +496,149 @@ impl GpuRenderer {
         buffers.frame.write(bytemuck::bytes_of(&frame));
         let capacity = setup.capacity as usize;
         let row_texels = memory::SCENE_IMAGE_WIDTH as usize;
+        let (queue, kernel, ray_bytes, result_bytes) = match any {
+            false => (&buffers.rays, "extend", size_of::<QueuedRay>(), 16),
+            true => (
+                &buffers.shadows,
+                "connect",
+                size_of::<ShadowRay>(),
+                size_of::<PathState>(),
+            ),
+        };
         let staging = memory::Buffer::new(
             ctx,
             "trace_rays",
-            (capacity * size_of::<QueuedRay>()) as u64,
+            (capacity * ray_bytes) as u64,
             U::TRANSFER_SRC,
             memory::Location::Host,
         )?;
-        let hits_back = memory::Buffer::new(
+        let results_back = memory::Buffer::new(
             ctx,
-            "trace_hits",
-            (capacity.div_ceil(row_texels) * row_texels * 16) as u64,
+            "trace_results",
+            (capacity.div_ceil(row_texels) * row_texels * result_bytes) as u64,
             U::TRANSFER_DST,
             memory::Location::Host,
         )?;
         let mut hits = Vec::with_capacity(rays.len());
         let mut best: Option<f64> = None;
         for round in 0..rounds.max(1) {
-            let mut extend_seconds = 0.0;
+            let mut kernel_seconds = 0.0;
             for (b, chunk) in rays.chunks(capacity).enumerate() {
-                let queued: Vec<QueuedRay> = chunk
-                    .iter()
-                    .enumerate()
-                    .map(|(i, (origin, dir))| QueuedRay {
-                        origin: origin.to_array(),
-                        path: i as u32,
-                        dir: dir.to_array(),
-                        pad: 0,
-                    })
-                    .collect();
-                staging.write(bytemuck::cast_slice(&queued));
+                let bytes = match any {
+                    false => {
+                        let queued: Vec<QueuedRay> = chunk
+                            .iter()
+                            .enumerate()
+                            .map(|(i, (origin, dir, _))| QueuedRay {
+                                origin: origin.to_array(),
+                                path: i as u32,
+                                dir: dir.to_array(),
+                                pad: 0,
+                            })
+                            .collect();
+                        staging.write(bytemuck::cast_slice(&queued));
+                        std::mem::size_of_val(queued.as_slice())
+                    }
+                    true => {
+                        let queued: Vec<ShadowRay> = chunk
+                            .iter()
+                            .enumerate()
+                            .map(|(i, (origin, dir, t_max))| ShadowRay {
+                                origin: origin.to_array(),
+                                path: i as u32,
+                                dir: dir.to_array(),
+                                t_max: *t_max,
+                                contribution: [1.0, 0.0, 0.0],
+                                pad: 0,
+                            })
+                            .collect();
+                        staging.write(bytemuck::cast_slice(&queued));
+                        std::mem::size_of_val(queued.as_slice())
+                    }
+                };
                 self.commands.begin()?;
-                let bytes = std::mem::size_of_val(queued.as_slice()) as u64;
-                self.commands.copy(&staging, &buffers.rays, bytes);
+                self.commands.copy(&staging, queue, bytes as u64);
+                if any {
+                    // connect adds an unoccluded ray's contribution to its path's radiance.
+                    unsafe {
+                        ctx.device.cmd_fill_buffer(
+                            self.commands.cmd,
+                            buffers.paths.buffer,
+                            0,
+                            vk::WHOLE_SIZE,
+                            0,
+                        )
+                    };
+                }
                 let mut recorder = self.recorder(setup, frame.band_pixel_count);
                 let batch = wavefront::Batch {
                     first_sample: 0,
                     first_pixel: (b * capacity) as u32,
                     size: chunk.len() as u32,
                 };
-                recorder.record_trace(batch);
+                match any {
+                    false => recorder.record_trace(batch),
+                    true => recorder.record_trace_any(batch),
+                }
                 let timed = std::mem::take(&mut recorder.timed);
                 self.kernels_to_transfers();
-                let rows = chunk.len().div_ceil(row_texels) as u32;
-                self.commands
-                    .copy_rows_from_image(&buffers.hit_image, &hits_back, rows);
+                match any {
+                    false => {
+                        let rows = chunk.len().div_ceil(row_texels) as u32;
+                        self.commands
+                            .copy_rows_from_image(&buffers.hit_image, &results_back, rows);
+                    }
+                    true => self.commands.copy(
+                        &buffers.paths,
+                        &results_back,
+                        (chunk.len() * result_bytes) as u64,
+                    ),
+                }
                 let started = Instant::now();
                 self.commands
                     .submit_batch(ctx, "tracing rays", SUBMIT_TIMEOUT_S)?;
-                extend_seconds += match setup.query_pool {
+                kernel_seconds += match setup.query_pool {
                     Some(pool) => self
                         .kernel_times(pool, &timed)?
-                        .filter(|(name, _)| *name == "extend")
+                        .filter(|(name, _)| *name == kernel)
                         .map(|(_, dt)| dt)
                         .sum::<f64>(),
                     None => started.elapsed().as_secs_f64(),
                 };
-                if round == 0 {
-                    let texels: Vec<[u32; 4]> = hits_back.read_pod(16 * chunk.len());
-                    hits.extend(texels.iter().map(|h| crate::layout::HitRecord {
-                        t: f32::from_bits(h[0]),
-                        triangle: h[1],
-                        u: f32::from_bits(h[2]),
-                        v: f32::from_bits(h[3]),
-                        ..Default::default()
-                    }));
+                if round > 0 {
+                    continue;
+                }
+                match any {
+                    false => {
+                        let texels: Vec<[u32; 4]> = results_back.read_pod(16 * chunk.len());
+                        hits.extend(texels.iter().map(|h| crate::layout::HitRecord {
+                            t: f32::from_bits(h[0]),
+                            triangle: h[1],
+                            u: f32::from_bits(h[2]),
+                            v: f32::from_bits(h[3]),
+                            ..Default::default()
+                        }));
+                    }
+                    true => {
+                        let paths: Vec<PathState> =
+                            results_back.read_pod(chunk.len() * result_bytes);
+                        hits.extend(paths.iter().map(|p| crate::layout::HitRecord {
+                            triangle: if p.radiance[0] > 0.0 {
+                                crate::layout::NO_HIT
+                            } else {
+                                0
+                            },
+                            ..Default::default()
+                        }));
+                    }
                 }
             }
-            best = Some(best.map_or(extend_seconds, |b: f64| b.min(extend_seconds)));
+            best = Some(best.map_or(kernel_seconds, |b: f64| b.min(kernel_seconds)));
         }
         self.ctx.check_validation()?;
         Ok(Traced {
             hits,
-            extend_seconds: best.unwrap_or(0.0),
+            kernel_seconds: best.unwrap_or(0.0),
             timed: setup.query_pool.is_some(),
         })
     }
@@ -1071,12 +1168,13 @@ fn scene_split(
     Ok(split)
 }
 
-/// What [`GpuRenderer::trace_closest`] found: the hits in ray order (`triangle` = `NO_HIT` on
-/// a miss; the instance is not read back) and the seconds `extend` took, the best of the rounds.
+/// What [`GpuRenderer::trace_closest`] or [`GpuRenderer::trace_any`] found: the hits in ray
+/// order (`triangle` = `NO_HIT` on a miss; the instance is not read back; an any-hit test's
+/// only its triangle: `NO_HIT` or 0) and the seconds its kernel took, the best of the rounds.
 pub struct Traced {
     pub hits: Vec<crate::layout::HitRecord>,
-    pub extend_seconds: f64,
-    /// Whether `extend_seconds` are the kernel's timestamps (else the submissions' wall time).
+    pub kernel_seconds: f64,
+    /// Whether `kernel_seconds` are the kernel's timestamps (else the submissions' wall time).
     pub timed: bool,
 }
 

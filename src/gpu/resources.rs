@@ -34,10 +34,13 @@ pub struct RenderBuffers {
     pub splats: Buffer,
     pub path_dfa: Buffer,
     /// The ray queues (`Binding::Rays`) and the hit records `extend` writes
-    /// (`Binding::HitImage`): [`super::GpuRenderer::trace_closest`] fills the one and reads the
-    /// other back.
+    /// (`Binding::HitImage`), the shadow queue (`Binding::Shadows`) and the path states whose
+    /// radiance `connect` adds to (`Binding::Paths`): [`super::GpuRenderer::trace_closest`] and
+    /// [`super::GpuRenderer::trace_any`] fill the queues and read the results back.
     pub rays: Buffer,
     pub hit_image: Image,
+    pub shadows: Buffer,
+    pub paths: Buffer,
     /// Bindings each `SplitArray` uses (1 where it is not split).
     pub split_bindings: [u32; 5],
     /// Scene and queue buffers: only the descriptor set refers to them.
@@ -395,9 +398,7 @@ impl RenderBuffers {
             _bound: [
                 materials,
                 lights,
-                paths,
                 hit_instances,
-                shadows,
                 textures,
                 texture_refs,
                 instances,
@@ -415,6 +416,8 @@ impl RenderBuffers {
             _images: images.into_iter().map(|(_, image)| image).collect(),
             rays,
             hit_image,
+            shadows,
+            paths,
         })
     }
 }

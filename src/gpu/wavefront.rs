@@ -160,6 +160,30 @@ impl Recorder<'_> {
         self.extend(batch, 0);
     }
 
+    /// The occlusion of the batch's shadow rays, already in the shadow queue (`bench --bvh`'s
+    /// GPU any-hit walk): `connect` alone, with the queue's length set to the batch's.
+    pub fn record_trace_any(&mut self, batch: Batch) {
+        let buffer = self.counters.buffer;
+        let word = |k: u32| 4 * k as u64;
+        unsafe {
+            // Every counter zero but the shadow queue's (three fills that do not overlap).
+            self.device
+                .cmd_fill_buffer(self.cmd, buffer, 0, word(counter::SHADOW), 0);
+            self.device
+                .cmd_fill_buffer(self.cmd, buffer, word(counter::SHADOW), 4, batch.size);
+            self.device.cmd_fill_buffer(
+                self.cmd,
+                buffer,
+                word(counter::SHADOW + 1),
+                word(counter::COUNT - counter::SHADOW - 1),
+                0,
+            );
+        }
+        self.transfers_to_kernels();
+        self.start_timing(0);
+        self.connect(batch, 0);
+    }
+
     /// One batch of light tracing (`--integrator light`): generate_light → connect_light, then
     /// (extend → shade_light → connect_light) per scattering vertex; at the end of a pass
     /// (`pass_done`) the splat sums of each of the batch's passes become one film sample per
