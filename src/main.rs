@@ -1745,8 +1745,8 @@ fn bench_gpu_walk(
             _ => walks.other_triangle += 1,
         }
     }
-    for (g, &c) in blocked.hits.iter().zip(&cpu_blocked) {
-        match (g.triangle != wavetrace::layout::NO_HIT) == c {
+    for (&g, &c) in blocked.blocked.iter().zip(&cpu_blocked) {
+        match g == c {
             true => walks.any_same += 1,
             false => walks.any_other += 1,
         }

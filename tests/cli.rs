@@ -631,16 +631,10 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
         eprintln!("skipping: no Mesa RADV ICD (radeon_icd*.json) installed");
         return;
     };
-    let scenes: Vec<PathBuf> = {
-        let mut found: Vec<PathBuf> =
-            std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"))
-                .unwrap()
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
-                .collect();
-        found.sort();
-        found
-    };
+    let scenes = common::files_with_extension(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"),
+        &["gltf"],
+    );
     assert!(scenes.len() >= 9, "{scenes:?}");
     for integrator in [
         wavetrace::cpu::Integrator::Path,

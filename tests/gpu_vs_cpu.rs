@@ -461,12 +461,12 @@ fn the_gpu_walk_finds_the_cpu_references_hits() {
             .collect();
         let blocked = gpu.trace_any(scene, &shadows, 7, 1).unwrap();
         let (mut agree, mut occluded) = (0, 0);
-        for (i, (&(origin, dir, t_max), g)) in shadows.iter().zip(&blocked.hits).enumerate() {
+        for (i, (&(origin, dir, t_max), &g)) in shadows.iter().zip(&blocked.blocked).enumerate() {
             let key = wavetrace::surface::alpha_key(7, i as u32, 0, 0, true);
             let ray = wavetrace::bvh::Ray { origin, dir };
             let c = scene.intersect_any(&ray, 0.0, t_max, key);
             occluded += c as usize;
-            agree += (c == (g.triangle != NO_HIT)) as usize;
+            agree += (c == g) as usize;
         }
         println!(
             "{name}: {occluded} of {} shadow rays blocked; the GPU agrees on {agree}",

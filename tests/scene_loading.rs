@@ -1,6 +1,8 @@
 //! Scene loading: the committed scenes have the geometry, materials and camera they claim,
 //! transforms keep front faces, and every broken file gives an error naming it (never a panic).
 
+mod common;
+
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use wavetrace::render::PreparedScene;
@@ -634,13 +636,7 @@ fn samples_dir() -> Option<PathBuf> {
 }
 
 fn gltf_files(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")))
-        .collect();
-    files.sort();
-    files
+    common::files_with_extension(dir, &["gltf", "glb"])
 }
 
 #[test]

@@ -69,12 +69,7 @@ fn submit(out_dir: &Path, spp: u32, shards: u32, options: &str) -> (String, Stri
 
 /// The logs of a run (shard-*.log, merge.log).
 fn logs(out_dir: &Path) -> String {
-    let mut files: Vec<_> = std::fs::read_dir(out_dir)
-        .unwrap()
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "log"))
-        .collect();
-    files.sort();
+    let files = common::files_with_extension(out_dir, &["log"]);
     files
         .iter()
         .map(|p| {

@@ -130,6 +130,13 @@ impl Buffer {
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), self.mapped, data.len()) };
     }
 
+    /// Host buffers only: writes `items` from the start; returns how many bytes they took.
+    pub fn write_pod<T: bytemuck::Pod>(&self, items: impl Iterator<Item = T>) -> usize {
+        let items: Vec<T> = items.collect();
+        self.write(bytemuck::cast_slice(&items));
+        std::mem::size_of_val(items.as_slice())
+    }
+
     /// Host buffers only: copies `data` to `offset` bytes into the buffer.
     pub fn write_at(&self, offset: usize, data: &[u8]) {
         assert!(!self.mapped.is_null() && (offset + data.len()) as u64 <= self.size);

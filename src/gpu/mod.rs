@@ -445,9 +445,8 @@ impl GpuRenderer {
     }
 
     /// Whether anything blocks each of `rays` (origin, unit direction, t_max) as the GPU's
-    /// `connect` finds it, alone, and the kernel's time: [`GpuRenderer::trace_closest`] for
-    /// shadow rays (their alpha key's `shadow` set). `Traced::hits[i].triangle` is `NO_HIT`
-    /// where ray i is unoccluded and 0 where it is.
+    /// `connect` finds it, alone, and the kernel's time (`Traced::blocked`):
+    /// [`GpuRenderer::trace_closest`] for shadow rays (their alpha key's `shadow` set).
     pub fn trace_any(
         &self,
         scene: &PreparedScene,
@@ -519,42 +518,27 @@ impl GpuRenderer {
             U::TRANSFER_DST,
             memory::Location::Host,
         )?;
-        let mut hits = Vec::with_capacity(rays.len());
+        let (mut hits, mut blocked) = (Vec::new(), Vec::new());
         let mut best: Option<f64> = None;
         for round in 0..rounds.max(1) {
             let mut kernel_seconds = 0.0;
             for (b, chunk) in rays.chunks(capacity).enumerate() {
+                let rays = chunk.iter().enumerate();
                 let bytes = match any {
-                    false => {
-                        let queued: Vec<QueuedRay> = chunk
-                            .iter()
-                            .enumerate()
-                            .map(|(i, (origin, dir, _))| QueuedRay {
-                                origin: origin.to_array(),
-                                path: i as u32,
-                                dir: dir.to_array(),
-                                pad: 0,
-                            })
-                            .collect();
-                        staging.write(bytemuck::cast_slice(&queued));
-                        std::mem::size_of_val(queued.as_slice())
-                    }
-                    true => {
-                        let queued: Vec<ShadowRay> = chunk
-                            .iter()
-                            .enumerate()
-                            .map(|(i, (origin, dir, t_max))| ShadowRay {
-                                origin: origin.to_array(),
-                                path: i as u32,
-                                dir: dir.to_array(),
-                                t_max: *t_max,
-                                contribution: [1.0, 0.0, 0.0],
-                                pad: 0,
-                            })
-                            .collect();
-                        staging.write(bytemuck::cast_slice(&queued));
-                        std::mem::size_of_val(queued.as_slice())
-                    }
+                    false => staging.write_pod(rays.map(|(i, (origin, dir, _))| QueuedRay {
+                        origin: origin.to_array(),
+                        path: i as u32,
+                        dir: dir.to_array(),
+                        pad: 0,
+                    })),
+                    true => staging.write_pod(rays.map(|(i, (origin, dir, t_max))| ShadowRay {
+                        origin: origin.to_array(),
+                        path: i as u32,
+                        dir: dir.to_array(),
+                        t_max: *t_max,
+                        contribution: [1.0, 0.0, 0.0],
+                        pad: 0,
+                    })),
                 };
                 self.commands.begin()?;
                 self.commands.copy(&staging, queue, bytes as u64);
@@ -620,16 +604,10 @@ impl GpuRenderer {
                         }));
                     }
                     true => {
+                        // connect added the ray's contribution where nothing blocked it.
                         let paths: Vec<PathState> =
                             results_back.read_pod(chunk.len() * result_bytes);
-                        hits.extend(paths.iter().map(|p| crate::layout::HitRecord {
-                            triangle: if p.radiance[0] > 0.0 {
-                                crate::layout::NO_HIT
-                            } else {
-                                0
-                            },
-                            ..Default::default()
-                        }));
+                        blocked.extend(paths.iter().map(|p| p.radiance[0] == 0.0));
                     }
                 }
             }
@@ -638,6 +616,7 @@ impl GpuRenderer {
         self.ctx.check_validation()?;
         Ok(Traced {
             hits,
+            blocked,
             kernel_seconds: best.unwrap_or(0.0),
             timed: setup.query_pool.is_some(),
         })
@@ -1168,11 +1147,14 @@ fn scene_split(
     Ok(split)
 }
 
-/// What [`GpuRenderer::trace_closest`] or [`GpuRenderer::trace_any`] found: the hits in ray
-/// order (`triangle` = `NO_HIT` on a miss; the instance is not read back; an any-hit test's
-/// only its triangle: `NO_HIT` or 0) and the seconds its kernel took, the best of the rounds.
+/// What [`GpuRenderer::trace_closest`] or [`GpuRenderer::trace_any`] found, in ray order, and
+/// the seconds its kernel took, the best of the rounds.
 pub struct Traced {
+    /// `trace_closest`: each ray's hit (`triangle` = `NO_HIT` on a miss; the instance is not
+    /// read back). Empty for `trace_any`.
     pub hits: Vec<crate::layout::HitRecord>,
+    /// `trace_any`: whether something blocks each ray. Empty for `trace_closest`.
+    pub blocked: Vec<bool>,
     pub kernel_seconds: f64,
     /// Whether `kernel_seconds` are the kernel's timestamps (else the submissions' wall time).
     pub timed: bool,

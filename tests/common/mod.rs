@@ -18,6 +18,21 @@ pub fn scene_path(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// The files in `dir` whose extension is one of `extensions`, sorted by path.
+pub fn files_with_extension(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("reading {}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| extensions.contains(&e))
+        })
+        .collect();
+    files.sort();
+    files
+}
+
 pub fn prepared(name: &str) -> PreparedScene {
     let scene = Scene::load(&scene_path(name)).unwrap_or_else(|e| panic!("loading {name}: {e:#}"));
     PreparedScene::new(&scene)
