@@ -12,9 +12,6 @@ use ash::vk;
 /// `extend` reads it from params.depth, whose low bit still picks the queue.
 const ALPHA_LIGHT_WALK: u32 = 1 << 20;
 
-// reset_counters sets counter 0 to the batch size and zeroes every counter after it.
-const _: () = assert!(counter::RAYS_0 == 0);
-
 /// Which paths a batch holds (see `DispatchParams`).
 #[derive(Clone, Copy, Debug)]
 pub struct Batch {
@@ -163,23 +160,7 @@ impl Recorder<'_> {
     /// The occlusion of the batch's shadow rays, already in the shadow queue (`bench --bvh`'s
     /// GPU any-hit walk): `connect` alone, with the queue's length set to the batch's.
     pub fn record_trace_any(&mut self, batch: Batch) {
-        let buffer = self.counters.buffer;
-        let word = |k: u32| 4 * k as u64;
-        unsafe {
-            // Every counter zero but the shadow queue's (three fills that do not overlap).
-            self.device
-                .cmd_fill_buffer(self.cmd, buffer, 0, word(counter::SHADOW), 0);
-            self.device
-                .cmd_fill_buffer(self.cmd, buffer, word(counter::SHADOW), 4, batch.size);
-            self.device.cmd_fill_buffer(
-                self.cmd,
-                buffer,
-                word(counter::SHADOW + 1),
-                word(counter::COUNT - counter::SHADOW - 1),
-                0,
-            );
-        }
-        self.transfers_to_kernels();
+        self.reset_counters_to(counter::SHADOW, batch.size);
         self.start_timing(0);
         self.connect(batch, 0);
     }
@@ -342,9 +323,31 @@ impl Recorder<'_> {
     fn reset_counters(&self, first_queue: u32) {
         // Queue 0 starts full (generate writes every slot) or empty (generate_light appends);
         // every other counter starts at 0.
-        self.fill_counters(first_queue, 1, counter::COUNT - 1);
-        // Covers this batch's fills and every earlier submission's transfers (scene upload,
-        // film clear).
+        self.reset_counters_to(counter::RAYS_0, first_queue);
+    }
+
+    /// Sets counter `queue` to `length` and zeroes every other counter (fills of disjoint
+    /// bytes, no barrier between them), then makes them visible to the kernels.
+    fn reset_counters_to(&self, queue: u32, length: u32) {
+        let buffer = self.counters.buffer;
+        let word = |k: u32| 4 * k as u64;
+        unsafe {
+            if queue > 0 {
+                self.device
+                    .cmd_fill_buffer(self.cmd, buffer, 0, word(queue), 0);
+            }
+            self.device
+                .cmd_fill_buffer(self.cmd, buffer, word(queue), 4, length);
+            self.device.cmd_fill_buffer(
+                self.cmd,
+                buffer,
+                word(queue + 1),
+                word(counter::COUNT - queue - 1),
+                0,
+            );
+        }
+        // Covers these fills and every earlier submission's transfers (scene upload, film
+        // clear).
         self.transfers_to_kernels();
     }
 
