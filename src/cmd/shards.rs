@@ -1,7 +1,7 @@
-//! `render --sample-range | --shard | --resume`, the signal handler that turns SIGINT and
-//! SIGTERM into a resumable partial EXR, and `wavetrace merge` (`wavetrace::shard`).
+//! `render --sample-range | --shard | --resume` and the signal handler that turns SIGINT and
+//! SIGTERM into a resumable partial EXR (`wavetrace::shard`).
 
-use crate::cli::{DeviceKind, MergeArgs, RenderArgs};
+use super::options::{DeviceKind, MisArg, RenderArgs};
 use anyhow::{bail, Context as _, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -77,7 +77,7 @@ pub fn record(
         ),
     };
     let mis = match o.mis {
-        crate::cli::MisArg::Power => format!("power {:?}", o.mis_beta),
+        MisArg::Power => format!("power {:?}", o.mis_beta),
         other => format!("{other:?}").to_lowercase(),
     };
     let lower = |v: &dyn std::fmt::Debug| format!("{v:?}").to_lowercase();
@@ -248,33 +248,4 @@ pub fn finish(plan: Plan, film: Film, end: u32, mut record: Record) -> (Film, Re
     record.target = Some(plan.target);
     record.dropped = film.dropped;
     (film, record)
-}
-
-/// `wavetrace merge`.
-pub fn merge(args: &MergeArgs) -> Result<()> {
-    let shards = args
-        .shards
-        .iter()
-        .map(|p| Shard::read(p))
-        .collect::<Result<Vec<_>>>()?;
-    let n = shards.len();
-    let (film, record) = wavetrace::shard::merge(shards, args.partial)?;
-    if !args
-        .output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-    {
-        bail!("{}: merge writes .exr", args.output.display());
-    }
-    wavetrace::image_io::write_image_with(&film, &args.output, 0.0, &record.attributes())?;
-    println!(
-        "merged {n} shards: samples {} of {} spp, {}×{}, {} NaN/Inf samples dropped; wrote {}",
-        record.samples.expect("merged shards have a range"),
-        record.spp().unwrap_or(0),
-        film.width,
-        film.height,
-        record.dropped,
-        args.output.display()
-    );
-    Ok(())
 }

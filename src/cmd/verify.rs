@@ -2,9 +2,12 @@
 //! seeds, the same settings), or once against a stored reference, then the per-tile Welch test;
 //! a line per scene, a summary, and the reports of `wavetrace::verify` on request.
 
-use crate::cli::{DeviceKind, VerifyArgs};
-use crate::prepare;
+use super::options::{
+    parse_alpha, parse_fraction, parse_unit_interval, DeviceKind, IntegratorArg, RenderOptions,
+};
+use super::prepare::{prepare, resolve_device};
 use anyhow::{bail, Context as _, Result};
+use clap::Args;
 use std::time::Instant;
 use wavetrace::flip::{flip, DisplayImage};
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
@@ -15,6 +18,54 @@ use wavetrace::verify::{
     json_report, junit_xml, write_report, DetectPlan, Judgement, SceneVerdict,
 };
 
+#[derive(Args, Debug, Clone)]
+pub struct VerifyArgs {
+    /// Scene files (.gltf or .glb), verified one after the other.
+    #[arg(required = true)]
+    pub scenes: Vec<std::path::PathBuf>,
+    /// Test one render against this stored reference (.exr written by wavetrace) instead of
+    /// rendering both sides; with several scenes, one reference per scene in the same order.
+    #[arg(long, value_name = "REF.exr")]
+    pub against: Vec<std::path::PathBuf>,
+    /// With --against: which integrator renders.
+    #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
+    pub device: DeviceKind,
+    /// Tile size in pixels: one Welch test per tile and channel.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub tile: u32,
+    /// Family-wise significance level of each scene's test, Šidák-corrected over tiles × channels.
+    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
+    pub alpha: f64,
+    /// Write the images, z-score heat maps and index.html into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<std::path::PathBuf>,
+    /// Write a JUnit XML file (one test case per scene).
+    #[arg(long, value_name = "FILE.xml")]
+    pub junit: Option<std::path::PathBuf>,
+    /// Write every figure as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub json: Option<std::path::PathBuf>,
+    /// Choose each scene's sample count so that the test detects a relative bias of the GPU
+    /// image of this size (e.g. 0.5% or 0.005) with probability --power, from pilot renders at
+    /// --spp, and report that power. Renders with the independent sampler (the power model
+    /// needs the film's variance to be the pixel mean's).
+    #[arg(long, value_name = "BIAS", value_parser = parse_fraction)]
+    pub detect: Option<f64>,
+    /// With --detect: the probability of rejecting when the bias is there.
+    #[arg(long, default_value_t = 0.9, value_parser = parse_alpha)]
+    pub power: f64,
+    /// With --detect: at most this many samples per pixel on each side.
+    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..=16_777_216))]
+    pub detect_max_spp: u32,
+    /// With --against a reference that carries no variance (a .png or .jpg, or an .exr without
+    /// wavetrace's variance and count layers, e.g. from another renderer): judge by NVIDIA's
+    /// FLIP perceptual error instead, passing where its mean is at most E.
+    #[arg(long, value_name = "E", value_parser = parse_unit_interval)]
+    pub max_flip: Option<f64>,
+    #[command(flatten)]
+    pub opts: RenderOptions,
+}
+
 /// Runs every scene; true if all agree.
 pub fn verify(args: &VerifyArgs) -> Result<bool> {
     if !args.against.is_empty() && args.against.len() != args.scenes.len() {
@@ -24,7 +75,7 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
             args.scenes.len()
         );
     }
-    if args.opts.integrator != crate::cli::IntegratorArg::Path || args.opts.paths.is_some() {
+    if args.opts.integrator != IntegratorArg::Path || args.opts.paths.is_some() {
         bail!(
             "verify compares the path tracer (--integrator path, all paths): its per-tile test \
              takes a tile's pixels as independent, which light tracing's splats are not \
@@ -37,7 +88,7 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     let side = if args.against.is_empty() {
         DeviceKind::Gpu
     } else {
-        crate::resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
+        resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
     };
     let needs_gpu = args.against.is_empty() || side == DeviceKind::Gpu;
     let gpu = if needs_gpu {

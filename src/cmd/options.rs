@@ -1,46 +1,11 @@
-//! The command line: `wavetrace render`, `wavetrace devices`, `wavetrace bench`,
-//! `wavetrace compare`, `wavetrace estimators`.
-//! Scripts depend on these names; keep them.
+//! What a render is, as the command line gives it: the options `render`, `verify` and `bench`
+//! share (size, samples, integrator settings, device, loading limits), `render`'s own arguments,
+//! and the parsers of their values. Scripts depend on these names; keep them.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use anyhow::Result;
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use wavetrace::mis::Heuristic;
-
-#[derive(Parser, Debug)]
-#[command(
-    name = "wavetrace",
-    version,
-    about = "Headless GPU wavefront path tracer with a CPU reference integrator"
-)]
-pub struct Cli {
-    #[command(subcommand)]
-    pub command: Command,
-}
-
-#[derive(Subcommand, Debug)]
-pub enum Command {
-    /// Render a glTF scene (.gltf or .glb) to EXR or PNG.
-    Render(RenderArgs),
-    /// List the Vulkan devices and their indices for --gpu-index.
-    Devices,
-    /// Measure samples/s and rays/s of the GPU and CPU integrators on the committed scenes.
-    Bench(BenchArgs),
-    /// Render each scene on the GPU and with the CPU reference (or once against a stored
-    /// reference) and test per tile that they agree; exit status 0 if every scene agrees, 1 if
-    /// one differs, 2 on errors. Writes JUnit, JSON and an HTML report on request.
-    Verify(VerifyArgs),
-    /// Test whether two EXR renders by wavetrace have the same expectation (per-tile Welch
-    /// tests); exit status 0 if they agree, 1 if they differ, 2 on errors, like diff(1).
-    Compare(CompareArgs),
-    /// Merge shards of one render (EXRs written with --sample-range or --shard, in any order)
-    /// into the EXR one render of all their samples gives; refuses shards of different
-    /// settings, overlapping ranges or missing samples, naming the files.
-    Merge(MergeArgs),
-    /// The lecture's Monte Carlo estimators on 1-D integrals with known values: each one's mean,
-    /// measured variance and the variance the lecture's formulas predict; exit status 1 if a
-    /// check fails.
-    Estimators(EstimatorsArgs),
-}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum DeviceKind {
@@ -384,20 +349,6 @@ fn parse_sample_range(text: &str) -> Result<wavetrace::shard::SampleRange, Strin
     text.parse()
 }
 
-#[derive(Args, Debug, Clone)]
-pub struct MergeArgs {
-    /// Shards: EXRs written by `wavetrace render --sample-range` or `--shard` (any order).
-    #[arg(required = true)]
-    pub shards: Vec<PathBuf>,
-    /// The merged EXR.
-    #[arg(short = 'o', long = "output", required = true)]
-    pub output: PathBuf,
-    /// Write the merge of shards that cover only part of [0, spp) (one run of samples without
-    /// gaps) as a larger shard, instead of refusing.
-    #[arg(long)]
-    pub partial: bool,
-}
-
 /// A relative error: finite and above 0.
 fn parse_target_error(text: &str) -> Result<f64, String> {
     let e: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
@@ -534,136 +485,6 @@ pub struct RenderOptions {
     pub debug_flags: u32,
 }
 
-#[derive(Args, Debug, Clone)]
-pub struct VerifyArgs {
-    /// Scene files (.gltf or .glb), verified one after the other.
-    #[arg(required = true)]
-    pub scenes: Vec<std::path::PathBuf>,
-    /// Test one render against this stored reference (.exr written by wavetrace) instead of
-    /// rendering both sides; with several scenes, one reference per scene in the same order.
-    #[arg(long, value_name = "REF.exr")]
-    pub against: Vec<std::path::PathBuf>,
-    /// With --against: which integrator renders.
-    #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
-    pub device: DeviceKind,
-    /// Tile size in pixels: one Welch test per tile and channel.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub tile: u32,
-    /// Family-wise significance level of each scene's test, Šidák-corrected over tiles × channels.
-    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
-    pub alpha: f64,
-    /// Write the images, z-score heat maps and index.html into this folder.
-    #[arg(long, value_name = "DIR")]
-    pub report: Option<std::path::PathBuf>,
-    /// Write a JUnit XML file (one test case per scene).
-    #[arg(long, value_name = "FILE.xml")]
-    pub junit: Option<std::path::PathBuf>,
-    /// Write every figure as JSON.
-    #[arg(long, value_name = "FILE.json")]
-    pub json: Option<std::path::PathBuf>,
-    /// Choose each scene's sample count so that the test detects a relative bias of the GPU
-    /// image of this size (e.g. 0.5% or 0.005) with probability --power, from pilot renders at
-    /// --spp, and report that power. Renders with the independent sampler (the power model
-    /// needs the film's variance to be the pixel mean's).
-    #[arg(long, value_name = "BIAS", value_parser = parse_fraction)]
-    pub detect: Option<f64>,
-    /// With --detect: the probability of rejecting when the bias is there.
-    #[arg(long, default_value_t = 0.9, value_parser = parse_alpha)]
-    pub power: f64,
-    /// With --detect: at most this many samples per pixel on each side.
-    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u32).range(1..=16_777_216))]
-    pub detect_max_spp: u32,
-    /// With --against a reference that carries no variance (a .png or .jpg, or an .exr without
-    /// wavetrace's variance and count layers, e.g. from another renderer): judge by NVIDIA's
-    /// FLIP perceptual error instead, passing where its mean is at most E.
-    #[arg(long, value_name = "E", value_parser = parse_unit_interval)]
-    pub max_flip: Option<f64>,
-    #[command(flatten)]
-    pub opts: RenderOptions,
-}
-
-#[derive(Args, Debug, Clone)]
-pub struct BenchArgs {
-    /// Scenes to measure (default: every .gltf in scenes/).
-    pub scenes: Vec<PathBuf>,
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    pub width: u32,
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    pub height: u32,
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
-    pub spp: u32,
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=1024))]
-    pub max_depth: u32,
-    /// Vulkan device index.
-    #[arg(long)]
-    pub gpu_index: Option<usize>,
-    /// Paths in flight per GPU batch.
-    #[arg(long)]
-    pub wavefront: Option<u32>,
-    /// Skip the CPU integrator.
-    #[arg(long, conflicts_with = "cpu_only")]
-    pub gpu_only: bool,
-    /// Skip the GPU (no Vulkan device is opened): the CPU integrator alone.
-    #[arg(long)]
-    pub cpu_only: bool,
-    /// Measure the BVH instead of rendering: each scene's triangles built --builds times (the
-    /// median and the best time), the tree's SAH cost, nodes and depth, and what a closest-hit
-    /// ray costs in it on the CPU (boxes and triangles tested per ray, M rays/s) for 2^20
-    /// random rays through its bounds, in the binary tree (the GPU's fallback walk), in its
-    /// 4-wide collapse (the CPU integrators' walk: collapse time, boxes per ray, M rays/s) and
-    /// in that collapse quantised (the GPU's walk: boxes per ray, M rays/s).
-    #[arg(long)]
-    pub bvh: bool,
-    /// Make each scene's GPU kernels without rendering (those a render with these settings
-    /// uses, specialised alike) and print the driver's statistics of each: registers, spills,
-    /// instructions, as the device names them (`VK_KHR_pipeline_executable_properties`, which
-    /// AMD's and NVIDIA's drivers offer and lavapipe does not). Submits no work, so it also
-    /// runs on a device that compiles but cannot render: Mesa RADV's null device
-    /// (`RADV_FORCE_FAMILY=navi31` with RADV's ICD) gives AMD's compiler's view of every
-    /// kernel on any machine. With `--baseline` (an earlier `bench --kernels --json`), each
-    /// kernel's figures that changed are printed beside the baseline's.
-    #[arg(long, conflicts_with_all = ["bvh", "cpu_only", "gpu_only"])]
-    pub kernels: bool,
-    /// How many times `--bvh` builds each scene's tree after the first (reported apart: it pays
-    /// for fresh memory, as a render's one build does; the median and best are of the rest).
-    #[arg(long, requires = "bvh", default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=1000))]
-    pub builds: u32,
-    /// The estimator to measure.
-    #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
-    pub integrator: IntegratorArg,
-    /// The sampler, as `render --sampler` (independent: the samples Mitsuba's `independent`
-    /// sampler draws, for a comparison on the same render).
-    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
-    pub sampler: SamplerArg,
-    /// How next event estimation picks an emitter, as `render --light-sampler` (power: by
-    /// emitted power alone; on a scene with one emitting shape, as Mitsuba's path tracer picks).
-    #[arg(long, value_enum, default_value_t = LightSamplerArg::Bvh)]
-    pub light_sampler: LightSamplerArg,
-    /// Radiance of rays that leave the scene (for scenes lit by their surroundings).
-    #[arg(long, value_parser = parse_radiance, default_value = "0")]
-    pub environment: glam::Vec3,
-    /// An environment map (.hdr or .exr) lighting every scene.
-    #[arg(long, value_name = "FILE", conflicts_with = "environment")]
-    pub env: Option<PathBuf>,
-    /// Write every figure as JSON: one object per scene × device (samples/s, rays/s, per-kernel
-    /// ms, BVH build ms, device and driver), to track speed between commits.
-    #[arg(long, value_name = "FILE.json")]
-    pub json: Option<PathBuf>,
-    /// A JSON file written by an earlier `bench --json`: print each row's samples/s as a ratio
-    /// to the same scene × device there.
-    #[arg(long, value_name = "FILE.json")]
-    pub baseline: Option<PathBuf>,
-    /// Do not count the GPU kernels' scene fetches (one atomic addition per invocation and
-    /// kernel), to measure what counting costs on a device.
-    #[arg(long)]
-    pub no_fetch_counts: bool,
-    /// Time each scene's GPU render from its kernels' first dispatch: no untimed warm-up render
-    /// first, so that a CPU Vulkan device's kernel compile (lavapipe compiles at the first
-    /// dispatch) is measured inside the render, as a render's start-up on a fresh machine.
-    #[arg(long)]
-    pub no_warm_up: bool,
-}
-
 /// A finite number.
 fn parse_finite(text: &str) -> Result<f32, String> {
     let v: f32 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
@@ -685,7 +506,7 @@ fn parse_scale(text: &str) -> Result<f32, String> {
 }
 
 /// "v" or "r,g,b": finite, non-negative radiance.
-fn parse_radiance(text: &str) -> Result<glam::Vec3, String> {
+pub(crate) fn parse_radiance(text: &str) -> Result<glam::Vec3, String> {
     let values: Vec<f32> = text
         .split(',')
         .map(|v| v.trim().parse::<f32>().map_err(|e| format!("'{v}': {e}")))
@@ -731,34 +552,8 @@ fn parse_beta(text: &str) -> Result<f32, String> {
     }
 }
 
-#[derive(Args, Debug, Clone)]
-pub struct CompareArgs {
-    /// First image (.exr written by wavetrace: mean, variance and count per pixel; with --flip
-    /// also any .exr, .png or .jpg).
-    pub a: PathBuf,
-    /// Second image, e.g. the CPU reference render of the same scene with another seed (with
-    /// --flip: the reference, e.g. another renderer's image).
-    pub b: PathBuf,
-    /// Report NVIDIA's FLIP perceptual error of A against B (as displayed: 8-bit sRGB) instead
-    /// of the statistical test: for references that carry no variance.
-    #[arg(long)]
-    pub flip: bool,
-    /// With --flip: write FLIP's error map (magma colours) to this PNG.
-    #[arg(long, value_name = "FILE.png", requires = "flip")]
-    pub flip_map: Option<PathBuf>,
-    /// With --flip: exit 1 if the mean FLIP error exceeds E (without it, FLIP only reports).
-    #[arg(long, value_name = "E", value_parser = parse_unit_interval)]
-    pub max_flip: Option<f64>,
-    /// Tile size in pixels: one Welch test per tile and channel.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub tile: u32,
-    /// Family-wise significance level, Šidák-corrected over tiles × channels.
-    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
-    pub alpha: f64,
-}
-
 /// A relative size: "0.5%" or "0.005", in (0, 1).
-fn parse_fraction(text: &str) -> Result<f64, String> {
+pub(crate) fn parse_fraction(text: &str) -> Result<f64, String> {
     let t = text.trim();
     let (number, scale) = match t.strip_suffix('%') {
         Some(n) => (n, 0.01),
@@ -777,7 +572,7 @@ fn parse_fraction(text: &str) -> Result<f64, String> {
 }
 
 /// A value in [0, 1].
-fn parse_unit_interval(text: &str) -> Result<f64, String> {
+pub(crate) fn parse_unit_interval(text: &str) -> Result<f64, String> {
     let v: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
     if (0.0..=1.0).contains(&v) {
         Ok(v)
@@ -787,27 +582,11 @@ fn parse_unit_interval(text: &str) -> Result<f64, String> {
 }
 
 /// A significance level in (0, 1).
-fn parse_alpha(text: &str) -> Result<f64, String> {
+pub(crate) fn parse_alpha(text: &str) -> Result<f64, String> {
     let alpha: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
     if alpha > 0.0 && alpha < 1.0 {
         Ok(alpha)
     } else {
         Err("α must lie strictly between 0 and 1".into())
     }
-}
-
-#[derive(Args, Debug, Clone)]
-pub struct EstimatorsArgs {
-    /// N: samples per estimate (per strategy for combined sampling, strata for stratified).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65_536))]
-    pub samples: u32,
-    /// T: independent estimates per estimator, whose variance is measured.
-    #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
-    pub trials: u32,
-    /// Random seed of the keyed random numbers.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u32,
-    /// Family-wise significance level of all checks, Šidák-corrected.
-    #[arg(long, default_value_t = 0.01, value_parser = parse_alpha)]
-    pub alpha: f64,
 }

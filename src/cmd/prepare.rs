@@ -1,0 +1,226 @@
+//! From the command line to a render: the scene loaded under the options' limits, the image
+//! size, the memory a render reserves, the settings, and which device `--device auto` picks.
+
+use super::options::{DeviceKind, RenderOptions, TextureLodArg};
+use anyhow::{bail, Context as _, Result};
+use std::mem::size_of;
+use std::path::{Path, PathBuf};
+use wavetrace::environment::EnvironmentMap;
+use wavetrace::layout::{BvhNode, GpuTriangle, LightEntry};
+use wavetrace::render::{PreparedScene, RenderSettings};
+use wavetrace::scene::{Budget, LoadOptions, Scene};
+
+/// Largest image the film may hold (pixels), far above any real render.
+pub(crate) const MAX_PIXELS: u64 = 1 << 26;
+
+/// Largest side of an image in pixels.
+pub(crate) const MAX_SIDE: u32 = 16384;
+
+/// Width of an image when neither --width nor --height is given.
+pub(crate) const DEFAULT_WIDTH: u32 = 512;
+
+/// The image size from --width and --height, filling a missing one from the camera's aspect ratio
+/// (width / height: a perspective camera's aspectRatio, an orthographic one's xmag / ymag) where
+/// the file gives one, else making the image square.
+pub(crate) fn image_size(
+    width: Option<u32>,
+    height: Option<u32>,
+    aspect: Option<f32>,
+) -> (u32, u32) {
+    let aspect = aspect.filter(|a| a.is_finite() && *a > 0.0).unwrap_or(1.0) as f64;
+    let scaled = |v: u32, by: f64| ((v as f64 * by).round().clamp(1.0, u32::MAX as f64)) as u32;
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, scaled(w, 1.0 / aspect)),
+        (None, Some(h)) => (scaled(h, aspect), h),
+        (None, None) => (DEFAULT_WIDTH, scaled(DEFAULT_WIDTH, 1.0 / aspect)),
+    }
+}
+
+/// The committed scenes folder, from the working directory or from the source tree.
+pub(crate) fn scenes_dir() -> PathBuf {
+    let local = PathBuf::from("scenes");
+    if local.is_dir() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+    }
+}
+
+/// Memory per triangle of the GPU uploads: staging and device copies of the BVH nodes,
+/// triangles and light table (on a CPU Vulkan device both live in host memory).
+pub(crate) const GPU_BYTES_PER_TRIANGLE: u64 =
+    2 * (2 * size_of::<BvhNode>() + size_of::<GpuTriangle>() + size_of::<LightEntry>()) as u64;
+
+/// Film memory per pixel: mean and variance accumulators and the sample count, on the host and
+/// (for GPU renders) on the device.
+pub(crate) const FILM_BYTES_PER_PIXEL: u64 = 32;
+
+/// Reserves the film and, on the GPU, the scene's uploads.
+pub(crate) fn reserve_render_memory(
+    budget: &Budget,
+    triangles: usize,
+    pixels: u64,
+    device: DeviceKind,
+) -> Result<()> {
+    let copies = if device == DeviceKind::Gpu { 2 } else { 1 };
+    budget.reserve(
+        &format!("the film of {pixels} pixels"),
+        pixels * FILM_BYTES_PER_PIXEL * copies,
+    )?;
+    if device == DeviceKind::Gpu {
+        budget.reserve(
+            &format!("the GPU uploads of {triangles} triangles"),
+            triangles as u64 * GPU_BYTES_PER_TRIANGLE,
+        )?;
+    }
+    Ok(())
+}
+
+/// Loads `path` under the options' limits and reserves what rendering it on `device` will take;
+/// returns the scene and the settings the options ask for, and prints the scene's notes.
+pub(crate) fn prepare(
+    path: &Path,
+    opts: &RenderOptions,
+    device: DeviceKind,
+) -> Result<(Scene, PreparedScene, RenderSettings)> {
+    let options = LoadOptions {
+        allow_paths: opts.allow_paths.clone(),
+        budget: Budget::new(
+            opts.max_memory
+                .unwrap_or_else(wavetrace::scene::default_memory_budget),
+        ),
+        instancing: !opts.no_instancing,
+    };
+    let mut scene = Scene::load_with(path, &options)?;
+    if let Some(which) = &opts.camera {
+        scene.select_camera(which)?;
+    }
+    let prepared = PreparedScene::new(&scene);
+    let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio());
+    if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
+        bail!(
+            "{width}×{height} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} in all); \
+             render a smaller image"
+        );
+    }
+    reserve_render_memory(
+        &options.budget,
+        prepared.triangles.len(),
+        width as u64 * height as u64,
+        device,
+    )?;
+    let env_map = match &opts.env {
+        Some(file) => {
+            let left = options.budget.limit().saturating_sub(options.budget.used());
+            let map = EnvironmentMap::load(file, left)?;
+            options.budget.reserve(
+                &format!("the environment map {}", file.display()),
+                (map.texels.len() + map.conditional.len() + map.marginal.len()) as u64
+                    * 4
+                    * if device == DeviceKind::Gpu { 2 } else { 1 },
+            )?;
+            Some(std::sync::Arc::new(map))
+        }
+        None => None,
+    };
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: opts.spp,
+        max_depth: opts.max_depth,
+        seed: opts.seed,
+        environment: opts.environment,
+        env_map,
+        env_scale: opts.env_scale,
+        env_rotate: opts.env_rotate,
+        mis: opts.mis.heuristic(opts.mis_beta),
+        sampler: opts.sampler.code(),
+        light_sampler: opts.light_sampler.code(),
+        rr_mode: opts.rr.code(),
+        rr_start_depth: opts.rr_depth,
+        debug_flags: opts.debug_flags,
+        aov: opts.aov_property()?.code(),
+        aperture: opts.aperture,
+        focus_distance: opts.focus_distance,
+        integrator: opts.integrator.integrator(),
+        paths: opts.paths.clone(),
+        finest_textures: opts.texture_lod == TextureLodArg::Finest,
+    };
+    prepared
+        .thin_lens(&settings)
+        .with_context(|| format!("{}", path.display()))?;
+    wavetrace::cpu::bidir::check(&prepared, &settings)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    for note in &scene.notes {
+        eprintln!("note: {}: {note}", path.display());
+    }
+    if prepared.lights.is_empty()
+        && settings.environment_map().is_none()
+        && settings.aov == wavetrace::layout::AOV_RADIANCE
+    {
+        eprintln!(
+            "note: {}: nothing emits light (no emissive surfaces, punctual lights or environment): the image will be black",
+            path.display()
+        );
+    }
+    Ok((scene, prepared, settings))
+}
+
+/// `--device auto`: a GPU (discrete, integrated or virtual) when the Vulkan loader reports a
+/// usable one or `--gpu-index` names a device, else the CPU reference, which `wavetrace bench`
+/// measures faster than a CPU Vulkan driver (lavapipe) on most of the committed scenes (the
+/// default Cornell box by about 1.3×; lavapipe leads on two or three of the nine by up to
+/// 1.16×, README "Performance"). Says which.
+pub(crate) fn resolve_device(kind: DeviceKind, gpu_index: Option<usize>) -> DeviceKind {
+    if kind != DeviceKind::Auto {
+        return kind;
+    }
+    if gpu_index.is_some() {
+        eprintln!("device auto: gpu (--gpu-index names one)");
+        return DeviceKind::Gpu;
+    }
+    match wavetrace::gpu::list_devices() {
+        Ok(devices) => match devices.iter().find(|d| d.renders() && d.kind != "cpu") {
+            Some(d) => {
+                eprintln!("device auto: gpu ({})", d.name);
+                DeviceKind::Gpu
+            }
+            None => {
+                let cpu_drivers: Vec<&str> = devices
+                    .iter()
+                    .filter(|d| d.renders())
+                    .map(|d| d.name.as_str())
+                    .collect();
+                eprintln!(
+                    "device auto: cpu (no GPU{}; the CPU reference is the faster there)",
+                    if cpu_drivers.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", only the CPU Vulkan driver {}", cpu_drivers.join(", "))
+                    }
+                );
+                DeviceKind::Cpu
+            }
+        },
+        Err(_) => {
+            eprintln!("device auto: cpu (no Vulkan driver)");
+            DeviceKind::Cpu
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::image_size;
+
+    #[test]
+    fn missing_sides_follow_the_camera_aspect() {
+        assert_eq!(image_size(None, None, None), (512, 512));
+        assert_eq!(image_size(None, None, Some(2.0)), (512, 256));
+        assert_eq!(image_size(Some(300), None, Some(1.5)), (300, 200));
+        assert_eq!(image_size(None, Some(100), Some(1.5)), (150, 100));
+        assert_eq!(image_size(Some(64), Some(48), Some(1.0)), (64, 48));
+        assert_eq!(image_size(Some(64), None, Some(f32::NAN)), (64, 64));
+    }
+}
