@@ -200,3 +200,17 @@ mod tests {
         assert_eq!(a.dropped, 1);
     }
 }
+
+/// Adds one path's radiance to its pixel, as `accumulate.comp` does; false if it was dropped
+/// for being NaN or infinite.
+pub fn accumulate(acc: &mut FilmPixel, l: Vec3) -> bool {
+    if !l.is_finite() {
+        return false;
+    }
+    for c in 0..3 {
+        acc.sum[c] += l[c];
+        acc.sum_sq[c] += l[c] * l[c];
+    }
+    acc.count += 1;
+    true
+}

@@ -90,7 +90,7 @@ pub const MATERIAL_TEXTURED: u32 = 8;
 /// KHR_materials_unlit: the surface emits its base colour (`surface::surface_emission`) and
 /// scatters nothing (`bsdf`).
 pub const MATERIAL_UNLIT: u32 = 16;
-/// Set only in the GPU's material image (`gpu::pipelines::SceneImage::Materials`): the material
+/// Set only in the GPU's material image (`gpu::bindings::SceneImage::Materials`): the material
 /// differs from `GpuMaterial::default()` past its first five texels (the extensions' parameters,
 /// bytes 80 to 256). Other materials are read as five texels, the rest being the defaults
 /// (`scene_arrays.glsl`, `material_image_at`).
@@ -558,7 +558,7 @@ impl Default for FrameParams {
     fn default() -> Self {
         FrameParams {
             tlas_wide_root: NO_WIDE_ROOT,
-            sheen_albedo: crate::bsdf::sheen::sheen_albedo_vec4s(),
+            sheen_albedo: sheen_albedo_vec4s(),
             ..Zeroable::zeroed()
         }
     }
@@ -1121,4 +1121,14 @@ mod tests {
             MATERIAL_CORE_BYTES
         );
     }
+}
+
+/// [`SHEEN_ALBEDO`](crate::bsdf::sheen_table::SHEEN_ALBEDO) four entries to a vec4, as `FrameParams::sheen_albedo` carries it to the
+/// shaders.
+pub fn sheen_albedo_vec4s() -> [[f32; 4]; 256] {
+    let mut out = [[0.0; 4]; 256];
+    for (k, v) in crate::bsdf::sheen_table::SHEEN_ALBEDO.iter().enumerate() {
+        out[k / 4][k % 4] = *v;
+    }
+    out
 }

@@ -9,12 +9,12 @@ pub mod film;
 pub mod flip;
 pub mod gpu;
 pub mod image_io;
+pub mod kernels;
 pub mod layout;
 pub mod light_bvh;
 pub mod mc;
 pub mod mis;
 pub mod paths;
-pub mod progressive;
 pub mod render;
 pub mod sampling;
 pub mod scene;
@@ -26,8 +26,3 @@ pub mod surface;
 pub mod texture;
 pub mod tlas;
 pub mod verify;
-
-/// The SPIR-V of every wavefront kernel, compiled from `shaders/` by build.rs.
-pub mod kernels {
-    include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
-}

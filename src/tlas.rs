@@ -8,7 +8,7 @@
 //! so t is the same in both spaces. A scene with one identity instance (no instancing) skips
 //! the top level: its traversal is exactly the one-level traversal.
 
-use crate::bvh::wide::prefetch_range;
+use crate::bvh::prefetch_range;
 use crate::bvh::{any_triangle, closest_triangle, Hierarchy, Hit, Ray};
 use crate::layout::{BvhNode, GpuInstance, GpuTriangle, INSTANCE_IDENTITY, INSTANCE_MIRRORED};
 use glam::{Mat4, UVec4, Vec3, Vec4};

@@ -10,10 +10,11 @@ mod common;
 
 use common::{assert_agree_at, gpu, prepared, render_cpu, render_gpu, wavetrace};
 use indicatif::ProgressBar;
-use wavetrace::cpu::{accumulate, render_progressive, trace_path, RayCounts};
+use wavetrace::cpu::{render_progressive, trace_path, RayCounts};
+use wavetrace::film::accumulate;
 use wavetrace::film::Film;
 use wavetrace::layout::FilmPixel;
-use wavetrace::progressive::{relative_error, Progressive, ProgressiveReport, StopReason};
+use wavetrace::render::progressive::{relative_error, Progressive, ProgressiveReport, StopReason};
 use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings};
 
 /// The target relative error of the tests.

@@ -11,9 +11,9 @@
 mod common;
 
 use common::prepared;
-use wavetrace::cpu::Integrator;
 use wavetrace::layout::SAMPLER_INDEPENDENT;
 use wavetrace::paths::PathExpr;
+use wavetrace::render::Integrator;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::stats::{sidak, welch_t_test};
 

@@ -67,7 +67,7 @@ fn gpu_render_writes_a_png() {
     assert_eq!((png.width(), png.height()), (16, 16));
     // A fresh process makes every kernel of the path tracer before its first sample, and
     // --stats says how long that took, which "done in" leaves out.
-    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::cpu::Integrator::Path).len();
+    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::render::Integrator::Path).len();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
         stdout.contains(&format!(
@@ -637,8 +637,8 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
     );
     assert!(scenes.len() >= 9, "{scenes:?}");
     for integrator in [
-        wavetrace::cpu::Integrator::Path,
-        wavetrace::cpu::Integrator::Bdpt,
+        wavetrace::render::Integrator::Path,
+        wavetrace::render::Integrator::Bdpt,
     ] {
         let name = format!("{integrator:?}").to_lowercase();
         let json = temp(&format!("kernels-{name}.json"));

@@ -15,9 +15,9 @@
 mod common;
 
 use common::{batch_tiles, compare_batch_tiles, BATCHES};
-use wavetrace::cpu::Integrator;
 use wavetrace::film::Film;
 use wavetrace::layout::SAMPLER_INDEPENDENT;
+use wavetrace::render::Integrator;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::scene::Scene;
 use wavetrace::stats::{sidak, welch_t_test};

@@ -496,7 +496,7 @@ fn a_render_reports_the_kernels_it_made_and_a_second_makes_none() {
     let first = gpu.render(&scene, &small(14), None).unwrap();
     let second = gpu.render(&scene, &small(15), None).unwrap();
     drop(gpu);
-    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::cpu::Integrator::Path).len();
+    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::render::Integrator::Path).len();
     let (made, seconds) = first
         .stats
         .kernels_made
@@ -527,7 +527,7 @@ fn kernel_statistics_cover_every_dispatched_kernel_where_the_driver_reports_them
         println!("notice: {name} reports no kernel statistics; nothing to check");
         return;
     }
-    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::cpu::Integrator::Path);
+    let kernels = wavetrace::gpu::wavefront::kernels(wavetrace::render::Integrator::Path);
     let listed: Vec<&str> = first
         .stats
         .kernel_statistics

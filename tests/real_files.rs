@@ -249,7 +249,7 @@ fn three_hundred_textures_render_exactly_on_gpu_and_cpu() {
 /// images change what the kernels read, only where.
 #[test]
 fn a_scene_split_across_bindings_renders_the_same_bits() {
-    use wavetrace::gpu::pipelines::SPLIT_BINDINGS;
+    use wavetrace::gpu::bindings::SPLIT_BINDINGS;
     let Some(dir) = samples() else { return };
     if common::gpu().is_none() {
         return;
@@ -340,8 +340,8 @@ fn a_scene_split_across_bindings_renders_the_same_bits() {
 /// leaves out only code no ray of the render reaches.
 #[test]
 fn kernels_specialised_for_a_scene_render_the_same_bits() {
-    use wavetrace::cpu::Integrator;
     use wavetrace::layout::*;
+    use wavetrace::render::Integrator;
     if common::gpu().is_none() {
         return;
     }

@@ -9,7 +9,8 @@ use naga::{
     TypeInner,
 };
 use std::collections::BTreeSet;
-use wavetrace::gpu::pipelines::{kernel_spirv, Binding, STORAGE_BUFFERS_ONE_BINDING};
+use wavetrace::gpu::bindings::{Binding, STORAGE_BUFFERS_ONE_BINDING};
+use wavetrace::gpu::pipelines::kernel_spirv;
 use wavetrace::kernels::{KERNELS, KERNELS_ONE_BINDING, TEST_KERNELS};
 use wavetrace::layout::STRUCT_LAYOUTS;
 

@@ -360,11 +360,11 @@ fn gpu_matches_cpu_on_the_slab_and_the_attenuation_test() {
 fn assert_integrators_agree_with_the_path_tracer(
     prepared: &PreparedScene,
     max_depth: u32,
-    cases: &[(&str, wavetrace::cpu::Integrator, u32, bool)],
+    cases: &[(&str, wavetrace::render::Integrator, u32, bool)],
     check_path: impl Fn(&[[(f64, f64); 3]]),
 ) {
-    use wavetrace::cpu::Integrator;
     use wavetrace::layout::SAMPLER_INDEPENDENT;
+    use wavetrace::render::Integrator;
     let settings = |integrator, spp| RenderSettings {
         width: 24,
         height: 24,
@@ -393,7 +393,7 @@ fn assert_integrators_agree_with_the_path_tracer(
 
 #[test]
 fn light_tracing_and_bdpt_attenuate_as_the_path_tracer_does() {
-    use wavetrace::cpu::Integrator;
+    use wavetrace::render::Integrator;
     let scene = Scene::load(&lit_block_gltf(0.0)).unwrap_or_else(|e| panic!("{e:#}"));
     let prepared = PreparedScene::new(&scene);
     let cases = [
@@ -417,7 +417,7 @@ fn light_tracing_and_bdpt_attenuate_as_the_path_tracer_does() {
 /// agree with the CPU path tracer per tile.
 #[test]
 fn light_tracing_and_bdpt_disperse_as_the_path_tracer_does() {
-    use wavetrace::cpu::Integrator;
+    use wavetrace::render::Integrator;
     let scene = Scene::load(&lit_block_gltf(2.0)).unwrap_or_else(|e| panic!("{e:#}"));
     assert!(scene
         .notes
@@ -465,7 +465,7 @@ fn coated_light_gltf(name: &str, clearcoat: f32, camera: &str, eye: [f32; 3]) ->
 
 #[test]
 fn a_clear_coat_darkens_the_emission_below_it() {
-    use wavetrace::cpu::Integrator;
+    use wavetrace::render::Integrator;
     // Head-on through an orthographic camera inside the light's square: every sample sees the
     // light along its normal, F_c = 0.04, so each pixel is exactly 4·(1 − 0.5·0.04) = 3.92.
     let ortho = r#"{"type": "orthographic", "orthographic": {"xmag": 0.3, "ymag": 0.3, "znear": 0.01, "zfar": 100}}"#;
@@ -527,7 +527,7 @@ fn a_clear_coat_darkens_the_emission_below_it() {
 
 #[test]
 fn a_leaf_lit_from_behind_shines_through_on_every_integrator() {
-    use wavetrace::cpu::Integrator;
+    use wavetrace::render::Integrator;
     let scene = Scene::load(&common::scene_path("leaf.gltf")).unwrap_or_else(|e| panic!("{e:#}"));
     assert!(scene
         .notes

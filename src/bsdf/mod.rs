@@ -79,7 +79,7 @@
 pub mod iridescence;
 pub mod microfacet;
 pub mod sheen;
-mod sheen_table;
+pub(crate) mod sheen_table;
 #[cfg(test)]
 mod tests;
 pub mod volume;

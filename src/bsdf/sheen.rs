@@ -72,16 +72,6 @@ pub fn sheen_visibility(cos_o: f32, cos_i: f32, alpha: f32) -> f32 {
     }
 }
 
-/// [`SHEEN_ALBEDO`] four entries to a vec4, as `FrameParams::sheen_albedo` carries it to the
-/// shaders.
-pub fn sheen_albedo_vec4s() -> [[f32; 4]; 256] {
-    let mut out = [[0.0; 4]; 256];
-    for (k, v) in SHEEN_ALBEDO.iter().enumerate() {
-        out[k / 4][k % 4] = *v;
-    }
-    out
-}
-
 /// The directional albedo E(cos θ) of the white sheen lobe D_s·ν_s, bilinear in
 /// [`SHEEN_ALBEDO`] over (|cos θ|, roughness).
 pub fn sheen_albedo(cos: f32, roughness: f32) -> f32 {

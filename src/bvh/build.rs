@@ -6,7 +6,9 @@
 //! binning on doubled centroids with a halved scale puts every primitive in the same bin as
 //! binning on centroids, since scaling by two is exact in floating point.
 
-use super::{Bvh, BvhStats, INTERSECTION_COST, MAX_DEPTH, MAX_LEAF_SIZE, SAH_BINS, TRAVERSAL_COST};
+use super::binary::{
+    Bvh, BvhStats, INTERSECTION_COST, MAX_DEPTH, MAX_LEAF_SIZE, SAH_BINS, TRAVERSAL_COST,
+};
 use crate::layout::BvhNode;
 use arrayvec::ArrayVec;
 use glam::{Vec3, Vec4};

@@ -1,4 +1,7 @@
+use super::binary::{bvh_slab, bvh_slab_min_max, SlabRay};
 use super::*;
+use crate::layout::{BvhNode, GpuTriangle};
+use glam::{BVec3, Vec3};
 
 /// PCG32 (O'Neill 2014): deterministic test data without a crate.
 struct Pcg(u64);

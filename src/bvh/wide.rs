@@ -17,7 +17,7 @@
 //! level of `tlas.rs` share one node array, and each root the collapse was given has its own
 //! wide root.
 
-use super::{pop_entered, Hierarchy, Ray, SLAB_SLACK};
+use super::binary::{pop_entered, prefetch_range, Hierarchy, Ray, SLAB_SLACK};
 use crate::layout::BvhNode;
 use arrayvec::ArrayVec;
 use glam::Vec4;
@@ -30,7 +30,7 @@ pub const WIDTH: usize = 4;
 pub(super) const LEAF: u32 = 1 << 31;
 
 // A leaf's count is kept in a byte: the build makes no leaf larger than this.
-const _: () = assert!(super::MAX_LEAF_SIZE <= u8::MAX as usize);
+const _: () = assert!(super::binary::MAX_LEAF_SIZE <= u8::MAX as usize);
 
 /// Up to [`WIDTH`] children: their boxes per axis as four lanes (`bounds[0]` the minima,
 /// `bounds[1]` the maxima), each a wide node's index or a leaf's first triangle with
@@ -165,7 +165,7 @@ const PREFETCH_MIN_BYTES: usize = 256 << 10;
 
 /// Entries deferred on the traversal stack: at most three per wide node on the path from the
 /// root, and no path is longer than the binary tree's (`MAX_DEPTH`).
-const STACK: usize = (WIDTH - 1) * super::MAX_DEPTH;
+const STACK: usize = (WIDTH - 1) * super::binary::MAX_DEPTH;
 
 /// The binary tree collapsed to [`WideNode`]s (or their quantised form), and the wide root of
 /// each binary root it was given.
@@ -483,7 +483,7 @@ fn solve_run(
     choice: &mut [[u8; WIDTH]],
     wide_nodes: &mut [u32],
 ) -> Vec<Cost> {
-    let mut pending: Vec<Cost> = Vec::with_capacity(2 * super::MAX_DEPTH + 2);
+    let mut pending: Vec<Cost> = Vec::with_capacity(2 * super::binary::MAX_DEPTH + 2);
     for k in (0..choice.len()).rev() {
         let i = start + k;
         let n = &nodes[i];
@@ -669,28 +669,6 @@ pub(super) fn slab4(node: &impl WideSlots, ray: &WideRay, t_min: f32, t_max: f32
     let t_exit = far.min(Vec4::splat(t_max));
     let hit = (t_enter - t_enter.abs() * SLAB_SLACK).cmple(t_exit);
     (t_enter, hit.bitmask() & node.valid())
-}
-
-/// Asks the memory system for the bytes of `items[first..first + count]` (at most 8 cache
-/// lines) before they are read: on large scenes most of a walk's time is the wait for a node or
-/// a leaf's triangles that are not in cache (`perf`: 40 % of the wide walk on the first load
-/// of a node, 70 % of the triangle test on its first load, 1M-triangle scenes).
-#[inline(always)]
-pub fn prefetch_range<T>(items: &[T], first: u32, count: u32) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(range) = items.get(first as usize..(first + count) as usize) {
-        let bytes = std::mem::size_of_val(range).min(8 * 64);
-        let start = range.as_ptr().cast::<i8>();
-        for offset in (0..bytes).step_by(64) {
-            // SAFETY: a prefetch has no effect on memory; the address lies in `range`.
-            unsafe {
-                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                _mm_prefetch::<_MM_HINT_T0>(start.add(offset));
-            }
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (items, first, count);
 }
 
 /// Slots set in `mask`, nearest entry first (ties: lower slot first).

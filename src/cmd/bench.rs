@@ -155,7 +155,7 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<()> {
         let name = scene_name(path);
         // (device, stats, the untimed warm-up's ms before it where one ran)
         let mut rows: Vec<(&str, RenderStats, Option<f64>)> = Vec::new();
-        if let Err(why) = wavetrace::cpu::bidir::check(&prepared, &settings) {
+        if let Err(why) = wavetrace::render::check(&prepared, &settings) {
             println!("{name:<20} skipped: {why}");
             continue;
         }
@@ -186,7 +186,7 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<()> {
         for (device, s, warm_up_ms) in rows {
             let ratio = baseline
                 .get(&(name.clone(), device.to_owned()))
-                .filter(|_| settings.integrator == wavetrace::cpu::Integrator::Path)
+                .filter(|_| settings.integrator == wavetrace::render::Integrator::Path)
                 .map_or(String::new(), |b| {
                     format!("  {:>10.3}", s.samples_per_second() / b)
                 });

@@ -52,7 +52,7 @@ pub(crate) fn bench_kernels(
         let prepared = PreparedScene::new(&scene);
         drop(scene);
         let name = scene_name(path);
-        if let Err(why) = wavetrace::cpu::bidir::check(&prepared, settings) {
+        if let Err(why) = wavetrace::render::check(&prepared, settings) {
             println!("{name}: skipped: {why}");
             continue;
         }

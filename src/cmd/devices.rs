@@ -30,7 +30,7 @@ pub(crate) fn devices() -> Result<()> {
                     " — renders scenes whose arrays each fit one storage binding (it binds {} \
                      storage buffers per kernel, not {})",
                     d.max_storage_buffers,
-                    wavetrace::gpu::pipelines::STORAGE_BUFFERS
+                    wavetrace::gpu::bindings::STORAGE_BUFFERS
                 )
             } else {
                 String::new()

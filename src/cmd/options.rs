@@ -105,11 +105,11 @@ pub enum IntegratorArg {
 }
 
 impl IntegratorArg {
-    pub fn integrator(self) -> wavetrace::cpu::Integrator {
+    pub fn integrator(self) -> wavetrace::render::Integrator {
         match self {
-            IntegratorArg::Path => wavetrace::cpu::Integrator::Path,
-            IntegratorArg::Light => wavetrace::cpu::Integrator::Light,
-            IntegratorArg::Bdpt => wavetrace::cpu::Integrator::Bdpt,
+            IntegratorArg::Path => wavetrace::render::Integrator::Path,
+            IntegratorArg::Light => wavetrace::render::Integrator::Light,
+            IntegratorArg::Bdpt => wavetrace::render::Integrator::Bdpt,
         }
     }
 }
@@ -308,7 +308,7 @@ pub struct RenderArgs {
     pub adaptive: bool,
     /// With --target-error or --time-limit: at most N samples per pixel, in whole passes of
     /// --spp (default 65536, or --spp if larger).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=wavetrace::progressive::MAX_SPP_LIMIT as i64))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=wavetrace::render::progressive::MAX_SPP_LIMIT as i64))]
     pub max_spp: Option<u32>,
     /// Render in passes of --spp samples per pixel and stop after the pass during which
     /// SECONDS of rendering have passed (with or without --target-error). Not deterministic:

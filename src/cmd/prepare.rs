@@ -150,7 +150,7 @@ pub(crate) fn prepare(
     prepared
         .thin_lens(&settings)
         .with_context(|| format!("{}", path.display()))?;
-    wavetrace::cpu::bidir::check(&prepared, &settings)
+    wavetrace::render::check(&prepared, &settings)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     for note in &scene.notes {
         eprintln!("note: {}: {note}", path.display());

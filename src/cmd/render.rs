@@ -9,8 +9,11 @@ use super::shards::{finish, plan, record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Result};
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
-use wavetrace::gpu::{GpuOptions, GpuRenderer};
-use wavetrace::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
+use std::sync::atomic::AtomicBool;
+use wavetrace::cpu::CpuBackend;
+use wavetrace::gpu::{GpuBackend, GpuOptions, GpuRenderer};
+use wavetrace::render::progressive::{Progressive, ProgressiveReport};
+use wavetrace::render::{Backend, PreparedScene, RenderOutput, RenderSettings, RenderStats};
 
 pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     let path = args
@@ -40,11 +43,11 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     ));
     let mut record = record(args, &path, &prepared, &settings, device)?;
     let progressive = progressive_options(args, &settings)?;
-    if settings.integrator != wavetrace::cpu::Integrator::Path && progressive.is_some() {
+    if settings.integrator != wavetrace::render::Integrator::Path && progressive.is_some() {
         bail!("--target-error and --time-limit render in passes with --integrator path only");
     }
     if args.bdpt_strategies.is_some() {
-        if settings.integrator == wavetrace::cpu::Integrator::Path {
+        if settings.integrator == wavetrace::render::Integrator::Path {
             bail!("--bdpt-strategies needs --integrator bdpt (or light)");
         }
         if args.sample_range.is_some() || args.shard.is_some() || args.resume.is_some() {
@@ -155,110 +158,41 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         ),
     };
     let mut report = None;
-    let RenderOutput { film, stats } = match device {
-        DeviceKind::Gpu if progressive.is_none() && multi_gpu(&args.opts.gpu_index).is_some() => {
-            let devices = multi_gpu(&args.opts.gpu_index).unwrap()?;
-            let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
-            let out = render_on_devices(
-                args,
-                &prepared,
-                &settings,
-                &devices,
-                todo.clone(),
-                &how,
-                &progress,
-            );
-            progress.finish_and_clear();
-            out?
-        }
-        DeviceKind::Gpu => {
-            let mut gpu = GpuRenderer::new(&GpuOptions {
-                device_index: match &args.opts.gpu_index {
-                    None => None,
-                    Some(g) => Some(g.one().ok_or_else(|| {
-                        anyhow::anyhow!("renders in passes run on one device: give --gpu-index N")
-                    })?),
-                },
-                validation: args.opts.validate,
-                timing: true,
-                count_fetches: args.stats,
-            })?;
-            gpu.set_band_pixel_limit(args.band_pixels);
+    let backend = backend(args, device, progressive.is_some())?;
+    println!(
+        "rendering {width}×{height} {how}, max depth {}, on {}",
+        args.opts.max_depth,
+        backend.describe()
+    );
+    let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
+    let out = match (&progressive, &args.bdpt_strategies) {
+        // The strategy images are the CPU twin's (the device is the CPU here).
+        (None, Some(dir)) => {
+            let (out, strategies) =
+                wavetrace::cpu::render_strategies(&prepared, &settings, &progress);
+            wavetrace::cpu::bidir::write_strategies(&strategies, dir, args.exposure)?;
             println!(
-                "rendering {width}×{height} {how}, max depth {}, on {} (Vulkan {}, {})",
-                args.opts.max_depth,
-                gpu.device().name,
-                gpu.device().api_version,
-                gpu.device().driver
+                "wrote {} strategy images and strategies.png to {}",
+                2 * strategies.films.len(),
+                dir.display()
             );
-            let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
-            let out = match &progressive {
-                None => gpu
-                    .render_range_with_progress(
-                        &prepared,
-                        &settings,
-                        args.opts.wavefront,
-                        todo.clone(),
-                        &progress,
-                        stop,
-                    )
-                    .map(|(out, e)| {
-                        end = e;
-                        out
-                    }),
-                Some(p) => gpu
-                    .render_progressive(&prepared, &settings, args.opts.wavefront, p, &progress)
-                    .map(|(out, r)| {
-                        report = Some(r);
-                        out
-                    }),
-            };
-            progress.finish_and_clear();
-            out?
+            Ok(out)
         }
-        // (resolve_device never answers Auto.)
-        DeviceKind::Cpu | DeviceKind::Auto => {
-            println!(
-                "rendering {width}×{height} {how}, max depth {}, on the CPU ({} threads)",
-                args.opts.max_depth,
-                rayon::current_num_threads()
-            );
-            let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
-            let out = match &progressive {
-                None if args.bdpt_strategies.is_some() => {
-                    let dir = args.bdpt_strategies.as_ref().unwrap();
-                    let (out, strategies) =
-                        wavetrace::cpu::render_strategies(&prepared, &settings, &progress);
-                    wavetrace::cpu::bidir::write_strategies(&strategies, dir, args.exposure)?;
-                    println!(
-                        "wrote {} strategy images and strategies.png to {}",
-                        2 * strategies.films.len(),
-                        dir.display()
-                    );
-                    out
-                }
-                None => {
-                    let (out, e) = wavetrace::cpu::render_range(
-                        &prepared,
-                        &settings,
-                        todo.clone(),
-                        &progress,
-                        stop,
-                    );
-                    end = e;
-                    out
-                }
-                Some(p) => {
-                    let (out, r) =
-                        wavetrace::cpu::render_progressive(&prepared, &settings, p, &progress);
-                    report = Some(r);
-                    out
-                }
-            };
-            progress.finish_and_clear();
-            out
-        }
+        (None, None) => backend
+            .render_range(&prepared, &settings, todo.clone(), &progress, stop)
+            .map(|(out, e)| {
+                end = e;
+                out
+            }),
+        (Some(p), _) => backend
+            .render_progressive(&prepared, &settings, p, &progress)
+            .map(|(out, r)| {
+                report = Some(r);
+                out
+            }),
     };
+    progress.finish_and_clear();
+    let RenderOutput { film, stats } = out?;
     print_stats(&stats, args.stats);
     if let Some(r) = &report {
         println!("{r}");
@@ -345,16 +279,19 @@ pub(crate) fn render_path_layers(
     if layers.is_empty() {
         return Ok(Vec::new());
     }
-    let gpu = match device {
-        DeviceKind::Gpu => Some(GpuRenderer::new(&GpuOptions {
-            device_index: args.opts.gpu_index.as_ref().and_then(|g| g.one()),
-            validation: args.opts.validate,
-            timing: false,
-            count_fetches: false,
-        })?),
-        _ => None,
+    let backend: Box<dyn Backend> = match device {
+        DeviceKind::Gpu => Box::new(GpuBackend {
+            renderer: GpuRenderer::new(&GpuOptions {
+                device_index: args.opts.gpu_index.as_ref().and_then(|g| g.one()),
+                validation: args.opts.validate,
+                timing: false,
+                count_fetches: false,
+            })?,
+            wavefront: args.opts.wavefront,
+        }),
+        _ => Box::new(CpuBackend),
     };
-    let never = std::sync::atomic::AtomicBool::new(false);
+    let never = AtomicBool::new(false);
     let hidden = ProgressBar::hidden();
     layers
         .iter()
@@ -363,26 +300,11 @@ pub(crate) fn render_path_layers(
                 paths: Some(expr.clone()),
                 ..settings.clone()
             };
-            let film = match &gpu {
-                Some(g) => g
-                    .render_range_with_progress(
-                        prepared,
-                        &s,
-                        args.opts.wavefront,
-                        0..samples,
-                        &hidden,
-                        &never,
-                    )
-                    .and_then(|(out, _)| match out.stats.fault {
-                        Some(fault) => bail!("layer {name}: {fault}"),
-                        None => Ok(out.film),
-                    })?,
-                None => {
-                    wavetrace::cpu::render_range(prepared, &s, 0..samples, &hidden, &never)
-                        .0
-                        .film
-                }
-            };
+            let (out, _) = backend.render_range(prepared, &s, 0..samples, &hidden, &never)?;
+            if let Some(fault) = out.stats.fault {
+                bail!("layer {name}: {fault}");
+            }
+            let film = out.film;
             println!("layer {name}: the paths {}", expr.source);
             Ok((name.clone(), film))
         })
@@ -422,89 +344,146 @@ pub(crate) fn multi_gpu(index: &Option<GpuIndex>) -> Option<Result<Vec<usize>>> 
     }
 }
 
-/// Renders samples `todo` split into one contiguous range per device of `devices`, side by side
-/// (a thread and a Vulkan device each), and merges the films: what one render of all samples
-/// gives, to float rounding of the sums (`Film::merge`). Reports each device's share and speed.
-pub(crate) fn render_on_devices(
-    args: &RenderArgs,
-    prepared: &wavetrace::render::PreparedScene,
-    settings: &RenderSettings,
-    devices: &[usize],
-    todo: std::ops::Range<u32>,
-    how: &str,
-    progress: &indicatif::ProgressBar,
-) -> Result<RenderOutput> {
-    let n = devices.len() as u32;
-    let len = todo.end - todo.start;
-    println!(
-        "rendering {}×{} {how}, max depth {}, on {} Vulkan devices {:?}",
-        settings.width, settings.height, args.opts.max_depth, n, devices
-    );
-    let never = std::sync::atomic::AtomicBool::new(false);
-    let start = std::time::Instant::now();
-    let results: Vec<Result<(String, std::ops::Range<u32>, RenderOutput)>> =
-        std::thread::scope(|scope| {
-            let handles: Vec<_> = devices
-                .iter()
-                .enumerate()
-                .map(|(k, &device)| {
-                    let k = k as u32;
-                    let range = todo.start + (k as u64 * len as u64 / n as u64) as u32
-                        ..todo.start + ((k as u64 + 1) * len as u64 / n as u64) as u32;
-                    let never = &never;
-                    scope.spawn(move || -> Result<_> {
-                        let gpu = GpuRenderer::new(&GpuOptions {
-                            device_index: Some(device),
-                            validation: args.opts.validate,
-                            timing: false,
-                            count_fetches: false,
-                        })?;
-                        let name = format!("{device}: {}", gpu.device().name);
-                        let (out, _) = gpu.render_range_with_progress(
-                            prepared,
-                            settings,
-                            args.opts.wavefront,
-                            range.clone(),
-                            progress,
-                            never,
-                        )?;
-                        if let Some(fault) = &out.stats.fault {
-                            bail!("{name}: {fault}");
-                        }
-                        Ok((name, range, out))
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| {
-                    h.join()
-                        .unwrap_or_else(|_| Err(anyhow::anyhow!("a device's thread panicked")))
-                })
-                .collect()
-        });
-    let mut film = wavetrace::film::Film::new(settings.width, settings.height);
-    let mut stats = RenderStats::default();
-    for result in results {
-        let (name, range, out) = result?;
-        progress.suspend(|| {
-            println!(
-                "  device {name}: samples {}..{}, {:.3} s, {:.3} M samples/s",
-                range.start,
-                range.end,
-                out.stats.seconds,
-                out.stats.samples_per_second() * 1e-6
-            )
-        });
-        film.merge(&out.film);
-        stats.samples += out.stats.samples;
-        stats.extension_rays += out.stats.extension_rays;
-        stats.shadow_rays += out.stats.shadow_rays;
-        stats.dropped += out.stats.dropped;
+/// Vulkan devices side by side (`--gpu-index LIST|all`): samples split into one contiguous range
+/// per device (a thread and a Vulkan device each), the films merged: what one render of all
+/// samples gives, to float rounding of the sums (`Film::merge`). Reports each device's share and
+/// speed. Renders every sample it is given (a signal ends it at once).
+struct Devices {
+    devices: Vec<usize>,
+    validate: bool,
+    wavefront: Option<u32>,
+}
+
+impl Backend for Devices {
+    fn describe(&self) -> String {
+        format!("{} Vulkan devices {:?}", self.devices.len(), self.devices)
     }
-    film.dropped = stats.dropped;
-    stats.seconds = start.elapsed().as_secs_f64();
-    Ok(RenderOutput { film, stats })
+
+    fn render_range(
+        &self,
+        prepared: &PreparedScene,
+        settings: &RenderSettings,
+        todo: std::ops::Range<u32>,
+        progress: &ProgressBar,
+        _stop: &AtomicBool,
+    ) -> Result<(RenderOutput, u32)> {
+        let n = self.devices.len() as u32;
+        let len = todo.end - todo.start;
+        let never = std::sync::atomic::AtomicBool::new(false);
+        let start = std::time::Instant::now();
+        let results: Vec<Result<(String, std::ops::Range<u32>, RenderOutput)>> =
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = self
+                    .devices
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &device)| {
+                        let k = k as u32;
+                        let range = todo.start + (k as u64 * len as u64 / n as u64) as u32
+                            ..todo.start + ((k as u64 + 1) * len as u64 / n as u64) as u32;
+                        let never = &never;
+                        scope.spawn(move || -> Result<_> {
+                            let gpu = GpuRenderer::new(&GpuOptions {
+                                device_index: Some(device),
+                                validation: self.validate,
+                                timing: false,
+                                count_fetches: false,
+                            })?;
+                            let name = format!("{device}: {}", gpu.device().name);
+                            let (out, _) = gpu.render_range_with_progress(
+                                prepared,
+                                settings,
+                                self.wavefront,
+                                range.clone(),
+                                progress,
+                                never,
+                            )?;
+                            if let Some(fault) = &out.stats.fault {
+                                bail!("{name}: {fault}");
+                            }
+                            Ok((name, range, out))
+                        })
+                    })
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| {
+                        h.join()
+                            .unwrap_or_else(|_| Err(anyhow::anyhow!("a device's thread panicked")))
+                    })
+                    .collect()
+            });
+        let mut film = wavetrace::film::Film::new(settings.width, settings.height);
+        let mut stats = RenderStats::default();
+        for result in results {
+            let (name, range, out) = result?;
+            progress.suspend(|| {
+                println!(
+                    "  device {name}: samples {}..{}, {:.3} s, {:.3} M samples/s",
+                    range.start,
+                    range.end,
+                    out.stats.seconds,
+                    out.stats.samples_per_second() * 1e-6
+                )
+            });
+            film.merge(&out.film);
+            stats.samples += out.stats.samples;
+            stats.extension_rays += out.stats.extension_rays;
+            stats.shadow_rays += out.stats.shadow_rays;
+            stats.dropped += out.stats.dropped;
+        }
+        film.dropped = stats.dropped;
+        stats.seconds = start.elapsed().as_secs_f64();
+        Ok((RenderOutput { film, stats }, todo.end))
+    }
+
+    fn render_progressive(
+        &self,
+        _scene: &PreparedScene,
+        _settings: &RenderSettings,
+        _options: &Progressive,
+        _progress: &ProgressBar,
+    ) -> Result<(RenderOutput, ProgressiveReport)> {
+        bail!(PASSES_ON_ONE_DEVICE)
+    }
+}
+
+/// Why renders in passes refuse several devices.
+const PASSES_ON_ONE_DEVICE: &str = "renders in passes run on one device: give --gpu-index N";
+
+/// What renders: the CPU reference, one Vulkan device (`--gpu-index N` or the default), or
+/// several side by side (`--gpu-index LIST|all`, renders of a fixed sample count only).
+fn backend(args: &RenderArgs, device: DeviceKind, in_passes: bool) -> Result<Box<dyn Backend>> {
+    if device != DeviceKind::Gpu {
+        // (resolve_device never answers Auto.)
+        return Ok(Box::new(CpuBackend));
+    }
+    if !in_passes {
+        if let Some(devices) = multi_gpu(&args.opts.gpu_index) {
+            return Ok(Box::new(Devices {
+                devices: devices?,
+                validate: args.opts.validate,
+                wavefront: args.opts.wavefront,
+            }));
+        }
+    }
+    let mut renderer = GpuRenderer::new(&GpuOptions {
+        device_index: match &args.opts.gpu_index {
+            None => None,
+            Some(g) => Some(
+                g.one()
+                    .ok_or_else(|| anyhow::anyhow!(PASSES_ON_ONE_DEVICE))?,
+            ),
+        },
+        validation: args.opts.validate,
+        timing: true,
+        count_fetches: args.stats,
+    })?;
+    renderer.set_band_pixel_limit(args.band_pixels);
+    Ok(Box::new(GpuBackend {
+        renderer,
+        wavefront: args.opts.wavefront,
+    }))
 }
 
 /// The pass options of `render` (`--target-error`, `--adaptive`, `--max-spp`,
@@ -512,19 +491,19 @@ pub(crate) fn render_on_devices(
 pub(crate) fn progressive_options(
     args: &RenderArgs,
     settings: &RenderSettings,
-) -> Result<Option<wavetrace::progressive::Progressive>> {
+) -> Result<Option<wavetrace::render::progressive::Progressive>> {
     if args.target_error.is_none() && args.time_limit.is_none() {
         if args.max_spp.is_some() {
             bail!("--max-spp caps renders in passes: give --target-error or --time-limit too");
         }
         return Ok(None);
     }
-    let p = wavetrace::progressive::Progressive {
+    let p = wavetrace::render::progressive::Progressive {
         target_error: args.target_error,
         adaptive: args.adaptive,
         max_spp: args
             .max_spp
-            .unwrap_or(wavetrace::progressive::DEFAULT_MAX_SPP.max(settings.spp)),
+            .unwrap_or(wavetrace::render::progressive::DEFAULT_MAX_SPP.max(settings.spp)),
         time_limit: args.time_limit,
     };
     p.check(settings)?;

@@ -37,8 +37,9 @@
 use crate::bsdf::volume::{transmittance, volume_sigma};
 use crate::bsdf::{ShadingFrame, TransportMode, VertexBsdf};
 use crate::bvh::Ray;
+use crate::cpu::path::emitted_radiance;
 use crate::cpu::path::{sample_pair, RayCounts};
-use crate::cpu::{accumulate, emitted_radiance};
+use crate::film::accumulate;
 use crate::film::Film;
 use crate::layout::{
     dim, FrameParams, GpuMaterial, GpuPunctualLight, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL,
@@ -47,6 +48,7 @@ use crate::layout::{
 use crate::mc::roulette_f32;
 use crate::mis::Heuristic;
 use crate::paths::{PathExpr, SYM_D, SYM_E, SYM_L, SYM_S};
+use crate::render::Integrator;
 use crate::render::PreparedScene;
 use crate::sampling::{
     build_frame, offset_ray_origin, rng_uniform4, sample_cosine_hemisphere, sample_light,
@@ -59,29 +61,6 @@ use glam::{Vec2, Vec3};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
-
-/// Which estimator renders (`--integrator`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Integrator {
-    /// Paths from the camera with next event estimation and MIS (`cpu::path`, the wavefront).
-    #[default]
-    Path,
-    /// Paths from the emitters, every vertex joined to the camera.
-    Light,
-    /// Both subpaths, every (s, t) connection, MIS over all strategies.
-    Bdpt,
-}
-
-impl Integrator {
-    /// The name `--integrator` takes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Integrator::Path => "path",
-            Integrator::Light => "light",
-            Integrator::Bdpt => "bdpt",
-        }
-    }
-}
 
 /// Alpha-test keys of light subpaths and connections, apart from the camera's bounces.
 const ALPHA_LIGHT_WALK: u32 = 1 << 20;
@@ -1080,44 +1059,6 @@ fn vertex_sigma(v: &Vertex, w: Vec3) -> Vec3 {
         Kind::Surface | Kind::AreaLight => volume_sigma(&v.mat, v.ng, w),
         _ => Vec3::ZERO,
     }
-}
-
-/// Why `settings` cannot be rendered with `--integrator light|bdpt` on `scene`, if they cannot
-/// (the path tracer takes everything).
-pub fn check(
-    scene: &PreparedScene,
-    settings: &crate::render::RenderSettings,
-) -> Result<(), String> {
-    if settings.integrator == Integrator::Path {
-        return Ok(());
-    }
-    let name = settings.integrator.name();
-    let refuse = |why: &str| Err(format!("--integrator {name} {why}"));
-    if scene.camera.is_orthographic() {
-        return refuse("needs a perspective camera: light paths join a pinhole, and an orthographic camera has none (use --integrator path)");
-    }
-    if settings.aperture > 0.0 {
-        return refuse("joins light paths to a pinhole: --aperture must be 0 (use --integrator path for depth of field)");
-    }
-    // Light from infinity needs origins on a disc beyond the scene and, for BDPT, camera
-    // vertices that escape to it: not written yet.
-    if settings.environment_map().is_some() {
-        return refuse("does not start light paths at the environment yet: drop --env/--environment or use --integrator path");
-    }
-    if scene.punctual.iter().any(|l| l.kind == LIGHT_DIRECTIONAL) {
-        return refuse("does not start light paths at directional lights yet (the scene has one): use --integrator path");
-    }
-    if settings.aov != crate::layout::AOV_RADIANCE {
-        return refuse("records radiance only: --aov needs --integrator path");
-    }
-    if settings.integrator == Integrator::Bdpt
-        && matches!(settings.mis, Heuristic::LightOnly | Heuristic::BsdfOnly)
-    {
-        return refuse(
-            "weighs all its strategies: --mis must be power, balance, maximum or average",
-        );
-    }
-    Ok(())
 }
 
 /// Radiant intensity of a point or spot light along `w` (unit, away from the light):

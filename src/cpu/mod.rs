@@ -4,17 +4,13 @@
 pub mod bidir;
 mod path;
 
-pub use bidir::Integrator;
+use crate::film::{accumulate, Film};
+use crate::render::progressive::{self, Progressive, ProgressiveReport};
+use crate::render::{Integrator, PreparedScene, RenderOutput, RenderSettings, RenderStats};
+use indicatif::ProgressBar;
 pub use path::{
     emitted_radiance, path_pixel_sample, sample_pair, trace_path, trace_path_matching, RayCounts,
 };
-
-use crate::film::Film;
-use crate::layout::FilmPixel;
-use crate::progressive::{self, Progressive, ProgressiveReport};
-use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
-use glam::Vec3;
-use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -234,16 +230,32 @@ fn cpu_stats(start: Instant, samples: u64, counts: &RayCounts, dropped: u64) -> 
     }
 }
 
-/// Adds one path's radiance to its pixel, as `accumulate.comp` does; false if it was dropped
-/// for being NaN or infinite.
-pub fn accumulate(acc: &mut FilmPixel, l: Vec3) -> bool {
-    if !l.is_finite() {
-        return false;
+/// The CPU reference behind the render seam, on all of rayon's threads.
+pub struct CpuBackend;
+
+impl crate::render::Backend for CpuBackend {
+    fn describe(&self) -> String {
+        format!("the CPU ({} threads)", rayon::current_num_threads())
     }
-    for c in 0..3 {
-        acc.sum[c] += l[c];
-        acc.sum_sq[c] += l[c] * l[c];
+
+    fn render_range(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        samples: std::ops::Range<u32>,
+        progress: &ProgressBar,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> anyhow::Result<(RenderOutput, u32)> {
+        Ok(render_range(scene, settings, samples, progress, stop))
     }
-    acc.count += 1;
-    true
+
+    fn render_progressive(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        options: &Progressive,
+        progress: &ProgressBar,
+    ) -> anyhow::Result<(RenderOutput, ProgressiveReport)> {
+        Ok(render_progressive(scene, settings, options, progress))
+    }
 }

@@ -47,16 +47,16 @@ impl DeviceInfo {
     /// Whether it renders scenes whose arrays take more than one storage binding each: it
     /// binds all the kernels' storage buffers (42).
     pub fn splits_scene_arrays(&self) -> bool {
-        self.renders() && self.max_storage_buffers >= super::pipelines::STORAGE_BUFFERS
+        self.renders() && self.max_storage_buffers >= super::bindings::STORAGE_BUFFERS
     }
 
     /// Why the wavefront kernels' storage buffers or images do not fit its limits, if they do
     /// not.
     pub fn storage_shortfall(&self) -> Option<String> {
-        let needed = super::pipelines::STORAGE_BUFFERS_ONE_BINDING;
+        let needed = super::bindings::STORAGE_BUFFERS_ONE_BINDING;
         // The scene images and the wavefront's (the hit records').
         let images =
-            super::pipelines::SceneImage::ALL.len() as u32 + super::pipelines::WAVEFRONT_IMAGES;
+            super::bindings::SceneImage::ALL.len() as u32 + super::bindings::WAVEFRONT_IMAGES;
         if self.max_storage_buffers < needed {
             Some(format!(
                 "binds at most {} storage buffers per kernel; wavetrace needs {needed}",
@@ -508,8 +508,8 @@ mod tests {
             max_storage_images: 12,
         };
         let (all, one) = (
-            crate::gpu::pipelines::STORAGE_BUFFERS,
-            crate::gpu::pipelines::STORAGE_BUFFERS_ONE_BINDING,
+            crate::gpu::bindings::STORAGE_BUFFERS,
+            crate::gpu::bindings::STORAGE_BUFFERS_ONE_BINDING,
         );
         assert_eq!((all, one), (42, 27));
         assert!(device(true, all).splits_scene_arrays());

@@ -1,6 +1,7 @@
 //! Buffers with their own memory: device-local ones for the render, host-visible ones for
 //! uploads and read-backs, and one-shot command submission to copy between them.
 
+use super::bindings::SCENE_IMAGE_WIDTH;
 use super::context::Context;
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
@@ -188,9 +189,6 @@ impl Drop for Buffer {
         }
     }
 }
-
-/// Texels per row of a scene image (`scene_arrays.glsl`, `SCENE_IMAGE_SHIFT`).
-pub const SCENE_IMAGE_WIDTH: u32 = 1 << 12;
 
 /// A 2-D image of RGBA32UI (or R32UI) texels that the kernels read as a storage image
 /// (`imageLoad`) or as a sampled image (`texelFetch`; `SceneImages`): an array of records laid

@@ -1,6 +1,7 @@
 //! The GPU integrator: Vulkan (ash) on any Vulkan 1.2 device, lavapipe included, running the
 //! wavefront kernels of `shaders/wavefront/`.
 
+pub mod bindings;
 pub mod compute;
 pub mod context;
 pub mod fault;
@@ -9,19 +10,19 @@ pub mod pipelines;
 pub mod resources;
 pub mod wavefront;
 
-pub use context::{list_devices, DeviceInfo, INSTALL_HINT};
-
 use crate::film::Film;
 use crate::layout::{counter, FilmPixel, FrameParams, PathState, QueuedRay, ShadowRay};
-use crate::progressive::{self, Pass, Progressive, ProgressiveReport};
+use crate::render::progressive::{self, Pass, Progressive, ProgressiveReport};
 use crate::render::{PreparedScene, RenderOutput, RenderSettings, RenderStats};
 use anyhow::{bail, Result};
 use ash::vk;
+pub use bindings::SceneImages;
+use bindings::SceneSplit;
 use context::Context;
+pub use context::{list_devices, DeviceInfo, INSTALL_HINT};
 use indicatif::ProgressBar;
 use memory::Commands;
-pub use pipelines::SceneImages;
-use pipelines::{Pipelines, SceneSplit};
+use pipelines::Pipelines;
 use resources::{RenderBuffers, SUBMIT_TIMEOUT_S};
 use std::mem::size_of;
 use std::time::Instant;
@@ -138,7 +139,7 @@ impl GpuRenderer {
     fn kernel_statistics(
         &self,
         setup: &Setup,
-        integrator: crate::cpu::Integrator,
+        integrator: crate::render::Integrator,
     ) -> Vec<(String, Vec<crate::render::KernelStatistic>)> {
         let pipelines = setup.pipelines.as_ref().unwrap_or(&self.pipelines);
         wavefront::kernels(integrator)
@@ -173,7 +174,7 @@ impl GpuRenderer {
     /// samples/s with 2^18, 2^20 and 2^21 paths in flight, each batch's last bounces being
     /// short dispatches. Light tracing and BDPT keep 2^20 there: 2^21 paths of BDPT's subpath
     /// vertices would take 3.8 GB at depth 8, and 2^21 was measured for the path tracer only.
-    pub fn default_wavefront(&self, integrator: crate::cpu::Integrator) -> u32 {
+    pub fn default_wavefront(&self, integrator: crate::render::Integrator) -> u32 {
         let memory = &self.ctx.memory_properties;
         let device_local = memory.memory_heaps[..memory.memory_heap_count as usize]
             .iter()
@@ -181,7 +182,7 @@ impl GpuRenderer {
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
-        let large = device_local >= 8 << 30 && integrator == crate::cpu::Integrator::Path;
+        let large = device_local >= 8 << 30 && integrator == crate::render::Integrator::Path;
         let preferred = match (self.ctx.is_cpu(), large) {
             (true, _) => 1 << 17,
             (false, false) => 1 << 20,
@@ -197,7 +198,7 @@ impl GpuRenderer {
             .max(size_of::<PathState>()) as u64;
         let groups = self.ctx.properties.limits.max_compute_work_group_count[0].min(65535) as u64;
         // The hit records' image: a texel a path, in rows of SCENE_IMAGE_WIDTH.
-        let image_texels = memory::SCENE_IMAGE_WIDTH as u64
+        let image_texels = bindings::SCENE_IMAGE_WIDTH as u64
             * self.ctx.properties.limits.max_image_dimension2_d as u64;
         // path_pixel_sample's div_mod (convert.glsl) needs a batch's rounds of its pixels below
         // 2^22.
@@ -256,9 +257,9 @@ impl GpuRenderer {
         progress: &ProgressBar,
         stop: &std::sync::atomic::AtomicBool,
     ) -> Result<(RenderOutput, u32)> {
-        let splatting = settings.integrator != crate::cpu::Integrator::Path;
+        let splatting = settings.integrator != crate::render::Integrator::Path;
         if splatting {
-            crate::cpu::bidir::check(scene, settings).map_err(|e| anyhow::anyhow!(e))?;
+            crate::render::check(scene, settings).map_err(|e| anyhow::anyhow!(e))?;
         }
         let setup = self.setup(scene, settings, wavefront, false)?;
         if splatting && setup.band_rows < settings.height {
@@ -342,11 +343,11 @@ impl GpuRenderer {
         let band_pixels = band_rows * settings.width;
         let environment = settings.environment_map();
         let env = crate::environment::map_or_none(&environment);
-        let splatting = settings.integrator != crate::cpu::Integrator::Path;
+        let splatting = settings.integrator != crate::render::Integrator::Path;
         // BDPT keeps both subpaths of every path in flight, as many as one storage binding
         // holds.
         let bdpt_stride = wavefront::bdpt_vertices_per_path(settings.max_depth) as u64;
-        let capacity = if settings.integrator == crate::cpu::Integrator::Bdpt {
+        let capacity = if settings.integrator == crate::render::Integrator::Bdpt {
             let per_path = bdpt_stride * size_of::<crate::layout::BdptVertex>() as u64;
             capacity.min((range / per_path).max(1) as u32)
         } else {
@@ -364,7 +365,7 @@ impl GpuRenderer {
                 (passes * band_pixels, passes)
             }
         };
-        let bdpt_vertices = if settings.integrator == crate::cpu::Integrator::Bdpt {
+        let bdpt_vertices = if settings.integrator == crate::render::Integrator::Bdpt {
             capacity as u64 * bdpt_stride
         } else {
             0
@@ -494,7 +495,7 @@ impl GpuRenderer {
         let frame = Self::band_frame(setup, settings.width, (0, settings.height));
         buffers.frame.write(bytemuck::bytes_of(&frame));
         let capacity = setup.capacity as usize;
-        let row_texels = memory::SCENE_IMAGE_WIDTH as usize;
+        let row_texels = bindings::SCENE_IMAGE_WIDTH as usize;
         let (queue, kernel, ray_bytes, result_bytes) = match any {
             false => (&buffers.rays, "extend", size_of::<QueuedRay>(), 16),
             true => (
@@ -628,7 +629,7 @@ impl GpuRenderer {
             Ok(a) => a.generate_report(),
             Err(_) => return Default::default(),
         };
-        let split = pipelines::SplitArray::ALL
+        let split = bindings::SplitArray::ALL
             .into_iter()
             .zip(setup.split_bindings)
             .filter(|(_, n)| *n > 1)
@@ -958,11 +959,11 @@ impl GpuRenderer {
             // (A batch of whole passes ends each of them.)
             let pass_done = batch.first_pixel + batch.size >= pixel_count;
             match settings.integrator {
-                crate::cpu::Integrator::Path => recorder.record_batch(batch, settings.max_depth),
-                crate::cpu::Integrator::Light => {
+                crate::render::Integrator::Path => recorder.record_batch(batch, settings.max_depth),
+                crate::render::Integrator::Light => {
                     recorder.record_light_batch(batch, settings.max_depth, pass_done)
                 }
-                crate::cpu::Integrator::Bdpt => {
+                crate::render::Integrator::Bdpt => {
                     recorder.record_bdpt_batch(batch, settings.max_depth, pass_done)
                 }
             }
@@ -1083,6 +1084,49 @@ impl GpuRenderer {
     }
 }
 
+/// A Vulkan device behind the render seam: the renderer and the paths it keeps in flight per
+/// batch (`--wavefront`; `None` for the device's default).
+pub struct GpuBackend {
+    pub renderer: GpuRenderer,
+    pub wavefront: Option<u32>,
+}
+
+impl crate::render::Backend for GpuBackend {
+    fn describe(&self) -> String {
+        let d = self.renderer.device();
+        format!("{} (Vulkan {}, {})", d.name, d.api_version, d.driver)
+    }
+
+    fn render_range(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        samples: std::ops::Range<u32>,
+        progress: &ProgressBar,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(RenderOutput, u32)> {
+        self.renderer.render_range_with_progress(
+            scene,
+            settings,
+            self.wavefront,
+            samples,
+            progress,
+            stop,
+        )
+    }
+
+    fn render_progressive(
+        &self,
+        scene: &PreparedScene,
+        settings: &RenderSettings,
+        options: &Progressive,
+        progress: &ProgressBar,
+    ) -> Result<(RenderOutput, ProgressiveReport)> {
+        self.renderer
+            .render_progressive(scene, settings, self.wavefront, options, progress)
+    }
+}
+
 /// How often a render of one band copies its film back while it runs (see `Checkpoint`).
 const CHECKPOINT_INTERVAL: std::time::Duration = std::time::Duration::from_secs(2);
 
@@ -1117,7 +1161,7 @@ fn scene_split(
     // Arrays read from images need no buffer.
     let max_rows = ctx.properties.limits.max_image_dimension2_d as u64;
     let images = scene_images != SceneImages::Buffers
-        && pipelines::SceneImage::ALL
+        && bindings::SceneImage::ALL
             .iter()
             .all(|i| i.rows(scene) <= max_rows);
     let in_buffers = |n: usize| if images { 0 } else { len(n) };

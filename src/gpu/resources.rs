@@ -2,9 +2,11 @@
 //! paths in flight, the film band, counters and indirect arguments, all bound to the one
 //! descriptor set.
 
+use super::bindings::SCENE_IMAGE_WIDTH;
+use super::bindings::{Binding, SceneImage, SceneSplit, SplitArray};
 use super::context::Context;
-use super::memory::{Buffer, Commands, Image, Location, SCENE_IMAGE_WIDTH};
-use super::pipelines::{Binding, Pipelines, SceneImage, SceneSplit, SplitArray};
+use super::memory::{Buffer, Commands, Image, Location};
+use super::pipelines::Pipelines;
 use crate::environment::EnvironmentMap;
 use crate::layout::{
     args, counter, BdptVertex, FilmPixel, FrameParams, PathState, QueuedRay, ShadowRay,

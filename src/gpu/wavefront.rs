@@ -4,8 +4,8 @@
 
 use super::memory::{barrier, Buffer};
 use super::pipelines::Pipelines;
-use crate::cpu::Integrator;
 use crate::layout::{args, counter, DispatchParams, WORKGROUP_SIZE};
+use crate::render::Integrator;
 use ash::vk;
 
 /// Alpha-key offset of light subpaths' bounces (`src/cpu/bidir.rs`, `ALPHA_LIGHT_WALK`):

@@ -154,7 +154,7 @@ impl Distribution1D {
     pub fn from_function(f: impl Fn(f64) -> f64, bins: usize, label: &str) -> Result<Self> {
         let h = 1.0 / bins as f64;
         let values = (0..bins)
-            .map(|k| super::integrate(&f, k as f64 * h, (k + 1) as f64 * h, 4) / h)
+            .map(|k| super::quadrature::integrate(&f, k as f64 * h, (k + 1) as f64 * h, 4) / h)
             .collect();
         Self::new(values, label)
     }

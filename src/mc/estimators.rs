@@ -2,7 +2,8 @@
 //! written there, generic over the integrand and the source of uniform numbers.
 
 use super::distribution::Sampler1D;
-use super::{roulette, Uniform};
+use super::roulette::roulette;
+use super::uniform::Uniform;
 use crate::mis::{mis_weight, Heuristic};
 
 /// a / p with 0 where a = 0: a density may vanish only where the integrand does (lecture, "PDF

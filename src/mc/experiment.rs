@@ -7,7 +7,7 @@ use super::estimators::{
 };
 use super::integrands::{integrands, Integrand, ROULETTE_P};
 use super::predict::{balance_bound, cumulants, lecture_variance, strategies, Estimator};
-use super::KeyedUniforms;
+use super::uniform::KeyedUniforms;
 use crate::mis::Heuristic;
 use crate::stats::{
     chi_square_p, chi_square_quantile_upper, incomplete_beta, sidak, student_t_two_sided_p,

@@ -24,86 +24,20 @@ mod estimators;
 mod experiment;
 mod integrands;
 mod predict;
+mod quadrature;
+mod roulette;
+mod uniform;
 
 pub use distribution::{Distribution1D, LinearRamp, Lorentzian, Sampler1D, UniformDensity};
 pub use estimators::{
     combined, control, importance, primary, russian_roulette, secondary, secondary_of, stratified,
 };
 pub use experiment::{run, CheckOutcome, Report, Row, Section, Settings};
-pub use integrands::{gauss_legendre, integrands, integrate, Integrand};
+pub use integrands::{integrands, Integrand};
 pub use predict::{balance_bound, cumulants, lecture_variance, Cumulants, Estimator};
-
-use crate::sampling::rng_uniform4;
-
-/// A source of uniform random numbers in [0, 1).
-pub trait Uniform {
-    /// The next number.
-    fn next(&mut self) -> f64;
-}
-
-/// Any closure that returns numbers in [0, 1) is a source (tests use fixed sequences).
-impl<F: FnMut() -> f64> Uniform for F {
-    fn next(&mut self) -> f64 {
-        self()
-    }
-}
-
-/// The project's keyed random numbers ([`rng_uniform4`]) as a stream: number k of stream
-/// (`seed`, `stream`, `block`) is component k mod 4 of `rng_uniform4(seed, stream, k / 4,
-/// block)`. Streams differing in any key are independent; the same keys give the same numbers.
-#[derive(Clone, Debug)]
-pub struct KeyedUniforms {
-    seed: u32,
-    stream: u32,
-    block: u32,
-    index: u32,
-}
-
-impl KeyedUniforms {
-    /// The stream keyed by (`seed`, `stream`, `block`), from its first number.
-    pub fn new(seed: u32, stream: u32, block: u32) -> Self {
-        KeyedUniforms {
-            seed,
-            stream,
-            block,
-            index: 0,
-        }
-    }
-}
-
-impl Uniform for KeyedUniforms {
-    fn next(&mut self) -> f64 {
-        let four = rng_uniform4(self.seed, self.stream, self.index / 4, self.block);
-        let u = four[(self.index % 4) as usize];
-        self.index = self.index.wrapping_add(1);
-        u as f64
-    }
-}
-
-/// Russian roulette (lecture, "Russian roulette for single integral"): with survival
-/// probability `p`, the random number `u` survives when u < p and then carries the weight 1/p
-/// that keeps the estimate unbiased; otherwise the estimate is 0 (`None`). p ≥ 1 always
-/// survives with weight 1; p ≤ 0 or NaN never survives.
-pub fn roulette(u: f64, p: f64) -> Option<f64> {
-    roulette_in(u, p, 1.0)
-}
-
-/// [`roulette`] in f32, for the path tracer: `throughput *= w` for `Some(w)`, the path ends on
-/// `None`.
-pub fn roulette_f32(u: f32, p: f32) -> Option<f32> {
-    roulette_in(u, p, 1.0)
-}
-
-/// The case split of [`roulette`] for either precision (`one` is 1 in it).
-fn roulette_in<T: Copy + PartialOrd + std::ops::Div<Output = T>>(u: T, p: T, one: T) -> Option<T> {
-    if p >= one {
-        Some(one)
-    } else if u < p {
-        Some(one / p)
-    } else {
-        None
-    }
-}
+pub use quadrature::{gauss_legendre, integrate};
+pub use roulette::{roulette, roulette_f32};
+pub use uniform::{KeyedUniforms, Uniform};
 
 #[cfg(test)]
 mod tests;

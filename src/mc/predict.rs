@@ -3,7 +3,8 @@
 //! measured variance. All for one primary-level estimate unless the name says N.
 
 use super::distribution::{Sampler1D, UniformDensity};
-use super::integrands::{integrate, Integrand, QUADRATURE_PANELS};
+use super::integrands::{Integrand, QUADRATURE_PANELS};
+use super::quadrature::integrate;
 use crate::mis::{mis_weight, Heuristic};
 
 /// The lecture's estimators, as the experiment runs them.

@@ -2,8 +2,8 @@
 //! checked (sparse substitutions included), and triangle lists, strips and fans turned into
 //! vertex triples.
 
+use super::json::label;
 use super::limits::Budget;
-use super::load::label;
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use gltf::accessor::{sparse::IndexType, Accessor, DataType, Dimensions};

@@ -2,8 +2,8 @@
 //! each checked against its declared byteLength, with file access confined to the scene's
 //! folder (and `--allow-path` folders) and every allocation reserved in the memory budget.
 
+use super::json::label;
 use super::limits::LoadOptions;
-use super::load::label;
 use anyhow::{anyhow, bail, Context, Result};
 use base64::alphabet;
 use base64::engine::{DecodePaddingMode, Engine, GeneralPurpose, GeneralPurposeConfig};

@@ -9,9 +9,9 @@
 //! in linear light for sRGB textures and on the stored values for data textures.
 
 use super::buffers::read_image_uri;
+use super::json::{json_path, label};
 use super::limits::LoadOptions;
-use super::load::{json_path, label};
-use super::TextureSet;
+use super::model::TextureSet;
 use crate::layout::{
     GpuTexture, GpuTextureRef, FILTER_LINEAR, FILTER_NEAREST, MIN_LINEAR, MIN_LINEAR_MIPMAP_LINEAR,
     MIN_LINEAR_MIPMAP_NEAREST, MIN_NEAREST, MIN_NEAREST_MIPMAP_LINEAR, MIN_NEAREST_MIPMAP_NEAREST,

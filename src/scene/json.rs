@@ -372,3 +372,25 @@ mod tests {
         );
     }
 }
+
+/// The JSON path of a top-level object, e.g. `meshes[3]`.
+pub(super) fn json_path(kind: &str, index: usize) -> String {
+    let array = match kind {
+        "mesh" => "meshes".to_owned(),
+        "accessor" | "buffer" | "bufferView" | "camera" | "image" | "material" | "node"
+        | "scene" | "skin" | "texture" => format!("{kind}s"),
+        other => other.to_owned(),
+    };
+    format!("{array}[{index}]")
+}
+
+/// The JSON path of a top-level object and its name, e.g. `meshes[3] ("Chair")`.
+pub(super) fn label(kind: &str, index: usize, name: Option<&str>) -> String {
+    match name {
+        Some(name) if !name.is_empty() => format!("{} ({name:?})", json_path(kind, index)),
+        _ => json_path(kind, index),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials

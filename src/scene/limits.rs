@@ -1,7 +1,7 @@
 //! What a scene file may make wavetrace do: the folders it may read from and the memory it may
 //! take. A glTF file is untrusted input (README, "Running on untrusted files").
 
-use super::Triangle;
+use super::model::Triangle;
 use crate::layout::{BvhNode, GpuTriangle, LightEntry};
 use anyhow::{bail, Result};
 use std::mem::size_of;

@@ -1,7 +1,7 @@
 //! The per-tile two-sample comparison of two films (DESIGN.md, Verification 3) and the mean of
 //! a film with its standard error, built on the tests of the parent module.
 
-use super::{sidak, welch_with_known_variance};
+use super::distributions::{sidak, welch_with_known_variance};
 use crate::film::Film;
 use glam::DVec3;
 use std::fmt;

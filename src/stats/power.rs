@@ -18,7 +18,7 @@
 //! predicted power is thus a lower bound, and the sample count chosen for it is enough.
 
 use super::compare::{tile_side, TileSide};
-use super::{normal_quantile_upper, sidak};
+use super::distributions::{normal_quantile_upper, sidak};
 use crate::film::Film;
 use statrs::distribution::{ContinuousCDF, Normal};
 

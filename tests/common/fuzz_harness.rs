@@ -149,7 +149,7 @@ pub struct Variant {
     pub aov: u32,
     /// Mostly the path tracer; light tracing and BDPT a quarter of the time each, with no sky,
     /// no lens and radiance (what they accept).
-    pub integrator: wavetrace::cpu::Integrator,
+    pub integrator: wavetrace::render::Integrator,
 }
 
 impl Variant {
@@ -179,9 +179,9 @@ impl Variant {
                 _ => AOV_RADIANCE,
             },
             integrator: match (h >> 12) & 3 {
-                1 => wavetrace::cpu::Integrator::Light,
-                2 => wavetrace::cpu::Integrator::Bdpt,
-                _ => wavetrace::cpu::Integrator::Path,
+                1 => wavetrace::render::Integrator::Light,
+                2 => wavetrace::render::Integrator::Bdpt,
+                _ => wavetrace::render::Integrator::Path,
             },
         }
     }
@@ -202,7 +202,7 @@ impl Variant {
             integrator: self.integrator,
             ..RenderSettings::default()
         };
-        if self.integrator != wavetrace::cpu::Integrator::Path {
+        if self.integrator != wavetrace::render::Integrator::Path {
             settings.environment = glam::Vec3::ZERO;
             settings.aperture = 0.0;
             settings.aov = wavetrace::layout::AOV_RADIANCE;
@@ -235,7 +235,7 @@ pub fn run(source: &Path, bytes: &[u8]) -> Outcome {
     if let Err(e) = prepared.thin_lens(&settings) {
         return Outcome::Refused(format!("{}: {e:#}", source.display()));
     }
-    if let Err(e) = wavetrace::cpu::bidir::check(&prepared, &settings) {
+    if let Err(e) = wavetrace::render::check(&prepared, &settings) {
         return Outcome::Refused(format!("{}: {e}", source.display()));
     }
     let output = wavetrace::cpu::render(&prepared, &settings);

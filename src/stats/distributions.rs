@@ -1,9 +1,6 @@
-//! Statistics for verification: special functions, p-values, Welch's t test, Pearson's χ² test,
-//! and the per-tile two-sample comparison of two films (DESIGN.md, Verification 1–3).
-//!
-//! The special functions come from `statrs` (Γ, incomplete gamma and beta, the normal, Student
-//! t and χ² distributions); a Numerical Recipes implementation (`stats/nr3.rs`) cross-checks
-//! them in the tests.
+//! The distributions behind the tests: Γ and the incomplete gamma and beta functions, p-values and
+//! quantiles of the normal, Student t and χ² distributions, Šidák's correction, Welch's t test and
+//! Pearson's χ² goodness-of-fit test (statrs underneath).
 
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
@@ -114,7 +111,11 @@ pub fn welch_t_test(
 
 /// Welch's test of a difference whose variance is Σ estimated parts (variance, df) plus a part
 /// known exactly (infinite df).
-fn welch_with_known_variance(diff: f64, parts: [(f64, f64); 2], known_var: f64) -> (f64, f64, f64) {
+pub(crate) fn welch_with_known_variance(
+    diff: f64,
+    parts: [(f64, f64); 2],
+    known_var: f64,
+) -> (f64, f64, f64) {
     let var: f64 = parts.iter().map(|(v, _)| v).sum::<f64>() + known_var;
     if var <= 0.0 {
         let p = if diff == 0.0 { 1.0 } else { 0.0 };
@@ -181,18 +182,3 @@ pub fn chi_square_gof(observed: &[f64], expected: &[f64]) -> (f64, f64, f64) {
     };
     (chi2, dof, p)
 }
-
-mod compare;
-mod power;
-
-pub use power::PowerModel;
-
-pub use compare::{
-    compare_films, film_mean, image_error, Comparison, ImageError, TileFailure,
-    RELATIVE_MSE_EPSILON,
-};
-
-#[cfg(test)]
-mod nr3;
-#[cfg(test)]
-mod tests;

@@ -11,9 +11,9 @@
 //! on the films, which are deterministic, so the same seed stops after the same passes with the
 //! same image (on one device, whatever `--wavefront`), except where the time limit decides.
 
+use super::settings::RenderSettings;
 use crate::film::Film;
 use crate::layout::SAMPLER_STRATIFIED;
-use crate::render::RenderSettings;
 use anyhow::{bail, Result};
 use indicatif::ProgressBar;
 use std::fmt;

@@ -1,23 +1,19 @@
-//! What both integrators share: render settings, the scene prepared for tracing (BVH, triangles
-//! in BVH order, materials, emitter table), the per-render constants and the render's output.
+//! The scene prepared for tracing, shared by both backends: the BVH (two levels with instances),
+//! triangles in BVH order, materials as the GPU's table, the emitter table and its light BVH,
+//! punctual lights, textures, and the per-render constants ([`PreparedScene::frame_params`]).
 
+use super::settings::{Integrator, RenderSettings};
 use crate::bvh::{gpu_triangles_with, Bvh, WideBvh};
 use crate::bvh::{Hit, Ray};
-use crate::environment::EnvironmentMap;
-use crate::film::Film;
 use crate::layout::BvhNode;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
     GpuTriangle, GpuVertex, LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK,
-    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT, NO_TEXTURE, RR_THROUGHPUT,
-    SAMPLER_SOBOL, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA,
-    TRIANGLE_TEST_CULL,
+    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT, NO_TEXTURE, TRIANGLE_ALPHA,
+    TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
-use crate::layout::{
-    LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SAMPLER_BVH, LIGHT_SAMPLER_POWER, LIGHT_SPOT,
-};
+use crate::layout::{LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SAMPLER_POWER, LIGHT_SPOT};
 use crate::light_bvh::{GpuLightNode, LightBounds, LightBvh, NO_LIGHT_TRAIL};
-use crate::mis::Heuristic;
 use crate::sampling::sample_uniform_triangle;
 use crate::scene::luminance;
 use crate::scene::{
@@ -32,118 +28,6 @@ use crate::tlas::{
 };
 use glam::{Mat4, UVec4, Vec3};
 use rayon::prelude::*;
-use std::sync::Arc;
-
-/// What to render and how.
-#[derive(Clone, Debug)]
-pub struct RenderSettings {
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    /// Scattering events per path: 0 = emitters seen directly, 1 = direct lighting, ...
-    pub max_depth: u32,
-    pub seed: u32,
-    /// Russian roulette applies to paths with at least this many scattering events.
-    pub rr_start_depth: u32,
-    /// `layout::RR_*`: how survival probabilities are chosen (throughput by default).
-    pub rr_mode: u32,
-    /// Radiance of rays that leave the scene, the same in every direction (`--environment`);
-    /// ignored when `env_map` is set.
-    pub environment: Vec3,
-    /// An equirectangular environment map (`--env`), times `env_scale`, turned `env_rotate`
-    /// degrees about +Y.
-    pub env_map: Option<Arc<EnvironmentMap>>,
-    pub env_scale: f32,
-    pub env_rotate: f32,
-    /// How emitter and BSDF sampling are combined (the power heuristic, β = 2, by default).
-    pub mis: Heuristic,
-    /// `layout::SAMPLER_*`: Owen-scrambled Sobol by default.
-    pub sampler: u32,
-    /// `layout::LIGHT_SAMPLER_*`: how next event estimation picks an emitter (`--light-sampler`).
-    pub light_sampler: u32,
-    /// `layout::DEBUG_*` bits; 0 except in tests.
-    pub debug_flags: u32,
-    /// `layout::AOV_*`: radiance, or a property of the first hit (`--aov`).
-    pub aov: u32,
-    /// Thin-lens diameter in scene units (`--aperture`); 0 is a pinhole. Perspective cameras
-    /// only: check with [`PreparedScene::thin_lens`].
-    pub aperture: f32,
-    /// Distance of the plane in focus (`--focus-distance`); `None` focuses on the centre of
-    /// the scene's bounding box.
-    pub focus_distance: Option<f32>,
-    /// The estimator (`--integrator`): the path tracer by default.
-    pub integrator: crate::cpu::Integrator,
-    /// Only paths matching this expression count (`--paths`).
-    pub paths: Option<Arc<crate::paths::PathExpr>>,
-    /// Textures at their finest level everywhere (`--texture-lod finest`), as light and BDPT
-    /// vertices read them, instead of the level the camera ray's cone selects.
-    pub finest_textures: bool,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        RenderSettings {
-            width: 512,
-            height: 512,
-            spp: 64,
-            max_depth: 8,
-            seed: 0,
-            rr_start_depth: 3,
-            rr_mode: RR_THROUGHPUT,
-            environment: Vec3::ZERO,
-            env_map: None,
-            env_scale: 1.0,
-            env_rotate: 0.0,
-            mis: Heuristic::Power(2.0),
-            sampler: SAMPLER_SOBOL,
-            light_sampler: LIGHT_SAMPLER_BVH,
-            debug_flags: 0,
-            aov: crate::layout::AOV_RADIANCE,
-            aperture: 0.0,
-            focus_distance: None,
-            integrator: crate::cpu::Integrator::Path,
-            paths: None,
-            finest_textures: false,
-        }
-    }
-}
-
-impl RenderSettings {
-    /// The same render at 16² pixels (or fewer) and 1 sample: it dispatches every kernel the
-    /// full render does, specialised alike (`PreparedScene::gpu_features` reads neither size
-    /// nor samples), so `bench` runs it untimed first and lavapipe's compiles at a kernel's
-    /// first dispatch stay out of the timed render.
-    pub fn warm_up(&self) -> RenderSettings {
-        RenderSettings {
-            width: self.width.min(16),
-            height: self.height.min(16),
-            spp: 1,
-            ..self.clone()
-        }
-    }
-
-    pub fn pixel_count(&self) -> u64 {
-        self.width as u64 * self.height as u64
-    }
-    pub fn total_samples(&self) -> u64 {
-        self.pixel_count() * self.spp as u64
-    }
-
-    /// The environment lighting the render and its RGB scale: the `--env` map times
-    /// `--env-scale`, or the constant map times `--environment`; None when it is black.
-    pub fn environment_map(&self) -> Option<(Arc<EnvironmentMap>, Vec3)> {
-        match &self.env_map {
-            Some(map) if self.env_scale > 0.0 => {
-                Some((Arc::clone(map), Vec3::splat(self.env_scale)))
-            }
-            Some(_) => None,
-            None if self.environment.max_element() > 0.0 => {
-                Some((EnvironmentMap::constant(), self.environment))
-            }
-            None => None,
-        }
-    }
-}
 
 /// The BVH node and instance arrays a GPU renderer uploads ([`PreparedScene::gpu_bvh`]).
 pub struct GpuBvh {
@@ -897,9 +781,9 @@ impl PreparedScene {
             },
             light_bounded_cdf: self.light_bounded_cdf,
             integrator: match settings.integrator {
-                crate::cpu::Integrator::Path => crate::layout::INTEGRATOR_PATH,
-                crate::cpu::Integrator::Light => crate::layout::INTEGRATOR_LIGHT,
-                crate::cpu::Integrator::Bdpt => crate::layout::INTEGRATOR_BDPT,
+                Integrator::Path => crate::layout::INTEGRATOR_PATH,
+                Integrator::Light => crate::layout::INTEGRATOR_LIGHT,
+                Integrator::Bdpt => crate::layout::INTEGRATOR_BDPT,
             },
             // KHR_materials_dispersion: light tracing and BDPT carry a wavelength per sample.
             spectral: u32::from(self.materials.iter().any(crate::spectrum::is_dispersive)),
@@ -932,169 +816,4 @@ impl PreparedScene {
         }
         frame
     }
-}
-
-/// Counts and timings of one render.
-#[derive(Clone, Debug, Default)]
-pub struct RenderStats {
-    pub seconds: f64,
-    pub samples: u64,
-    pub extension_rays: u64,
-    pub shadow_rays: u64,
-    /// Non-finite samples dropped from the film.
-    pub dropped: u64,
-    /// GPU only: (kernel, seconds) summed over all its dispatches, where timestamps exist.
-    pub kernel_seconds: Vec<(String, f64)>,
-    /// GPU only, with `GpuOptions::count_fetches`: (kernel, scene-image texels it fetched).
-    pub kernel_fetches: Vec<(String, u64)>,
-    /// GPU only, where timestamps exist: the render's wall time outside its kernels, by phase
-    /// (`HOST_PHASES`: the film's clear or upload, the time between the kernels' first and last
-    /// timestamps and the submissions' ends, the film's read-back), and the submissions.
-    pub host_seconds: Vec<(String, f64)>,
-    pub submissions: u64,
-    /// GPU only: the error that ended the render early (a lost device, exhausted memory); the
-    /// film holds the samples finished before it.
-    pub fault: Option<String>,
-    /// GPU only: the device memory the render held and how its scene lay over the bindings.
-    pub device_memory: Option<DeviceMemory>,
-    /// GPU only: the features its kernels were made for (`PreparedScene::gpu_features`).
-    pub kernel_features: Option<u32>,
-    /// GPU only: how many of its kernels the render made before its first sample (pipelines
-    /// not made for an earlier render of the renderer) and the seconds that took, which
-    /// `seconds` leaves out: on lavapipe nearly all of a small render's start-up (README,
-    /// "Performance").
-    pub kernels_made: Option<(usize, f64)>,
-    /// GPU only, on a device that reports them: per kernel, the driver's statistics of its
-    /// compiled code (`VK_KHR_pipeline_executable_properties`).
-    pub kernel_statistics: Vec<(String, Vec<KernelStatistic>)>,
-}
-
-/// One statistic a Vulkan driver reports of a compiled kernel, named and described by the
-/// driver (NVIDIA's register count and local memory, Mesa's instruction counts, …).
-#[derive(Clone, Debug, PartialEq)]
-pub struct KernelStatistic {
-    pub name: String,
-    pub description: String,
-    pub value: StatisticValue,
-}
-
-impl KernelStatistic {
-    /// Whether it is a hash that identifies the compiled code (RADV's "Driver pipeline hash" and
-    /// "Hash"), which the printed lines leave out (the JSON keeps them).
-    pub fn is_hash(&self) -> bool {
-        self.name.to_lowercase().contains("hash")
-    }
-}
-
-/// A driver statistic's value, in the four forms Vulkan gives them.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum StatisticValue {
-    Bool(bool),
-    Int(i64),
-    Uint(u64),
-    Float(f64),
-}
-
-impl std::fmt::Display for StatisticValue {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            StatisticValue::Bool(b) => write!(f, "{}", if *b { "yes" } else { "no" }),
-            StatisticValue::Int(v) => write!(f, "{v}"),
-            StatisticValue::Uint(v) => write!(f, "{v}"),
-            StatisticValue::Float(v) => write!(f, "{v:.3}"),
-        }
-    }
-}
-
-impl StatisticValue {
-    /// The value as JSON: a boolean or a number.
-    pub fn to_json(self) -> serde_json::Value {
-        match self {
-            StatisticValue::Bool(b) => b.into(),
-            StatisticValue::Int(v) => v.into(),
-            StatisticValue::Uint(v) => v.into(),
-            StatisticValue::Float(v) => v.into(),
-        }
-    }
-}
-
-/// A kernel's statistics in one line: `name value` pairs, comma-separated, without hashes
-/// ([`KernelStatistic::is_hash`]).
-pub fn statistics_line(statistics: &[KernelStatistic]) -> String {
-    statistics
-        .iter()
-        .filter(|s| !s.is_hash())
-        .map(|s| format!("{} {}", s.name, s.value))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// The device memory of one GPU render, once its buffers exist and the scene is uploaded.
-#[derive(Clone, Debug, Default)]
-pub struct DeviceMemory {
-    /// The render's buffers and the bytes they use.
-    pub buffers: usize,
-    pub allocated: u64,
-    /// Bytes of the memory blocks they are sub-allocated from, and how many blocks (device
-    /// allocations) that is.
-    pub reserved: u64,
-    pub blocks: usize,
-    /// The scene arrays spread over several bindings: (what, bindings).
-    pub split: Vec<(String, u32)>,
-    /// Where the kernels read the scene arrays from: storage images, sampled images or storage
-    /// buffers (`gpu::SceneImages`).
-    pub scene_reads: &'static str,
-}
-
-impl std::fmt::Display for DeviceMemory {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
-        write!(
-            f,
-            "GPU memory: {:.1} MiB in {} buffers, {:.1} MiB in {} allocations",
-            mib(self.allocated),
-            self.buffers,
-            mib(self.reserved),
-            self.blocks
-        )?;
-        if !self.split.is_empty() {
-            let parts: Vec<String> = self
-                .split
-                .iter()
-                .map(|(what, n)| format!("{what} over {n}"))
-                .collect();
-            write!(f, "; bindings: {}", parts.join(", "))?;
-        }
-        if !self.scene_reads.is_empty() {
-            write!(f, "; scene read from {}", self.scene_reads)?;
-        }
-        Ok(())
-    }
-}
-
-/// The phases of a GPU render's wall time outside its kernels (`RenderStats::host_seconds`).
-pub const HOST_PHASES: [&str; 3] = ["film setup", "between batches", "film read-back"];
-
-impl RenderStats {
-    /// Adds `seconds` to the host phase `name` (one of `HOST_PHASES`).
-    pub fn add_host(&mut self, name: &str, seconds: f64) {
-        debug_assert!(HOST_PHASES.contains(&name), "{name}");
-        match self.host_seconds.iter_mut().find(|(n, _)| n == name) {
-            Some((_, s)) => *s += seconds,
-            None => self.host_seconds.push((name.to_string(), seconds)),
-        }
-    }
-
-    pub fn samples_per_second(&self) -> f64 {
-        self.samples as f64 / self.seconds.max(1e-9)
-    }
-    pub fn rays_per_second(&self) -> f64 {
-        (self.extension_rays + self.shadow_rays) as f64 / self.seconds.max(1e-9)
-    }
-}
-
-/// A finished render.
-pub struct RenderOutput {
-    pub film: Film,
-    pub stats: RenderStats,
 }
