@@ -748,6 +748,11 @@ pub struct BdptVertex {
     pub pad1: u32,   // 4 bytes
 }
 
+/// Alpha-test keys of light subpaths' bounces (`ALPHA_LIGHT_WALK` + bounce) and of connections,
+/// apart from the camera's bounces (cpu/bidir, light_tracing.glsl).
+pub const ALPHA_LIGHT_WALK: u32 = 1 << 20;
+pub const ALPHA_CONNECT: u32 = 1 << 21;
+
 /// `BdptVertex::kind`, the twins of `bidir::Kind`.
 pub const BDPT_VERTEX_CAMERA: u32 = 0;
 pub const BDPT_VERTEX_AREA_LIGHT: u32 = 1;

@@ -4,14 +4,13 @@
 pub mod bsdf;
 pub mod bvh;
 pub mod cpu;
-pub mod environment;
 pub mod film;
 pub mod flip;
 pub mod gpu;
 pub mod image_io;
 pub mod kernels;
 pub mod layout;
-pub mod light_bvh;
+pub mod lights;
 pub mod mc;
 pub mod mis;
 pub mod paths;

@@ -2,7 +2,6 @@
 //! exists, its inverse. The GLSL twins in `shaders/inc/rng.glsl` and `shaders/inc/sampling.glsl`
 //! carry the same names and the same arithmetic.
 
-use crate::layout::LightEntry;
 use glam::{UVec4, Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
@@ -170,21 +169,6 @@ pub fn uniform_disk_pdf() -> f32 {
     FRAC_1_PI
 }
 
-/// Picks an emitter by inverting the discrete CDF of the light table (binary search for the first
-/// entry whose `cdf` exceeds `u`). Returns the table index; its probability is `pmf`.
-pub fn sample_light(lights: &[LightEntry], u: f32) -> usize {
-    let (mut lo, mut hi) = (0usize, lights.len() - 1);
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if lights[mid].cdf > u {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    lo
-}
-
 /// Orthonormal basis (t, b) around unit `n` (Duff et al., "Building an Orthonormal Basis,
 /// Revisited", JCGT 2017, Listing 3).
 pub fn build_frame(n: Vec3) -> (Vec3, Vec3) {
@@ -271,6 +255,8 @@ unsafe fn offset_ray_origin_sse2(p: Vec3, n: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layout::LightEntry;
+    use crate::lights::sample_light;
     use crate::stats::{chi_square_gof, sidak};
 
     /// 1e6 keyed numbers from one pixel's sample stream.

@@ -128,7 +128,7 @@ fn cpu_reaches_the_target_and_passes_continue_each_pixels_samples() {
     assert_reached(&adaptive.film, &report, "CPU --adaptive");
     // Each pixel holds samples [0, its count) in order, whatever pass gave them.
     let frame = scene.frame_params(&s);
-    let env = wavetrace::environment::no_environment();
+    let env = wavetrace::lights::environment::no_environment();
     let mut counts = RayCounts::default();
     for (p, acc) in adaptive.film.pixels.iter().enumerate() {
         let mut expected = FilmPixel::default();

@@ -16,8 +16,8 @@ use common::{assert_agree_at, render_cpu, render_gpu};
 use glam::{Vec2, Vec3};
 use std::f64::consts::PI;
 use std::sync::Arc;
-use wavetrace::environment::{env_pdf, env_sample, EnvironmentMap};
 use wavetrace::layout::FrameParams;
+use wavetrace::lights::environment::{env_pdf, env_sample, EnvironmentMap};
 use wavetrace::mis::Heuristic;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::sampling::rng_uniform4;
@@ -371,7 +371,7 @@ fn written_hdr_and_exr_files_load_as_written() {
         let map = EnvironmentMap::load(&path, 1 << 30).unwrap_or_else(|e| panic!("{e:#}"));
         for (t, c) in rgb.iter().enumerate() {
             assert_eq!(
-                wavetrace::environment::rgbe_decode(map.texels[t]),
+                wavetrace::lights::environment::rgbe_decode(map.texels[t]),
                 Vec3::from(*c),
                 ".{ext} texel {t}"
             );

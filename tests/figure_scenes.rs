@@ -5,7 +5,8 @@
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use wavetrace::scene::{emitted_power, Scene, Triangle};
+use wavetrace::lights::emitted_power;
+use wavetrace::scene::{Scene, Triangle};
 
 fn path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

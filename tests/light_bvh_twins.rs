@@ -18,7 +18,7 @@ use glam::{Vec3, Vec4};
 use std::f32::consts::PI;
 use std::mem::{offset_of, size_of};
 use wavetrace::kernels::TEST_KERNELS;
-use wavetrace::light_bvh::*;
+use wavetrace::lights::light_bvh::*;
 use wavetrace::sampling::rng_uniform4;
 
 const CASES: u32 = 4096;

@@ -13,8 +13,8 @@ mod common;
 use common::{assert_agree_at, render_cpu, render_gpu};
 use glam::Vec3;
 use std::sync::Arc;
-use wavetrace::environment::EnvironmentMap;
 use wavetrace::layout::*;
+use wavetrace::lights::environment::EnvironmentMap;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::scene::Scene;
 

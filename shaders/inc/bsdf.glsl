@@ -1,9 +1,12 @@
 // The glTF 2.0 metallic-roughness BSDF (Appendix B) with KHR_materials_ior, _transmission,
-// _specular, _unlit, _clearcoat, _sheen, _anisotropy, _iridescence and _diffuse_transmission: twin of src/bsdf/mod.rs, same names; the model and its conventions are
-// written down there. Direction convention: wo points towards where the light goes (previous
-// vertex), wi towards where it comes from; both point away from the surface; ng is the
-// front face's geometric normal, not flipped (front = outside for transmission). bsdf_eval
-// returns f without the cosine, over the non-delta lobes; bsdf_pdf is their mixture pdf.
+// _specular, _unlit, _clearcoat, _sheen, _anisotropy, _iridescence and _diffuse_transmission:
+// twin of src/bsdf/ (mod.rs: the model and its conventions; gltf.rs: BsdfFrame), same names;
+// the other lobes and terms have files of their own, named as in src/bsdf/ (fresnel, shading,
+// clearcoat, lambert, sheen, iridescence, microfacet). Direction convention: wo points towards
+// where the light goes (previous vertex), wi towards where it comes from; both point away from
+// the surface; ng is the front face's geometric normal, not flipped (front = outside for
+// transmission). bsdf_eval returns f without the cosine, over the non-delta lobes; bsdf_pdf is
+// their mixture pdf.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
 #include "microfacet.glsl"
@@ -59,76 +62,9 @@ struct BsdfFrame {
     bool plain;        // Lambert's lobe alone (BsdfFrame::plain): eval, pdf and sample take its terms
 };
 
-// The clearcoat's Fresnel weight, F0 = 0.04 (ior 1.5) (KHR_materials_clearcoat, fresnel_coat).
-float fresnel_coat(float cos_theta) {
-    float f0 = dielectric_f0(1.5);
-    return f0 + (1.0 - f0) * schlick_weight(abs(cos_theta));
-}
+#include "fresnel.glsl"
 
-// BsdfFrame::new_shading's minimum height of wo's reflection above the geometric surface.
-#define SHADING_NORMAL_MIN_COS 0.01
-
-// Shading normal ns (on ng's side) bent so that wo's mirror reflection about it lies at least
-// SHADING_NORMAL_MIN_COS above the geometric surface (Keller et al. 2017, "The Iray Light
-// Transport Simulation and Rendering System", A.3). ng, wo unit with dot(ng, wo) > 0.
-vec3 bend_shading_normal(vec3 ns, vec3 ng, vec3 wo) {
-    vec3 r = 2.0 * dot(wo, ns) * ns - wo;
-    float height = dot(r, ng);
-    if (height >= SHADING_NORMAL_MIN_COS) return ns;
-    vec3 tangential = r - height * ng;
-    float len = length(tangential);
-    if (!(len > 1e-12)) return ng;
-    vec3 lifted = tangential * (sqrt(1.0 - SHADING_NORMAL_MIN_COS * SHADING_NORMAL_MIN_COS) / len)
-                + SHADING_NORMAL_MIN_COS * ng;
-    return normalize(wo + lifted);
-}
-
-// KHR_materials_anisotropy's (alpha_t, alpha_b) = (mix(alpha, 1, strength^2), alpha); a delta
-// where alpha_t < ALPHA_DELTA, else alpha_b at least ALPHA_DELTA (bsdf/mod.rs, anisotropic_alpha).
-vec2 anisotropic_alpha(float alpha, float strength) {
-    if (strength <= 0.0) return vec2(alpha);
-    float at = alpha + (1.0 - alpha) * strength * strength;
-    return vec2(at, at < ALPHA_DELTA ? alpha : max(alpha, ALPHA_DELTA));
-}
-
-// The tangent frame about n: the anisotropy direction made orthogonal to n where strength > 0,
-// else (and where it is degenerate) build_frame's (bsdf/mod.rs, anisotropic_frame).
-void anisotropic_frame(vec3 n, float strength, vec3 direction, out vec3 t, out vec3 b) {
-    if (strength > 0.0) {
-        t = direction - n * dot(n, direction);
-        float len = length(t);
-        if (len > 1e-12 && !isinf(len)) {
-            t /= len;
-            b = cross(n, t);
-            return;
-        }
-    }
-    build_frame(n, t, b);
-}
-
-// The dielectric (RGB) and metal Fresnel terms at cosine cos to the microfacet normal on wo's
-// side, each mixed with the thin film's by its factor (bsdf/mod.rs, fresnel_layers).
-void fresnel_layers(float cos_theta, vec3 f0, float f90, float etap, vec3 base, float metallic,
-                    float film, float film_ior, float film_thickness, out vec3 fd, out vec3 fm) {
-    fd = fresnel_dielectric_color(cos_theta, f0, f90, etap);
-    fm = fresnel_conductor(base, cos_theta);
-    if (!SCENE_HAS(FEATURE_IRIDESCENCE) || film <= 0.0) return;
-    float c = min(abs(cos_theta), 1.0);
-    bool tir = false;
-    if (etap < 1.0) {
-        float sin2_t = (1.0 - c * c) / (etap * etap);
-        tir = sin2_t >= 1.0;
-        c = sqrt(max(1.0 - sin2_t, 0.0));
-    }
-    if (!tir && metallic < 1.0) {
-        vec3 thin = min(fresnel_iridescence(1.0, film_ior, c, film_thickness, f0), vec3(1.0));
-        fd += (thin - fd) * film;
-    }
-    if (metallic > 0.0) {
-        vec3 thin = min(fresnel_iridescence(1.0, film_ior, min(abs(cos_theta), 1.0), film_thickness, base), vec3(1.0));
-        fm += (thin - fm) * film;
-    }
-}
+#include "shading.glsl"
 
 float average3(vec3 v) {
     return (v.x + v.y + v.z) / 3.0;
@@ -417,50 +353,9 @@ bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 va
     return true;
 }
 
-bool bsdf_cc_is_delta(BsdfFrame f) {
-    return f.cc_alpha.x < ALPHA_DELTA;
-}
+#include "clearcoat.glsl"
 
-vec3 bsdf_to_cc_local(BsdfFrame f, vec3 v) {
-    return vec3(dot(v, f.cc_t), dot(v, f.cc_b), dot(v, f.cc_n));
-}
-
-// The coat's weight clearcoat * F_c(|V.N_c|): V is wo for radiance, wi for importance.
-float bsdf_cc_weight(BsdfFrame f, vec3 wi, uint mode) {
-    float v = mode == TRANSPORT_RADIANCE ? f.cc_wo.z : dot(wi, f.cc_n);
-    return f.clearcoat * fresnel_coat(v);
-}
-
-// The coat's GGX lobe D.V at world wi, times |cos to N_c| / |cos to n| of the direction the
-// integrator multiplies by (BsdfFrame::eval_clearcoat).
-float bsdf_eval_clearcoat(BsdfFrame f, vec3 wi, uint mode) {
-    vec3 wc = bsdf_to_cc_local(f, wi);
-    if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
-    vec3 h = normalize(f.cc_wo + wc);
-    float spec = ggx_d(h, f.cc_alpha) * ggx_visibility(f.cc_wo, wc, f.cc_alpha);
-    if (all(equal(f.cc_n, f.n))) return spec;
-    float ratio = mode == TRANSPORT_RADIANCE ? wc.z / abs(dot(wi, f.n)) : f.cc_wo.z / f.wo.z;
-    return (isinf(ratio) || isnan(ratio)) ? 0.0 : spec * ratio;
-}
-
-// Solid-angle pdf of the coat's visible-normal sampling at world wi.
-float bsdf_pdf_clearcoat(BsdfFrame f, vec3 wi) {
-    vec3 wc = bsdf_to_cc_local(f, wi);
-    if (bsdf_cc_is_delta(f) || wc.z <= 0.0 || dot(wi, f.ng_world) <= 0.0) return 0.0;
-    vec3 h = normalize(f.cc_wo + wc);
-    return ggx_vndf_pdf(f.cc_wo, h, f.cc_alpha) / (4.0 * dot(f.cc_wo, h));
-}
-
-// Lambert's f at local wi of a plain frame (BsdfFrame::eval_plain): bsdf_eval_local without its
-// zero terms.
-vec3 bsdf_eval_plain(BsdfFrame f, vec3 wi) {
-    return bsdf_consistent(f, wi) && wi.z > 0.0 ? INV_PI * f.base : vec3(0.0);
-}
-
-// The cosine-weighted pdf at local wi of a plain frame (BsdfFrame::pdf_plain).
-float bsdf_pdf_plain(BsdfFrame f, vec3 wi) {
-    return bsdf_consistent(f, wi) && wi.z > 0.0 ? f.lobe_pmf.x * cosine_hemisphere_pdf(wi.z) : 0.0;
-}
+#include "lambert.glsl"
 
 // f(wo, wi) of the non-delta lobes for world-space wi (BsdfFrame::eval).
 vec3 bsdf_frame_eval(BsdfFrame f, vec3 wi, uint mode) {

@@ -350,6 +350,11 @@ struct ShadowRay {
     uint pad;           // 4 bytes
 };
 
+// Alpha-test keys of light subpaths' bounces (ALPHA_LIGHT_WALK + bounce) and of connections
+// (src/layout.rs).
+#define ALPHA_LIGHT_WALK (1u << 20)
+#define ALPHA_CONNECT (1u << 21)
+
 // One vertex of a BDPT subpath (src/cpu/bidir.rs, Vertex; bdpt.glsl). Total: 96 bytes.
 struct BdptVertex {
     vec3 p;          // 12 bytes

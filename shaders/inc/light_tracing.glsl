@@ -5,10 +5,7 @@
 #define LIGHT_TRACING_GLSL
 #include "scene_arrays.glsl"
 #include "convert.glsl"
-
-// Alpha-test keys of light subpaths and of their connections (src/cpu/bidir.rs).
-#define ALPHA_LIGHT_WALK (1u << 20)
-#define ALPHA_CONNECT (1u << 21)
+#include "punctual.glsl"
 
 // The pixel a direction from the pinhole lands in, the film-wide importance W_e = 1/(A cos^4)
 // (area measure) and the direction pdf 1/(A cos^3), A = 4 tan^2(fov/2) aspect; false outside
@@ -31,30 +28,6 @@ bool camera_importance(vec3 dir, out uint pixel, out float we, out float pdf) {
     pdf = 1.0 / (film_area * c * c * c);
     we = pdf / c;
     return true;
-}
-
-// Radiant intensity of a point or spot light along w: I times the spot's smooth falloff.
-vec3 punctual_intensity(GpuPunctualLight l, vec3 w) {
-    vec3 i = l.intensity;
-    if (l.kind == LIGHT_SPOT) {
-        float a = clamp(dot(l.direction, w) * l.spot_scale + l.spot_offset, 0.0, 1.0);
-        i *= a * a;
-    }
-    return i;
-}
-
-// The range window clamp(1 - (d/range)^4, 0, 1) at distance d (1 without a range).
-float punctual_window(GpuPunctualLight l, float d) {
-    if (l.range > 0.0) {
-        float x = d / l.range;
-        return clamp(1.0 - x * x * x * x, 0.0, 1.0);
-    }
-    return 1.0;
-}
-
-// cos of a spot light's outer cone angle, from its falloff constants.
-float spot_cos_outer(GpuPunctualLight l) {
-    return clamp(-l.spot_offset / l.spot_scale, -1.0, 1.0);
 }
 
 // phi(w_cam, w_light) of a scattering vertex: f |n_s . w_light| / |n_g . w_light|, f the path

@@ -3,6 +3,8 @@
 #ifndef SCENE_GLSL
 #define SCENE_GLSL
 #include "convert.glsl"
+#include "emitters.glsl"
+#include "punctual.glsl"
 
 // Pixel and sample index of path i of the current batch (src/layout.rs, DispatchParams). The
 // batch's paths go round the band's pixels in order or, in a pass of an adaptive render, round
@@ -48,46 +50,6 @@ float coat_emission_weight(GpuMaterial m, float cos_out) {
 vec3 emitted_radiance(GpuMaterial m, float cos_out) {
     bool visible = cos_out > 0.0 || ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && cos_out < 0.0);
     return visible ? m.emission * coat_emission_weight(m, cos_out) : vec3(0.0);
-}
-
-// Radiance arriving at p from punctual light l, its direction wi and distance dist (-1 for a
-// directional light, at infinity): KHR_lights_punctual's range window and spot falloff (src/cpu/path.rs,
-// punctual_incident).
-vec3 punctual_incident(GpuPunctualLight l, vec3 p, out vec3 wi, out float dist) {
-    if (l.kind == LIGHT_DIRECTIONAL) {
-        wi = -l.direction;
-        dist = -1.0;
-        return l.intensity;
-    }
-    vec3 to = l.position - p;
-    float d2 = dot(to, to);
-    dist = sqrt(d2);
-    if (!(dist > 0.0)) {
-        wi = vec3(0.0, 0.0, 1.0);
-        return vec3(0.0);
-    }
-    wi = to / dist;
-    vec3 li = l.intensity / d2;
-    if (l.range > 0.0) {
-        float x = dist / l.range;
-        li *= clamp(1.0 - x * x * x * x, 0.0, 1.0);
-    }
-    if (l.kind == LIGHT_SPOT) {
-        float a = clamp(dot(l.direction, -wi) * l.spot_scale + l.spot_offset, 0.0, 1.0);
-        li *= a * a;
-    }
-    return li;
-}
-
-// Emitter-table index for u by inverting the discrete CDF (src/sampling.rs, sample_light).
-uint sample_light(float u) {
-    uint lo = 0u;
-    uint hi = frame.light_count - 1u;
-    if (lo < hi) do {
-        uint mid = (lo + hi) / 2u;
-        if (light_at(mid).cdf > u) hi = mid; else lo = mid + 1u;
-    } while (lo < hi);
-    return lo;
 }
 
 float max_component(vec3 v) {

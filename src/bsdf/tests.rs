@@ -1,10 +1,16 @@
 //! The BSDF against its own pdf (χ² goodness of fit), `sample` against `eval`/`pdf`, energy,
 //! reciprocity and the Lambertian special case.
 
+use super::fresnel::*;
+use super::gltf::*;
+use super::lambert::*;
+use super::lobes::*;
 use super::microfacet::*;
-use super::*;
+use super::vertex::*;
+use crate::layout::{GpuMaterial, MATERIAL_UNLIT};
 use crate::sampling::rng_uniform4;
 use crate::stats::{chi_square_gof, sidak};
+use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 fn material(base: f32, metallic: f32, roughness: f32, transmission: f32) -> GpuMaterial {

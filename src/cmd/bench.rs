@@ -11,8 +11,8 @@ use super::prepare::scenes_dir;
 use super::report::{fetches_per_ray, host_phases};
 use anyhow::{Context as _, Result};
 use std::path::PathBuf;
-use wavetrace::environment::EnvironmentMap;
 use wavetrace::gpu::{GpuOptions, GpuRenderer};
+use wavetrace::lights::environment::EnvironmentMap;
 use wavetrace::render::{PreparedScene, RenderSettings, RenderStats};
 use wavetrace::scene::{LoadOptions, Scene};
 

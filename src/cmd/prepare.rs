@@ -5,8 +5,8 @@ use super::options::{DeviceKind, RenderOptions, TextureLodArg};
 use anyhow::{bail, Context as _, Result};
 use std::mem::size_of;
 use std::path::{Path, PathBuf};
-use wavetrace::environment::EnvironmentMap;
 use wavetrace::layout::{BvhNode, GpuTriangle, LightEntry};
+use wavetrace::lights::environment::EnvironmentMap;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::scene::{Budget, LoadOptions, Scene};
 

@@ -27,7 +27,7 @@ pub fn render_with_progress(
 ) -> RenderOutput {
     let frame = scene.frame_params(settings);
     let environment = settings.environment_map();
-    let env = crate::environment::map_or_none(&environment);
+    let env = crate::lights::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
     let (counts, dropped) = add_samples(
@@ -59,7 +59,7 @@ pub fn render_range(
 ) -> (RenderOutput, u32) {
     let frame = scene.frame_params(settings);
     let environment = settings.environment_map();
-    let env = crate::environment::map_or_none(&environment);
+    let env = crate::lights::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
     // Chunks of about 2^16 paths: short enough to stop soon, long enough for rayon.
@@ -89,7 +89,7 @@ fn add_samples(
     scene: &PreparedScene,
     settings: &RenderSettings,
     frame: &crate::layout::FrameParams,
-    env: &crate::environment::EnvironmentMap,
+    env: &crate::lights::environment::EnvironmentMap,
     film: &mut Film,
     samples: std::ops::Range<u32>,
     progress: &ProgressBar,
@@ -109,7 +109,7 @@ fn add_samples(
 fn render_samples(
     scene: &PreparedScene,
     frame: &crate::layout::FrameParams,
-    env: &crate::environment::EnvironmentMap,
+    env: &crate::lights::environment::EnvironmentMap,
     paths: Option<&crate::paths::Dfa>,
     film: &mut Film,
     samples: std::ops::Range<u32>,
@@ -182,7 +182,7 @@ pub fn render_progressive(
 ) -> (RenderOutput, ProgressiveReport) {
     let frame = scene.frame_params(settings);
     let environment = settings.environment_map();
-    let env = crate::environment::map_or_none(&environment);
+    let env = crate::lights::environment::map_or_none(&environment);
     let mut film = Film::new(settings.width, settings.height);
     let start = Instant::now();
     let mut counts = RayCounts::default();

@@ -5,22 +5,21 @@
 use crate::bsdf::volume::{transmittance, volume_sigma};
 use crate::bsdf::{fresnel_coat, ShadingFrame, TransportMode, VertexBsdf};
 use crate::bvh::Ray;
-use crate::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
 use crate::layout::LIGHT_SAMPLER_BVH;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, GpuPunctualLight, PathState, AOV_BASE_COLOR, AOV_NORMAL,
-    AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT,
-    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT, RR_ALBEDO, RR_OFF,
-    SAMPLER_STRATIFIED,
+    dim, FrameParams, GpuMaterial, PathState, AOV_BASE_COLOR, AOV_NORMAL, AOV_RADIANCE, AOV_UV,
+    DEBUG_NO_NEE, LIGHT_ENTRY_PUNCTUAL, MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT,
+    RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
 };
-use crate::light_bvh::{light_bvh_pmf, light_bvh_sample};
+use crate::lights::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
+use crate::lights::light_bvh::{light_bvh_pmf, light_bvh_sample};
+use crate::lights::{punctual_incident, sample_light};
 use crate::mc::roulette_f32;
 use crate::mis::{mis_weight2, MIS_BSDF_ONLY};
 use crate::paths::{Dfa, SYM_D, SYM_E, SYM_L, SYM_S};
 use crate::render::PreparedScene;
 use crate::sampling::{
-    offset_ray_origin, rng_uniform4, sample_light, sample_uniform_triangle, stratify2,
-    ONE_MINUS_EPSILON,
+    offset_ray_origin, rng_uniform4, sample_uniform_triangle, stratify2, ONE_MINUS_EPSILON,
 };
 use crate::scene::camera_ray;
 use crate::spectrum::{
@@ -108,36 +107,6 @@ pub fn coat_emission_weight(m: &GpuMaterial, cos_out: f32) -> f32 {
         return 1.0;
     }
     1.0 - m.clearcoat * fresnel_coat(cos_out)
-}
-
-/// Direction to, distance to (−1 for a directional light, at infinity) and radiance arriving from punctual
-/// light `l` at `p`, as KHR_lights_punctual defines them: I/d² times the range window
-/// clamp(1 − (d/range)⁴, 0, 1) and, for a spot, the smooth cone falloff
-/// clamp(cos·scale + offset, 0, 1)²; a directional light gives its irradiance from −direction
-/// (scene.glsl).
-pub fn punctual_incident(l: &GpuPunctualLight, p: Vec3) -> (Vec3, f32, Vec3) {
-    let intensity = Vec3::from(l.intensity);
-    let direction = Vec3::from(l.direction);
-    if l.kind == LIGHT_DIRECTIONAL {
-        return (-direction, -1.0, intensity);
-    }
-    let to = Vec3::from(l.position) - p;
-    let d2 = to.dot(to);
-    let d = d2.sqrt();
-    if !(d > 0.0) {
-        return (Vec3::Z, 0.0, Vec3::ZERO);
-    }
-    let wi = to / d;
-    let mut li = intensity / d2;
-    if l.range > 0.0 {
-        let x = d / l.range;
-        li *= (1.0 - x * x * x * x).clamp(0.0, 1.0);
-    }
-    if l.kind == LIGHT_SPOT {
-        let a = (direction.dot(-wi) * l.spot_scale + l.spot_offset).clamp(0.0, 1.0);
-        li *= a * a;
-    }
-    (wi, d, li)
 }
 
 /// Where a path stands in the `--paths` automaton (read eye-first); accepts everything

@@ -342,7 +342,7 @@ impl GpuRenderer {
             (band_limit / settings.width as u64).clamp(1, settings.height as u64) as u32;
         let band_pixels = band_rows * settings.width;
         let environment = settings.environment_map();
-        let env = crate::environment::map_or_none(&environment);
+        let env = crate::lights::environment::map_or_none(&environment);
         let splatting = settings.integrator != crate::render::Integrator::Path;
         // BDPT keeps both subpaths of every path in flight, as many as one storage binding
         // holds.

@@ -7,10 +7,10 @@ use super::bindings::{Binding, SceneImage, SceneSplit, SplitArray};
 use super::context::Context;
 use super::memory::{Buffer, Commands, Image, Location};
 use super::pipelines::Pipelines;
-use crate::environment::EnvironmentMap;
 use crate::layout::{
     args, counter, BdptVertex, FilmPixel, FrameParams, PathState, QueuedRay, ShadowRay,
 };
+use crate::lights::environment::EnvironmentMap;
 use crate::render::PreparedScene;
 use anyhow::{bail, Result};
 use ash::vk;

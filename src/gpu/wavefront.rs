@@ -4,13 +4,9 @@
 
 use super::memory::{barrier, Buffer};
 use super::pipelines::Pipelines;
-use crate::layout::{args, counter, DispatchParams, WORKGROUP_SIZE};
+use crate::layout::{args, counter, DispatchParams, ALPHA_LIGHT_WALK, WORKGROUP_SIZE};
 use crate::render::Integrator;
 use ash::vk;
-
-/// Alpha-key offset of light subpaths' bounces (`src/cpu/bidir.rs`, `ALPHA_LIGHT_WALK`):
-/// `extend` reads it from params.depth, whose low bit still picks the queue.
-const ALPHA_LIGHT_WALK: u32 = 1 << 20;
 
 /// Which paths a batch holds (see `DispatchParams`).
 #[derive(Clone, Copy, Debug)]
@@ -174,11 +170,11 @@ impl Recorder<'_> {
     pub fn record_light_batch(&mut self, batch: Batch, max_depth: u32, pass_done: bool) {
         self.generate_light(batch, max_depth);
         // connect_light's params.depth is the strategy's code 64 s + t (its alpha key).
-        self.connect_kernel("connect_light", batch, 64 + 1);
+        self.connect_light(batch, 64 + 1);
         for depth in 0..max_depth {
             self.extend(batch, ALPHA_LIGHT_WALK | depth);
-            self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
-            self.connect_kernel("connect_light", batch, 64 * (depth + 2) + 1);
+            self.shade_light(batch, depth);
+            self.connect_light(batch, 64 * (depth + 2) + 1);
         }
         self.accumulate_splats(batch, pass_done);
     }
@@ -193,24 +189,20 @@ impl Recorder<'_> {
         self.generate_light(batch, max_depth);
         for depth in 0..max_depth {
             self.extend(batch, ALPHA_LIGHT_WALK | depth);
-            self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
+            self.shade_light(batch, depth);
         }
         // Queue 0 starts full for the camera subpaths.
         self.set_queue_counters(batch.size);
         self.generate(batch);
         for depth in 0..=max_depth {
             self.extend(batch, depth);
-            self.dispatch_indirect("shade_camera", params(batch, depth), args::RAYS);
+            self.shade_camera(batch, depth);
         }
         // One strategy at a time, so that its shadow rays fit the queue of batch.size.
         for (j, (s, t)) in bdpt_strategies(max_depth).enumerate() {
             self.clear_shadow_queue(batch);
-            self.dispatch(
-                "connect_bdpt",
-                params(batch, j as u32),
-                batch.size.div_ceil(WORKGROUP_SIZE),
-            );
-            self.connect_kernel("connect_light", batch, 64 * s + t);
+            self.connect_bdpt(batch, j as u32);
+            self.connect_light(batch, 64 * s + t);
         }
         self.accumulate_splats(batch, pass_done);
     }
@@ -245,7 +237,7 @@ impl Recorder<'_> {
         p.args_slot = args::SHADOW;
         p.total_counter = u32::MAX;
         p.clear_mask = 1 << counter::SHADOW;
-        self.dispatch("dispatch_args", p, 1);
+        self.dispatch_args(p);
     }
 
     /// Mid-batch: sets queue 0's counter to `first_queue` and empties queue 1 and the shadow
@@ -369,7 +361,7 @@ impl Recorder<'_> {
         p.total_counter = counter::TOTAL_EXTENSION_RAYS;
         // The next queue and the shadow queue are refilled by this bounce's shade.
         p.clear_mask = (1 << (queue ^ 1)) | (1 << counter::SHADOW);
-        self.dispatch("dispatch_args", p, 1);
+        self.dispatch_args(p);
         self.dispatch_indirect("extend", params(batch, depth), args::RAYS);
     }
 
@@ -390,8 +382,41 @@ impl Recorder<'_> {
         p.args_slot = args::SHADOW;
         p.total_counter = counter::TOTAL_SHADOW_RAYS;
         p.clear_mask = 0;
-        self.dispatch("dispatch_args", p, 1);
+        self.dispatch_args(p);
         self.dispatch_indirect(kernel, params(batch, depth), args::SHADOW);
+    }
+
+    /// A light subpath's scattering at every hit of the extension queue of `depth`: the vertex
+    /// stored (BDPT), joined to the camera (light tracing), BSDF sampling and roulette.
+    fn shade_light(&mut self, batch: Batch, depth: u32) {
+        self.dispatch_indirect("shade_light", params(batch, depth), args::RAYS);
+    }
+
+    /// A camera subpath's vertex stored at every hit of the extension queue of `depth` (BDPT).
+    fn shade_camera(&mut self, batch: Batch, depth: u32) {
+        self.dispatch_indirect("shade_camera", params(batch, depth), args::RAYS);
+    }
+
+    /// Any-hit tests of the shadow queue's camera joins; `code` is the strategy's 64 s + t, its
+    /// alpha key.
+    fn connect_light(&mut self, batch: Batch, code: u32) {
+        self.connect_kernel("connect_light", batch, code);
+    }
+
+    /// Strategy `j` of `bdpt_strategies` for every path of the batch: its weighted contribution,
+    /// and a shadow ray where the connection needs one.
+    fn connect_bdpt(&mut self, batch: Batch, j: u32) {
+        self.dispatch(
+            "connect_bdpt",
+            params(batch, j),
+            batch.size.div_ceil(WORKGROUP_SIZE),
+        );
+    }
+
+    /// The next dispatch's size from a queue's counter (`p.counter` into `p.args_slot`), and the
+    /// counters `p.clear_mask` names cleared.
+    fn dispatch_args(&mut self, p: DispatchParams) {
+        self.dispatch("dispatch_args", p, 1);
     }
 
     /// Path radiance into the film, one thread per pixel of the batch.

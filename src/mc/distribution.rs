@@ -97,7 +97,7 @@ impl Sampler1D for Lorentzian {
 
 /// A piecewise-constant density on n equal bins of [0, 1), tabulated from non-negative values,
 /// with its CDF inverted by binary search (pbrt-v3 §13.3.1 `Distribution1D`). The renderer's
-/// emitter selection ([`crate::sampling::sample_light`], `sample_light` in
+/// emitter selection ([`crate::lights::sample_light`], `sample_light` in
 /// `shaders/inc/scene.glsl`) is the discrete form of the same search over the light table's CDF.
 #[derive(Clone, Debug)]
 pub struct Distribution1D {

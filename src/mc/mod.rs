@@ -8,7 +8,7 @@
 //! - `distribution`: densities on [0, 1) with their sampler x = P⁻¹(u) and inverse u = P(x),
 //!   analytic (linear ramp, truncated Lorentzian) and tabulated ([`Distribution1D`], inverted by
 //!   binary search: the continuous form of the renderer's emitter selection,
-//!   [`crate::sampling::sample_light`]);
+//!   [`crate::lights::sample_light`]);
 //! - `integrands`: integrands with known integrals, each with its sampling strategies and
 //!   control function, and Gauss–Legendre quadrature;
 //! - `predict`: the variance each estimator should have, by the lecture's formulas;

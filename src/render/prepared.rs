@@ -13,12 +13,10 @@ use crate::layout::{
     TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
 };
 use crate::layout::{LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SAMPLER_POWER, LIGHT_SPOT};
-use crate::light_bvh::{GpuLightNode, LightBounds, LightBvh, NO_LIGHT_TRAIL};
+use crate::lights::light_bvh::{GpuLightNode, LightBounds, LightBvh, NO_LIGHT_TRAIL};
+use crate::lights::{build_light_table_with, luminance};
 use crate::sampling::sample_uniform_triangle;
-use crate::scene::luminance;
-use crate::scene::{
-    build_light_table_with, AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX,
-};
+use crate::scene::{AlphaMode, Camera, Material, Scene, ThinLens, NO_VERTEX};
 use crate::surface::triangle_present;
 use crate::surface::{emitter_reads_surface, surface_emitter, surface_point, LOD_MAGNIFY};
 use crate::texture::{sample_texture_ref, TextureData};

@@ -101,7 +101,7 @@ impl Progressive {
     }
 }
 
-/// Luminance weights (Rec. 709 primaries, as `scene::luminance`).
+/// Luminance weights (Rec. 709 primaries, as `lights::luminance`).
 const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
 /// The pixel's mean luminance, from the film's per-channel means.

@@ -2,9 +2,9 @@
 //! samplers, Russian roulette, AOV, lens, path expression) and which estimator renders
 //! ([`Integrator`]).
 
-use crate::environment::EnvironmentMap;
 use crate::layout::LIGHT_SAMPLER_BVH;
 use crate::layout::{RR_THROUGHPUT, SAMPLER_SOBOL};
+use crate::lights::environment::EnvironmentMap;
 use crate::mis::Heuristic;
 use glam::Vec3;
 use std::sync::Arc;

@@ -23,7 +23,7 @@ pub const PREPARE_BYTES_PER_TRIANGLE: u64 = (size_of::<Triangle>()
 
 /// Memory one emitter (emitting triangle or punctual light) takes in the light BVH besides
 /// [`PREPARE_BYTES_PER_TRIANGLE`] (`light_bvh::BYTES_PER_LIGHT`).
-pub const PREPARE_BYTES_PER_EMITTER: u64 = crate::light_bvh::BYTES_PER_LIGHT as u64;
+pub const PREPARE_BYTES_PER_EMITTER: u64 = crate::lights::light_bvh::BYTES_PER_LIGHT as u64;
 
 /// Memory every triangle takes once any emits: its trail to its light BVH leaf (a `u32`) and
 /// its emitter-selection scale (an `f32`).

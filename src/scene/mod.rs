@@ -19,7 +19,6 @@ mod camera;
 mod extensions;
 mod images;
 mod json;
-mod lights;
 mod limits;
 mod load;
 mod material;
@@ -29,9 +28,6 @@ mod tangents;
 mod validate;
 
 pub use camera::{camera_ray, Camera, Projection, ThinLens};
-pub use lights::{
-    build_light_table, build_light_table_with, emitted_power, luminance, punctual_power,
-};
 pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
 pub use model::{
     AlphaMode, Instance, Material, MaterialTextures, Mesh, Scene, SceneCamera, TextureSet,

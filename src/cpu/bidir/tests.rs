@@ -1,5 +1,12 @@
-use super::*;
+use super::bdpt::*;
+use super::light_tracing::*;
+use crate::cpu::path::{emitted_radiance, RayCounts};
+use crate::layout::{GpuPunctualLight, LIGHT_SPOT, RR_OFF};
+use crate::lights::{punctual_intensity, punctual_window, spot_cos_outer};
+use crate::mis::Heuristic;
 use crate::render::RenderSettings;
+use crate::render::{Integrator, PreparedScene};
+use glam::Vec3;
 
 fn cornell(name: &str) -> PreparedScene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -187,7 +194,7 @@ fn punctual_emission_matches_the_path_tracer() {
         Vec3::new(1.0, -1.0, 0.0),
         Vec3::new(0.0, -2.5, 0.2),
     ] {
-        let (_, d, li) = crate::cpu::path::punctual_incident(&light, p);
+        let (_, d, li) = crate::lights::punctual_incident(&light, p);
         let w = (p - Vec3::from(light.position)) / d;
         let mine = punctual_intensity(&light, w) * punctual_window(&light, d) / (d * d);
         assert!(

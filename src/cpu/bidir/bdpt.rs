@@ -1,35 +1,8 @@
-//! The lecture's other half: light tracing ("next event estimation for light tracing") and
-//! bidirectional path tracing (Veach & Guibas 1995; Veach 1997, ch. 10), on the CPU.
-//!
-//! Both build subpaths of [`Vertex`]es. A camera subpath starts at the pinhole with the path
-//! tracer's primary ray and scatters with the path tracer's random numbers; a light subpath
-//! starts on an emitter chosen by power (a uniform point on its triangle and a cosine-weighted
-//! direction, or a punctual light's position and a uniform direction in its cone) and scatters
-//! with the adjoint BSDF. Every (s, t) pair — s light vertices, t camera vertices — is one
-//! strategy; `light` uses the t = 1 strategies alone (every light vertex joined to the camera,
-//! weight 1), `bdpt` all of them, weighted by `--mis` over all strategies that can make the path.
-//!
-//! ## The measurement, stated once
-//! With x₀ the emitter end and the path's vertices joined by the geometric term
-//! G(a, b) = |cos_a| |cos_b| / r² (cosines of the geometric normals; 1 at a point light, the angle
-//! to the view axis at the camera), a path contributes
-//! Le · G · φ(x₁) · G · … · φ(x_k) · G · W_e, where a scattering vertex's factor is
-//! φ(ω_c, ω_l) = f(ω_c, ω_l) |n_s·ω_l| / |n_g·ω_l|, f the path tracer's BSDF seen from the
-//! camera side ω_c (`BsdfFrame::new_shading(…, ω_c)`, radiance mode) and n_s its shading normal.
-//! That is exactly what the path tracer integrates, so every integrator has the same
-//! expectation. A light subpath's throughput picks up φ·|n_g·ω_c| / p(ω_c) per vertex: Veach's
-//! adjoint BSDF with the shading-normal correction (1997, §5.3, eq. 5.20), no η² for importance.
-//!
-//! The pinhole's importance is film-wide: W_e(ω) = 1 / (A cos⁴θ) in area measure, with
-//! A = 4 tan²(fov/2)·aspect the film's area at unit distance and θ the angle to the view axis;
-//! its direction pdf is 1 / (A cos³θ). Each sample index runs one light subpath per pixel, so a
-//! batch of W·H light subpaths splats onto the film, and the sum of a batch's splats in a pixel
-//! is one estimate of the pixel (film-wide importance is W·H times smaller than a pixel's). A
-//! pixel's sample i is its own camera-path estimate plus the splats of batch i: the film keeps
-//! its spp samples per pixel, with an honest variance.
-//!
-//! Splats are gathered per image row in parallel and added in row order, so the image is the
-//! same bit for bit on every run whatever the thread count.
+//! Bidirectional path tracing (Veach 1997, ch. 10) on the CPU: subpaths of [`Vertex`]es from
+//! the camera and from the emitters, every (s, t) connection and its MIS weight over all the
+//! strategies that can make the path. Twin of `shaders/inc/bdpt.glsl`, same names.
+//! (Over 900 lines: the vertex, its subpaths and the MIS weights read side by side with
+//! bdpt.glsl, whose structure this file keeps.)
 
 // `!(x > 0.0)` rejects NaN along with the non-positive, on purpose, as the GLSL twin does.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -39,32 +12,25 @@ use crate::bsdf::{ShadingFrame, TransportMode, VertexBsdf};
 use crate::bvh::Ray;
 use crate::cpu::path::emitted_radiance;
 use crate::cpu::path::{sample_pair, RayCounts};
-use crate::film::accumulate;
-use crate::film::Film;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, GpuPunctualLight, LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL,
-    LIGHT_SPOT, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF, TRIANGLE_TEST_CULL,
+    dim, FrameParams, GpuMaterial, ALPHA_CONNECT, ALPHA_LIGHT_WALK, LIGHT_DIRECTIONAL,
+    LIGHT_ENTRY_PUNCTUAL, LIGHT_SPOT, MATERIAL_DOUBLE_SIDED, RR_ALBEDO, RR_OFF,
 };
+use crate::lights::{punctual_intensity, punctual_window, sample_light, spot_cos_outer};
 use crate::mc::roulette_f32;
 use crate::mis::Heuristic;
 use crate::paths::{PathExpr, SYM_D, SYM_E, SYM_L, SYM_S};
 use crate::render::Integrator;
 use crate::render::PreparedScene;
 use crate::sampling::{
-    build_frame, offset_ray_origin, rng_uniform4, sample_cosine_hemisphere, sample_light,
-    sample_uniform_cone, sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
+    build_frame, offset_ray_origin, rng_uniform4, sample_cosine_hemisphere, sample_uniform_cone,
+    sample_uniform_triangle, uniform_cone_pdf, ONE_MINUS_EPSILON,
 };
 use crate::spectrum::{material_at_wavelength, sample_wavelength_of, wavelength_weight};
 use crate::surface::{alpha_key, surface_material, surface_normal, towards_eye, LOD_MAGNIFY};
 use crate::texture::TextureData;
 use glam::{Vec2, Vec3};
-use indicatif::ProgressBar;
-use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
-
-/// Alpha-test keys of light subpaths and connections, apart from the camera's bounces.
-const ALPHA_LIGHT_WALK: u32 = 1 << 20;
-const ALPHA_CONNECT: u32 = 1 << 21;
 
 /// What a vertex is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,7 +70,14 @@ pub struct Vertex {
 }
 
 impl Vertex {
-    fn endpoint(kind: Kind, p: Vec3, ng: Vec3, beta: Vec3, pdf_fwd: f32, index: u32) -> Vertex {
+    pub(crate) fn endpoint(
+        kind: Kind,
+        p: Vec3,
+        ng: Vec3,
+        beta: Vec3,
+        pdf_fwd: f32,
+        index: u32,
+    ) -> Vertex {
         Vertex {
             kind,
             p,
@@ -119,11 +92,11 @@ impl Vertex {
             index,
         }
     }
-    fn on_surface(&self) -> bool {
+    pub(crate) fn on_surface(&self) -> bool {
         matches!(self.kind, Kind::Surface | Kind::AreaLight)
     }
     /// |cos| of the vertex's side of an edge along `w` (the G term).
-    fn cos(&self, w: Vec3) -> f32 {
+    pub(crate) fn cos(&self, w: Vec3) -> f32 {
         match self.kind {
             Kind::PointLight => 1.0,
             _ => self.ng.dot(w).abs(),
@@ -135,12 +108,12 @@ impl Vertex {
 pub struct Bidir<'a> {
     pub scene: &'a PreparedScene,
     pub frame: &'a FrameParams,
-    textures: TextureData<'a>,
+    pub(crate) textures: TextureData<'a>,
     pub integrator: Integrator,
     pub heuristic: Heuristic,
     pub paths: Option<&'a PathExpr>,
     /// A = 4 tan²(fov/2)·aspect.
-    film_area: f32,
+    pub(crate) film_area: f32,
 }
 
 /// One path's contributions: to its own pixel, and splats (pixel, value) elsewhere.
@@ -187,43 +160,9 @@ impl<'a> Bidir<'a> {
 
     // --- the camera -------------------------------------------------------------------------
 
-    /// The pixel a direction from the pinhole lands in, W_e (area measure) and the direction
-    /// pdf there: 1/(A cos⁴θ) and 1/(A cos³θ); None outside the film.
-    pub fn camera_importance(&self, dir: Vec3) -> Option<(u32, f32, f32)> {
-        let f = self.frame;
-        let cos = dir.dot(Vec3::from(f.cam_forward));
-        if !(cos > 0.0) {
-            return None;
-        }
-        let t = f.tan_half_fov_y;
-        let sx = dir.dot(Vec3::from(f.cam_right)) / (cos * t * f.aspect);
-        let sy = dir.dot(Vec3::from(f.cam_up)) / (cos * t);
-        let px = (sx + 1.0) * 0.5 * f.width as f32;
-        let py = (1.0 - sy) * 0.5 * f.height as f32;
-        if !(px >= 0.0 && px < f.width as f32 && py >= 0.0 && py < f.height as f32) {
-            return None;
-        }
-        let pixel = (py as u32).min(f.height - 1) * f.width + (px as u32).min(f.width - 1);
-        let pdf = 1.0 / (self.film_area * cos * cos * cos);
-        Some((pixel, pdf / cos, pdf))
-    }
-
-    fn camera_vertex(&self) -> Vertex {
-        Vertex::endpoint(
-            Kind::Camera,
-            Vec3::from(self.frame.cam_position),
-            Vec3::from(self.frame.cam_forward),
-            Vec3::ONE,
-            1.0,
-            0,
-        )
-    }
-
-    // --- emitters ---------------------------------------------------------------------------
-
     /// Emitter table entry for `u`, its probability (the environment's share out), then a
     /// light vertex on it for `u_point` (and, double-sided, `u_side`): y₀ with β = 1/p(y₀).
-    fn sample_light_vertex(
+    pub(crate) fn sample_light_vertex(
         &self,
         (pixel, sample): (u32, u32),
         u: f32,
@@ -282,7 +221,7 @@ impl<'a> Bidir<'a> {
 
     /// Radiance (or intensity) leaving light vertex `v` along `w`, over a distance `dist` (the
     /// range window of punctual lights).
-    fn emission(&self, v: &Vertex, w: Vec3, dist: f32) -> Vec3 {
+    pub(crate) fn emission(&self, v: &Vertex, w: Vec3, dist: f32) -> Vec3 {
         match v.kind {
             Kind::PointLight => {
                 let light = &self.scene.punctual[v.index as usize];
@@ -294,7 +233,7 @@ impl<'a> Bidir<'a> {
 
     /// Solid-angle pdf of the emission direction `w` from light vertex `v` (an emitting
     /// surface for s = 0: cosine-weighted on its emitting side, or both halves).
-    fn emission_pdf(&self, v: &Vertex, w: Vec3) -> f32 {
+    pub(crate) fn emission_pdf(&self, v: &Vertex, w: Vec3) -> f32 {
         match v.kind {
             Kind::PointLight => {
                 let light = &self.scene.punctual[v.index as usize];
@@ -322,7 +261,7 @@ impl<'a> Bidir<'a> {
 
     /// The area density with which light subpaths start at surface vertex `v` (emitter hit by
     /// a camera subpath): the triangle's power share over its area.
-    fn light_origin_pdf(&self, v: &Vertex) -> f32 {
+    pub(crate) fn light_origin_pdf(&self, v: &Vertex) -> f32 {
         let tri = &self.scene.triangles[v.index as usize];
         (1.0 - self.frame.env_pmf) * tri.light_pmf / tri.area
     }
@@ -330,7 +269,7 @@ impl<'a> Bidir<'a> {
     // --- densities --------------------------------------------------------------------------
 
     /// A solid-angle pdf at `from` of the direction to `to`, as an area density at `to`.
-    fn to_area(&self, pdf_dir: f32, from: Vec3, to: &Vertex) -> f32 {
+    pub(crate) fn to_area(&self, pdf_dir: f32, from: Vec3, to: &Vertex) -> f32 {
         let d = to.p - from;
         let r2 = d.dot(d);
         if !(r2 > 0.0) {
@@ -345,7 +284,7 @@ impl<'a> Bidir<'a> {
 
     /// Area density of sampling `next` from `v`, `v` having been reached from `prev` (surfaces:
     /// the BSDF seen from `prev`; endpoints: the camera's or the light's direction pdf).
-    fn pdf(&self, v: &Vertex, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+    pub(crate) fn pdf(&self, v: &Vertex, prev: Option<&Vertex>, next: &Vertex) -> f32 {
         let w = (next.p - v.p).normalize();
         let pdf_dir = match v.kind {
             Kind::Camera => self.camera_importance(w).map_or(0.0, |(_, _, pdf)| pdf),
@@ -361,25 +300,12 @@ impl<'a> Bidir<'a> {
         self.to_area(pdf_dir, v.p, next)
     }
 
-    fn bsdf(&self, v: &Vertex, w_cam: Vec3) -> Option<ShadingFrame> {
+    pub(crate) fn bsdf(&self, v: &Vertex, w_cam: Vec3) -> Option<ShadingFrame> {
         ShadingFrame::new_shading(&v.mat, v.ng, v.ns, w_cam)
     }
 
-    /// φ(ω_c, ω_l) of a scattering vertex: f·|n_s·ω_l| / |n_g·ω_l| (module docs).
-    fn phi(&self, v: &Vertex, w_cam: Vec3, w_light: Vec3) -> Vec3 {
-        let cos_g = v.ng.dot(w_light).abs();
-        match self.bsdf(v, w_cam) {
-            Some(frame) if cos_g > 0.0 => {
-                frame.eval(w_light, TransportMode::Radiance) * (frame.cos_theta(w_light) / cos_g)
-            }
-            _ => Vec3::ZERO,
-        }
-    }
-
-    // --- subpaths ---------------------------------------------------------------------------
-
     /// The surface the subpath's ray hits: its vertex with textures at level 0.
-    fn surface_vertex(
+    pub(crate) fn surface_vertex(
         &self,
         hit: crate::bvh::Hit,
         instance: u32,
@@ -411,7 +337,7 @@ impl<'a> Bidir<'a> {
     /// delta: `pdf_dir` < 0) until it has `max_vertices` vertices, leaves the scene or is
     /// stopped by Russian roulette. Camera subpaths (radiance) draw the path tracer's numbers.
     #[allow(clippy::too_many_arguments)]
-    fn walk(
+    pub(crate) fn walk(
         &self,
         (pixel, sample): (u32, u32),
         mode: TransportMode,
@@ -526,7 +452,7 @@ impl<'a> Bidir<'a> {
     }
 
     /// The camera subpath of (pixel, sample): z₀ and up to `max_vertices` − 1 surfaces.
-    fn camera_subpath(
+    pub(crate) fn camera_subpath(
         &self,
         key: (u32, u32),
         max_vertices: usize,
@@ -550,7 +476,7 @@ impl<'a> Bidir<'a> {
     }
 
     /// The light subpath of (pixel, sample): y₀ and up to `max_vertices` − 1 surfaces.
-    fn light_subpath(
+    pub(crate) fn light_subpath(
         &self,
         key: (u32, u32),
         max_vertices: usize,
@@ -630,7 +556,7 @@ impl<'a> Bidir<'a> {
     /// KHR_materials_volume: the transmittance of the segment between two vertices, its medium
     /// read from either end (`volume::volume_sigma` of a surface or emitter's material; the
     /// camera and punctual lights lie in no volume).
-    fn segment_transmittance(&self, a: &Vertex, b: &Vertex) -> Vec3 {
+    pub(crate) fn segment_transmittance(&self, a: &Vertex, b: &Vertex) -> Vec3 {
         let d = b.p - a.p;
         let dist = d.length();
         let w = d / dist;
@@ -638,7 +564,7 @@ impl<'a> Bidir<'a> {
     }
 
     /// Whether the segment between two vertices is free (the camera's near plane respected).
-    fn visible(
+    pub(crate) fn visible(
         &self,
         a: &Vertex,
         b: &Vertex,
@@ -688,7 +614,13 @@ impl<'a> Bidir<'a> {
     }
 
     /// The path string of strategy (s, t), emitter-first, through the forward automaton.
-    fn path_matches(&self, light: &[Vertex], camera: &[Vertex], s: usize, t: usize) -> bool {
+    pub(crate) fn path_matches(
+        &self,
+        light: &[Vertex],
+        camera: &[Vertex],
+        s: usize,
+        t: usize,
+    ) -> bool {
         let Some(expr) = self.paths else {
             return true;
         };
@@ -834,7 +766,7 @@ impl<'a> Bidir<'a> {
 
     /// The unweighted contribution of strategy (s, t) and, for t = 1, the pixel it lands in;
     /// for s = 1 the light vertex sampled afresh at the camera vertex.
-    fn connect(
+    pub(crate) fn connect(
         &self,
         key: (u32, u32),
         light: &[Vertex],
@@ -915,30 +847,10 @@ impl<'a> Bidir<'a> {
         Some((c, None, sampled))
     }
 
-    /// Whether the camera, in direction `w` from surface vertex `v`, sees it: not on the back
-    /// face of a single-sided triangle, which primary rays cull (`surface::culled`).
-    fn camera_sees(&self, v: &Vertex, w: Vec3) -> bool {
-        let tri = &self.scene.triangles[v.index as usize];
-        tri.material & TRIANGLE_TEST_CULL == 0 || v.ng.dot(w) >= 0.0
-    }
-
-    /// A surface vertex can be joined to another if its material has a non-delta lobe.
-    fn connectible(&self, v: &Vertex) -> bool {
-        match v.kind {
-            Kind::Surface => {
-                let m = &v.mat;
-                let alpha = m.roughness * m.roughness;
-                let diffuse = (1.0 - m.metallic) * (1.0 - m.transmission) > 0.0;
-                diffuse || alpha >= crate::bsdf::microfacet::ALPHA_DELTA
-            }
-            _ => true,
-        }
-    }
-
     /// The wavelength sample (`pixel`, `sample`) carries where the scene has a dispersive
     /// material (`FrameParams::spectral`), else 0: one for both subpaths (`spectrum`'s module
     /// docs).
-    fn wavelength(&self, pixel: u32, sample: u32) -> f32 {
+    pub(crate) fn wavelength(&self, pixel: u32, sample: u32) -> f32 {
         if self.frame.spectral != 0 {
             sample_wavelength_of(self.frame.seed, pixel, sample)
         } else {
@@ -978,7 +890,7 @@ impl<'a> Bidir<'a> {
     }
 
     /// [`Bidir::sample`] before the wavelength's weight.
-    fn sample_rgb(
+    pub(crate) fn sample_rgb(
         &self,
         pixel: u32,
         sample: u32,
@@ -1061,233 +973,5 @@ fn vertex_sigma(v: &Vertex, w: Vec3) -> Vec3 {
     }
 }
 
-/// Radiant intensity of a point or spot light along `w` (unit, away from the light):
-/// KHR_lights_punctual's I times the spot's smooth falloff clamp(cos·scale + offset, 0, 1)²,
-/// as `path::punctual_incident` applies it.
-pub fn punctual_intensity(light: &GpuPunctualLight, w: Vec3) -> Vec3 {
-    let mut i = Vec3::from(light.intensity);
-    if light.kind == LIGHT_SPOT {
-        let a = (Vec3::from(light.direction).dot(w) * light.spot_scale + light.spot_offset)
-            .clamp(0.0, 1.0);
-        i *= a * a;
-    }
-    i
-}
-
-/// The range window clamp(1 − (d/range)⁴, 0, 1) of a punctual light at distance `d` (1 without
-/// a range), as `path::punctual_incident` applies it.
-pub fn punctual_window(light: &GpuPunctualLight, d: f32) -> f32 {
-    if light.range > 0.0 {
-        let x = d / light.range;
-        (1.0 - x * x * x * x).clamp(0.0, 1.0)
-    } else {
-        1.0
-    }
-}
-
-/// cos of a spot light's outer cone angle, from its falloff constants (scale = 1/(cos inner −
-/// cos outer), offset = −cos outer · scale).
-fn spot_cos_outer(light: &GpuPunctualLight) -> f32 {
-    (-light.spot_offset / light.spot_scale).clamp(-1.0, 1.0)
-}
-
-/// Per (s, t) strategy: its weighted and unweighted contributions as two films
-/// (`--bdpt-strategies`). The weighted films of all strategies add up to the image; an
-/// unweighted film is that strategy alone, an estimate of every path of its length that it can
-/// make.
-#[derive(Default)]
-pub struct StrategyFilms {
-    pub films: std::collections::BTreeMap<(usize, usize), (Film, Film)>,
-}
-
-/// Adds samples `samples` of every pixel to `film` with the light or bidirectional integrator:
-/// per sample index, every pixel's subpaths in parallel by rows, the splats added in row order
-/// (deterministic), then each pixel's own estimate plus its splats as one film sample. With
-/// `strategies`, each strategy's contributions are kept apart as well.
-pub fn render_samples(
-    bidir: &Bidir,
-    film: &mut Film,
-    samples: std::ops::Range<u32>,
-    progress: &ProgressBar,
-    mut strategies: Option<&mut StrategyFilms>,
-) -> (RayCounts, u64) {
-    type Row = (Vec<Vec3>, Vec<(u32, Vec3)>, RayCounts, Vec<Strategy>);
-    let width = film.width as usize;
-    let rows = film.height as usize;
-    let keep = strategies.is_some();
-    let mut counts = RayCounts::default();
-    let mut dropped = 0u64;
-    let mut image = vec![Vec3::ZERO; film.len()];
-    let mut splat_sums = vec![[0u64; 3]; film.len()];
-    let mut per_strategy: std::collections::BTreeMap<(usize, usize), (Vec<Vec3>, Vec<Vec3>)> =
-        Default::default();
-    let first_sample = samples.start;
-    for sample in samples {
-        let results: Vec<Row> = (0..rows)
-            .into_par_iter()
-            .map(|row| {
-                let mut scratch = (Vec::new(), Vec::new());
-                let mut c = RayCounts::default();
-                let mut own = Vec::with_capacity(width);
-                let mut splats = Vec::new();
-                let mut list = Vec::new();
-                for x in 0..width {
-                    let pixel = (row * width + x) as u32;
-                    let out = bidir.sample(
-                        pixel,
-                        sample,
-                        &mut scratch,
-                        &mut c,
-                        keep.then_some(&mut list),
-                    );
-                    own.push(out.own);
-                    splats.extend(out.splats);
-                }
-                progress.inc(width as u64);
-                (own, splats, c, list)
-            })
-            .collect();
-        for (row, (own, _, c, _)) in results.iter().enumerate() {
-            image[row * width..(row + 1) * width].copy_from_slice(own);
-            counts = counts.merged(c);
-        }
-        for (_, splats, _, _) in &results {
-            for &(p, c) in splats {
-                splat_add(&mut splat_sums[p as usize], c);
-            }
-        }
-        for (l, sums) in image.iter_mut().zip(&mut splat_sums) {
-            *l += splat_value(sums);
-            *sums = [0; 3];
-        }
-        for (acc, &l) in film.pixels.iter_mut().zip(&image) {
-            if !accumulate(acc, l) {
-                dropped += 1;
-            }
-        }
-        if let Some(out) = strategies.as_deref_mut() {
-            for buffers in per_strategy.values_mut() {
-                buffers.0.fill(Vec3::ZERO);
-                buffers.1.fill(Vec3::ZERO);
-            }
-            for (_, _, _, list) in &results {
-                for &(s, t, weighted, unweighted, p) in list {
-                    let b = per_strategy.entry((s, t)).or_insert_with(|| {
-                        (vec![Vec3::ZERO; image.len()], vec![Vec3::ZERO; image.len()])
-                    });
-                    b.0[p as usize] += weighted;
-                    b.1[p as usize] += unweighted;
-                }
-            }
-            for (&st, b) in &per_strategy {
-                let (fw, fu) = out.films.entry(st).or_insert_with(|| {
-                    // A strategy first seen now had zero in every earlier sample.
-                    let mut empty = Film::new(film.width, film.height);
-                    let done = sample - first_sample;
-                    for p in &mut empty.pixels {
-                        p.count = done;
-                    }
-                    (empty.clone(), empty)
-                });
-                for ((pw, pu), (w, u)) in fw
-                    .pixels
-                    .iter_mut()
-                    .zip(fu.pixels.iter_mut())
-                    .zip(b.0.iter().zip(&b.1))
-                {
-                    accumulate(pw, *w);
-                    accumulate(pu, *u);
-                }
-            }
-        }
-    }
-    (counts, dropped)
-}
-
-/// Adds `c` to a pixel's splat sums, each channel a 64-bit fixed-point integer in units of
-/// 2⁻²⁴ (light_tracing.glsl, `splat_add`, which adds the same integers with 32-bit atomics):
-/// integer sums do not depend on the order of the additions. Non-finite, negative and absurd
-/// (≥ 2³⁹) values are not added.
-pub fn splat_add(sums: &mut [u64; 3], c: Vec3) {
-    for (sum, v) in sums.iter_mut().zip(c.to_array()) {
-        if !(v > 0.0) || !(v < 549_755_813_888.0) {
-            continue;
-        }
-        let hi = (v * (1.0 / 256.0)).floor();
-        let lo = (v - hi * 256.0) * 16_777_216.0;
-        let lo = if lo < 16_777_216.0 { lo + 0.5 } else { lo } as u32;
-        *sum = sum.wrapping_add(((hi as u64) << 32) + lo as u64);
-    }
-}
-
-/// The value of a pixel's splat sums (accumulate_splats.comp).
-pub fn splat_value(sums: &[u64; 3]) -> Vec3 {
-    Vec3::from(
-        sums.map(|s| (s >> 32) as u32 as f32 * 256.0 + s as u32 as f32 * (1.0 / 16_777_216.0)),
-    )
-}
-
 /// One strategy's contribution: (s, t, weighted, unweighted, pixel).
 pub type Strategy = (usize, usize, Vec3, Vec3, u32);
-
-/// Writes each strategy's weighted and unweighted image to `dir` (`s{s}-t{t}-weighted.exr`, …)
-/// and the lecture's "Bidir PT example" figure, `strategies.png`: one row per number of
-/// scattering vertices, one column per s, weighted images above the unweighted.
-pub fn write_strategies(
-    strategies: &StrategyFilms,
-    dir: &std::path::Path,
-    exposure: f32,
-) -> anyhow::Result<()> {
-    use anyhow::Context;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let Some(((_, _), (first, _))) = strategies.films.iter().next() else {
-        return Ok(());
-    };
-    let (w, h) = (first.width, first.height);
-    let mut lengths = std::collections::BTreeSet::new();
-    let mut max_s = 0;
-    for (&(s, t), (weighted, unweighted)) in &strategies.films {
-        for (film, kind) in [(weighted, "weighted"), (unweighted, "unweighted")] {
-            let name = format!("s{s}-t{t}-{kind}.exr");
-            crate::image_io::write_image(film, &dir.join(&name), exposure)?;
-        }
-        lengths.insert(s + t - 2);
-        max_s = max_s.max(s);
-    }
-    // The grid: for each path length k (rows, two per k: weighted, then unweighted), the
-    // strategies s = 0 … k + 1 (columns), a 2-pixel gap between cells.
-    let gap = 2;
-    let columns = max_s as u32 + 1;
-    let rows = 2 * lengths.len() as u32;
-    let (gw, gh) = (columns * (w + gap) + gap, rows * (h + gap) + gap);
-    let mut grid = image::RgbImage::from_pixel(gw, gh, image::Rgb([40, 40, 40]));
-    let scale = exposure.exp2();
-    for (row, &k) in lengths.iter().enumerate() {
-        for s in 0..=k + 1 {
-            let t = k + 2 - s;
-            let Some((weighted, unweighted)) = strategies.films.get(&(s, t)) else {
-                continue;
-            };
-            for (half, film) in [weighted, unweighted].into_iter().enumerate() {
-                let x0 = gap + s as u32 * (w + gap);
-                let y0 = gap + (2 * row as u32 + half as u32) * (h + gap);
-                for y in 0..h {
-                    for x in 0..w {
-                        let m = film.mean((x + y * w) as usize);
-                        let px = m
-                            .to_array()
-                            .map(|c| crate::image_io::srgb_encode_u8(c * scale));
-                        grid.put_pixel(x0 + x, y0 + y, image::Rgb(px));
-                    }
-                }
-            }
-        }
-    }
-    let path = dir.join("strategies.png");
-    grid.save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests;

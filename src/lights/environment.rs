@@ -21,8 +21,8 @@
 //! lossless for `.hdr` files, within 2⁻⁸ of the largest channel for EXR, any range a sun
 //! needs, and 4 bytes a texel, so an 8k × 4k map takes 128 MiB and its CDFs another 128 MiB.
 
+use super::emitters::luminance;
 use crate::layout::FrameParams;
-use crate::scene::luminance;
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;

@@ -212,3 +212,18 @@ mod tests {
         assert!((luminance(Vec3::ONE) - 1.0).abs() < 1e-6);
     }
 }
+
+/// Picks an emitter by inverting the discrete CDF of the light table (binary search for the first
+/// entry whose `cdf` exceeds `u`). Returns the table index; its probability is `pmf`.
+pub fn sample_light(lights: &[LightEntry], u: f32) -> usize {
+    let (mut lo, mut hi) = (0usize, lights.len() - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if lights[mid].cdf > u {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}

@@ -499,7 +499,7 @@ fn light_bvh_build_statistics() {
         }
         let normal = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
         let area = 0.5 * normal.length();
-        let power = crate::scene::emitted_power(m.emission, area, m.double_sided);
+        let power = crate::lights::emitted_power(m.emission, area, m.double_sided);
         lights.push(LightBounds::triangle(
             t.p[0],
             t.p[1],

@@ -1,0 +1,17 @@
+//! Everything that emits: the emitter table of emissive triangles and punctual lights with the
+//! power CDF next event estimation samples (`emitters`), the light BVH that samples them by their
+//! importance to a point instead (`light_bvh`), KHR_lights_punctual's lights (`punctual`) and
+//! the environment map (`environment`). Each file is the twin of the GLSL file of the same name
+//! in `shaders/inc/`.
+
+pub mod emitters;
+pub mod environment;
+pub mod light_bvh;
+pub mod punctual;
+
+pub use emitters::{
+    build_light_table, build_light_table_with, emitted_power, luminance, punctual_power,
+    sample_light,
+};
+pub use environment::EnvironmentMap;
+pub use punctual::{punctual_incident, punctual_intensity, punctual_window, spot_cos_outer};
