@@ -1,8 +1,9 @@
+//! (Over 900 lines: every GPU-visible struct and constant in one file, as in layout.glsl, so the checked pair reads side by side.)
 //! Every struct the GPU reads or writes, as `#[repr(C)]` twins of `shaders/inc/layout.glsl`.
 //!
 //! The GLSL side uses std430 (storage buffers) and std140 (the frame uniform); each struct here is
 //! laid out so that `repr(C)` gives the same offsets: a `vec3` is always followed by a 4-byte
-//! scalar. `tests/shaders.rs` reflects the compiled SPIR-V with naga and checks every offset and
+//! scalar. `tests/twins/shaders.rs` reflects the compiled SPIR-V with naga and checks every offset and
 //! size listed in [`STRUCT_LAYOUTS`].
 
 use bytemuck::{Pod, Zeroable};
@@ -309,7 +310,7 @@ pub const FEATURE_SOBOL: u32 = 1 << 11;
 pub const FEATURE_LIGHT_BVH: u32 = 1 << 12;
 /// A material with a thin film (`GpuMaterial::iridescence` > 0; its texture multiplies the
 /// factor, so 0 stays 0): KHR_materials_iridescence's Fresnel term, about a fifth of a textured
-/// `shade`'s first-dispatch compile on lavapipe (README, "Performance").
+/// `shade`'s first-dispatch compile on lavapipe (docs/perf-log/2026-12-02-kernels-made-for-the-scene.md).
 pub const FEATURE_IRIDESCENCE: u32 = 1 << 13;
 /// Every feature: a pipeline that serves any scene.
 pub const FEATURES_ALL: u32 = u32::MAX;
@@ -726,7 +727,7 @@ pub struct ShadowRay {
     pub pad: u32,               // 4 bytes
 }
 
-/// One vertex of a BDPT subpath on the GPU (`src/cpu/bidir.rs`, `Vertex`): where it is, what
+/// One vertex of a BDPT subpath on the GPU (`src/cpu/bidir/bdpt.rs`, `Vertex`): where it is, what
 /// MIS needs (the area densities of generating it from either side) and what rebuilds its
 /// material (triangle, instance, barycentrics). Total: 96 bytes.
 #[repr(C)]

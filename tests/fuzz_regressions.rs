@@ -1,10 +1,12 @@
-//! The fuzz target's execution (tools/fuzz, README "Fuzzing"; tests/common/fuzz_harness.rs) on
+//! The fuzz target's execution (tools/fuzz, docs/security.md "Fuzzing"; tests/common/fuzz_harness.rs) on
 //! every input the fuzzer found to panic, hang or allocate without bound (tests/fuzz/, each with
 //! its expected outcome in tests/fuzz/expect.json) and on the hostile corpus (tests/hostile/):
 //! load from memory under a 16 MiB budget, prepare, render 4×4 on the CPU. Each must render or be
 //! refused with an error naming the file and the glTF object, without a panic (not even one the
 //! loader's last-guard `catch_unwind` turns into an error) and with the live heap under the
 //! harness's cap (the allocator aborts the test binary otherwise).
+//!
+//! A test binary of its own: its capped global allocator holds for the whole process.
 
 #[path = "common/fuzz_harness.rs"]
 mod fuzz_harness;

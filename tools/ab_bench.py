@@ -17,7 +17,7 @@ Each build first runs once untimed (`--warm-up 0` leaves that out): lavapipe com
 kernel at its first dispatch and keeps them in Mesa's shader cache, so a build's first run on a
 scene could take seconds longer in one kernel (5 December 2026: prism's shade 913 ms against 147
 in a build's first pair, 129 after). `bench` now renders each scene once untimed itself before
-its GPU row (README, Performance), so this run only settles the files and caches both builds
+its GPU row (docs/performance.md, "wavetrace bench"), so this run only settles the files and caches both builds
 read.
 """
 

@@ -6,7 +6,7 @@
 #
 #   tools/device_check.sh prepare [--mitsuba] [--tests]   here: fills .device/ and .gl/ (ignored)
 #   run(command="bash tools/device_check.sh run", carry=[".device", ".gl"], timeout_s=600)
-#   run(command="bash tools/device_check.sh run --tests twins surface_twins", ...)  those alone
+#   run(command="bash tools/device_check.sh run --tests twins integrators", ...)  those alone
 #   tools/device_check.sh run --quick                     here, on lavapipe: the same steps,
 #                                           small (PYTHON=python3.12 for the Mitsuba step)
 #

@@ -2,7 +2,7 @@
 """Instructions per sample of the CPU reference (and of Mitsuba 3's scalar_rgb on the same
 render), counted by valgrind's callgrind: a figure this machine's drifting clock cannot move,
 for changes too small for `tools/ab_bench.py`'s pairs to see, and the cost model of the CPU side
-(`README.md`, Performance).
+(`docs/performance.md`).
 
 Each program renders the scene twice on one thread (RAYON_NUM_THREADS=1; Mitsuba through
 `tools/mitsuba_bench.py --threads 1`) at two sample counts, and the difference of the two runs'

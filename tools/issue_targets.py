@@ -116,7 +116,7 @@ def main():
         steps.append(("earlier build", lambda: build_ms(args.earlier, args.terrain, out)))
         steps.append(("later build", lambda: build_ms(args.later, args.terrain, out)))
     # One untimed bench of each build first: lavapipe compiles part of a kernel at its first
-    # dispatch and caches it, so a build's first run is slower (README, "Performance").
+    # dispatch and caches it, so a build's first run is slower (docs/perf-log/2026-12-02-lavapipe-scene-reads.md).
     for binary in (args.earlier, args.later):
         bench(binary, bench_args)
     rounds = []

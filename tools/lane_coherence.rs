@@ -12,7 +12,7 @@
 //! its maximum: the share of a SIMD step's lanes doing work when a walk's trip count is its
 //! longest lane's. Three orders: pixel order (as a subgroup pushes them to the wavefront's queues),
 //! sorted by the octant of the direction, and sorted by octant within the cluster of triangles the
-//! ray leaves (sixteen neighbours in the BVH's order). README, "Performance", says what it found.
+//! ray leaves (sixteen neighbours in the BVH's order). docs/perf-log/2026-12-02-lavapipe-fetches-and-divergence.md says what it found.
 
 use anyhow::{bail, Context, Result};
 use glam::{Vec2, Vec3};

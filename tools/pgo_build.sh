@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A profile-guided build of wavetrace (rustc's PGO: -Cprofile-generate, a training run,
 # -Cprofile-use), for CPU renders: the CPU integrators run faster than in the plain release
-# build (README, "Performance", has the figures), to the same images bit for bit (PGO changes
+# build (docs/perf-log/2026-12-02-cpu-reference-against-mitsuba.md has the figures), to the same images bit for bit (PGO changes
 # how the compiler lays out, inlines and orders code, not the floating-point operations). The
 # GPU path and the BVH build measured the same.
 #

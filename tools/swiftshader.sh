@@ -2,7 +2,7 @@
 # Fetches SwiftShader's Vulkan driver (Google's CPU implementation of Vulkan 1.3, Apache-2.0)
 # into DIR (default target/swiftshader) and prints the path of its ICD manifest, for
 #   VK_ICD_FILENAMES=$(tools/swiftshader.sh) WAVETRACE_TWINS_DEVICE=SwiftShader \
-#       cargo test --release --test twins --test surface_twins --test light_bvh_twins
+#       cargo test --release --test twins
 # A second Vulkan implementation whose arithmetic is its own (its sin, cos, exp and log are
 # approximations within what Vulkan allows; lavapipe's agree with Rust's to an ulp or two), so
 # the GLSL-twin tests show whether their tolerances hold for what the Vulkan spec allows rather

@@ -1,5 +1,5 @@
 // Bidirectional path tracing (Veach & Guibas 1995; Veach 1997, ch. 10) on the GPU: the twin of
-// src/cpu/bidir.rs (Bidir::sample_light_vertex, pdf, mis_weight, path_matches), same names
+// src/cpu/bidir/bdpt.rs (Bidir::sample_light_vertex, pdf, mis_weight, path_matches), same names
 // with a bdpt_ prefix. Both subpaths of every path of a batch live in bdpt_vertices: the light
 // subpath's at most max_depth + 1 vertices, then the camera subpath's at most max_depth + 2.
 // The camera subpath's vertex 0 (z0, the pinhole) is rebuilt from the frame when read, so its

@@ -1,4 +1,4 @@
-// The one descriptor set every wavefront kernel shares (src/gpu/pipelines.rs, `Binding`).
+// The one descriptor set every wavefront kernel shares (src/gpu/bindings.rs, `Binding`).
 #ifndef BINDINGS_GLSL
 #define BINDINGS_GLSL
 
@@ -73,12 +73,12 @@ layout(std430, set = 0, binding = 42) readonly buffer Texels3 { uint texels3[]; 
 #endif
 // The read-only scene arrays as RGBA32UI images (records of 16-byte texels, row after row; the
 // textures' texels R32UI), read instead of the buffers above where the specialization constant
-// SCENE_IMAGES is not 0 (scene_arrays.glsl; src/gpu/pipelines.rs, SceneImage): as storage images
+// SCENE_IMAGES is not 0 (scene_arrays.glsl; src/gpu/bindings.rs, SceneImage): as storage images
 // with imageLoad where it is 1, as sampled images with texelFetch (bindings 54 to 64, the same
 // images) where it is 2. On llvmpipe a sampled image's texel is read through a function that
 // works out each lane's mip level, its size, row pitch and offset (about 200 instructions for 8
-// lanes) and a storage image's through one that only bounds-checks and loads (about 50; README,
-// "Performance"); on a GPU both go through its texture units.
+// lanes) and a storage image's through one that only bounds-checks and loads (about 50;
+// docs/perf-log/2026-12-02-lavapipe-scene-reads.md); on a GPU both go through its texture units.
 layout(set = 0, binding = 43, rgba32ui) uniform readonly uimage2D bvh_node_image;
 layout(set = 0, binding = 44, rgba32ui) uniform readonly uimage2D triangle_image;
 layout(set = 0, binding = 45, rgba32ui) uniform readonly uimage2D triangle_vertex_image;
@@ -149,7 +149,7 @@ HitRecord hit_load(uint i) {
 // of the path reads. The members only a feature reads (the previous vertex for the light BVH's
 // pmf, the ray cone for textures, the path expression's state, the medium, the wavelength) are
 // stored only where the kernels are made for it; without it no kernel reads them, and every
-// word is a store per lane on lavapipe (README, "Performance").
+// word is a store per lane on lavapipe (docs/perf-log/2026-12-02-lavapipe-fetches-and-divergence.md).
 void path_store(uint path, PathState state) {
     paths[path].throughput = state.throughput;
     paths[path].prev_bsdf_pdf = state.prev_bsdf_pdf;

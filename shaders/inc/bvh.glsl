@@ -1,4 +1,4 @@
-// Closest-hit and any-hit BVH traversal: the twin of src/bvh.rs (same maths, same names).
+// Closest-hit and any-hit BVH traversal: the twin of src/bvh/binary.rs (same maths, same names).
 // Needs layout.glsl and, declared by the including kernel (bindings.glsl), the buffers
 //   readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 //   readonly buffer Triangles { GpuTriangle triangles[]; };   (in BVH order)
@@ -89,7 +89,7 @@ bool bvh_slab(BvhNode node, BvhSlabRay ray, float t_min, float t_max, out float 
     return t_enter - abs(t_enter) * BVH_SLAB_SLACK <= t_exit;
 }
 
-// A node to visit, as the traversal needs it once its box has been tested (src/bvh.rs, Cursor):
+// A node to visit, as the traversal needs it once its box has been tested (src/bvh/binary.rs, Cursor):
 // an interior node's children (left, right) or a leaf's primitives (first, count |
 // BVH_CURSOR_LEAF). A deferred node is kept as its cursor, made from the record fetched with its
 // sibling, so visiting it later fetches nothing.
@@ -105,7 +105,7 @@ bool bvh_cursor_is_leaf(uvec2 cursor) { return (cursor.y & BVH_CURSOR_LEAF) != 0
 
 uint bvh_cursor_count(uvec2 cursor) { return cursor.y & ~BVH_CURSOR_LEAF; }
 
-// One step down from the interior node `cursor` names (src/bvh.rs, step): how many of its
+// One step down from the interior node `cursor` names (src/bvh/binary.rs, step): how many of its
 // children the ray enters before t_far (0, 1 or 2), the one to visit next (`near`) and, when
 // both, the one to defer (`far`, entered at `far_enter`). By distance, the nearer child first
 // (closest hit); else the left child first (any hit).

@@ -1,6 +1,6 @@
 // Environment lighting: the equirectangular map's bilinear lookup, its 2-D piecewise-constant
 // sampling (marginal and conditional CDFs inverted) and the density of a direction. Twin of
-// src/environment.rs (conventions and sources there); reads env_texels (RGBE), env_marginal and env_conditional.
+// src/lights/environment.rs (conventions and sources there); reads env_texels (RGBE), env_marginal and env_conditional.
 #ifndef ENVIRONMENT_GLSL
 #define ENVIRONMENT_GLSL
 #include "convert.glsl"
@@ -64,7 +64,7 @@ vec3 env_radiance(vec3 d) {
     return mix(top, bottom, ty) * frame.env_scale;
 }
 
-// The CDF at the end of row j's conditional bin i, or of marginal bin j (src/environment.rs:
+// The CDF at the end of row j's conditional bin i, or of marginal bin j (src/lights/environment.rs:
 // entry k is the CDF at the end of bin k; the start of bin 0 is 0).
 float env_conditional_end(uint j, uint i) { return env_conditional[j * frame.env_width + i]; }
 float env_conditional_start(uint j, uint i) { return i == 0u ? 0.0 : env_conditional[j * frame.env_width + i - 1u]; }

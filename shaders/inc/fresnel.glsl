@@ -12,7 +12,7 @@ float fresnel_coat(float cos_theta) {
 }
 
 // The dielectric (RGB) and metal Fresnel terms at cosine cos to the microfacet normal on wo's
-// side, each mixed with the thin film's by its factor (bsdf/mod.rs, fresnel_layers).
+// side, each mixed with the thin film's by its factor (bsdf/fresnel.rs, fresnel_layers).
 void fresnel_layers(float cos_theta, vec3 f0, float f90, float etap, vec3 base, float metallic,
                     float film, float film_ior, float film_thickness, out vec3 fd, out vec3 fm) {
     fd = fresnel_dielectric_color(cos_theta, f0, f90, etap);

@@ -1,4 +1,4 @@
-// Every struct the GPU reads or writes: the twins of src/layout.rs (checked by tests/shaders.rs).
+// Every struct the GPU reads or writes: the twins of src/layout.rs (checked by tests/twins/shaders.rs).
 // std430 in storage buffers, std140 for FrameParams; a vec3 is always followed by a 4-byte scalar.
 #ifndef LAYOUT_GLSL
 #define LAYOUT_GLSL
@@ -135,7 +135,7 @@ struct GpuVertex {
 // not read; the driver folds it once inlined, scene_arrays.glsl.)
 bool scene_feature_in(uint features, uint f) { return (features & f) != 0u; }
 #ifdef KERNEL_INDEX
-// A wavefront kernel: the render's features (src/render.rs, PreparedScene::gpu_features) as a
+// A wavefront kernel: the render's features (src/render/prepared.rs, PreparedScene::gpu_features) as a
 // specialisation constant, every feature by default; a pipeline made for a render that lacks
 // one compiles without its code.
 layout(constant_id = 6) const uint SCENE_FEATURES = 0xffffffffu;
@@ -355,7 +355,7 @@ struct ShadowRay {
 #define ALPHA_LIGHT_WALK (1u << 20)
 #define ALPHA_CONNECT (1u << 21)
 
-// One vertex of a BDPT subpath (src/cpu/bidir.rs, Vertex; bdpt.glsl). Total: 96 bytes.
+// One vertex of a BDPT subpath (src/cpu/bidir/bdpt.rs, Vertex; bdpt.glsl). Total: 96 bytes.
 struct BdptVertex {
     vec3 p;          // 12 bytes
     uint kind;       // 4 bytes: BDPT_VERTEX_*, | BDPT_VERTEX_DELTA

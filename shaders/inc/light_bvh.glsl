@@ -1,5 +1,5 @@
-// Light BVH sampling: the GLSL twin of src/light_bvh.rs (same names, same arithmetic in the same
-// order; tests/light_bvh_twins.rs compares them). Importance of a node after Conty Estevez &
+// Light BVH sampling: the GLSL twin of src/lights/light_bvh/mod.rs (same names, same arithmetic in the same
+// order; tests/twins/light_bvh_twins.rs compares them). Importance of a node after Conty Estevez &
 // Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree Splitting", in pbrt-v4's
 // LightBounds::Importance form; descent and pmf as pbrt-v4's BVHLightSampler.
 //
@@ -61,10 +61,10 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
 float light_bvh_safe_sqrt(float x) { return sqrt(max(x, 0.0)); }
 
 // phi · cos θ' / d², times cos θ'i when n ≠ 0; see light_bounds_importance_terms in
-// src/light_bvh.rs for the terms.
+// src/lights/light_bvh/mod.rs for the terms.
 float light_bounds_importance(GpuLightNode node, vec3 p, vec3 n) {
     vec3 pc = (node.bounds_min + node.bounds_max) * 0.5;
-    // The node's constants (radius, sin θo) come with it from the build (src/light_bvh.rs).
+    // The node's constants (radius, sin θo) come with it from the build (src/lights/light_bvh/mod.rs).
     float radius = node.radius;
     float radius_squared = radius * radius;
     vec3 to_p = p - pc;
@@ -96,7 +96,7 @@ float light_bounds_importance(GpuLightNode node, vec3 p, vec3 n) {
     return max(importance, 0.0);
 }
 
-// One descent from the root (src/light_bvh.rs, light_bvh_walk): at each interior node the child
+// One descent from the root (src/lights/light_bvh/mod.rs, light_bvh_walk): at each interior node the child
 // the trail's next bit names (by_trail) or the one u falls in (u remapped after), multiplying the
 // children's probabilities. False at a dead end (no light can reach p).
 bool light_bvh_walk(vec3 p, vec3 n, bool by_trail, uint trail, float u, out uint light, out float pmf) {

@@ -1,5 +1,5 @@
 // Light tracing ("next event estimation for light tracing"): the GPU twin of the light-subpath
-// half of src/cpu/bidir.rs, same names. Paths start on an emitter chosen by power and every
+// half of src/cpu/bidir/light_tracing.rs, same names. Paths start on an emitter chosen by power and every
 // vertex is joined to the pinhole; the contribution splats onto the pixel it lands in.
 #ifndef LIGHT_TRACING_GLSL
 #define LIGHT_TRACING_GLSL
@@ -9,7 +9,7 @@
 
 // The pixel a direction from the pinhole lands in, the film-wide importance W_e = 1/(A cos^4)
 // (area measure) and the direction pdf 1/(A cos^3), A = 4 tan^2(fov/2) aspect; false outside
-// the film (src/cpu/bidir.rs, camera_importance).
+// the film (src/cpu/bidir/light_tracing.rs, camera_importance).
 bool camera_importance(vec3 dir, out uint pixel, out float we, out float pdf) {
     pixel = 0u;
     we = 0.0;
@@ -31,7 +31,7 @@ bool camera_importance(vec3 dir, out uint pixel, out float we, out float pdf) {
 }
 
 // phi(w_cam, w_light) of a scattering vertex: f |n_s . w_light| / |n_g . w_light|, f the path
-// tracer's BSDF seen from the camera side (src/cpu/bidir.rs, phi).
+// tracer's BSDF seen from the camera side (src/cpu/bidir/light_tracing.rs, phi).
 vec3 phi(GpuMaterial mat, vec3 ng, vec3 ns, vec3 w_cam, vec3 w_light) {
     float cos_g = abs(dot(ng, w_light));
     BsdfFrame f;
@@ -41,7 +41,7 @@ vec3 phi(GpuMaterial mat, vec3 ng, vec3 ns, vec3 w_cam, vec3 w_light) {
 
 // Whether the camera, in direction w from a point of triangle `index` (front-face normal ng),
 // sees the point: not on the back face of a single-sided triangle, which primary rays cull
-// (surface.glsl, culled; src/cpu/bidir.rs, camera_sees).
+// (surface.glsl, culled; src/cpu/bidir/light_tracing.rs, camera_sees).
 bool camera_sees(uint index, vec3 ng, vec3 w) {
     return (triangle_at(index).material & TRIANGLE_TEST_CULL) == 0u || dot(ng, w) >= 0.0;
 }

@@ -4,7 +4,7 @@
 // dequantised planes, the same slab test per slot (qbvh_slabs: slab4's two forms), the
 // entered slots visited nearest first and the others deferred, nearest on top. A node is four
 // texels for four children where the binary walk reads two per child, and every dequantised box
-// contains the binary tree's, so a ray finds the same closest hit (README, "Performance").
+// contains the binary tree's, so a ray finds the same closest hit (docs/perf-log/2026-12-03-gpu-quantised-walks.md).
 // Needs bvh.glsl and quant_node_at (scene_arrays.glsl).
 #ifndef QBVH_GLSL
 #define QBVH_GLSL
@@ -18,7 +18,7 @@
 // in its binary nodes instead (tlas.glsl). A smaller array than the 3 × 64 a 4-wide walk can need
 // in the worst case: on lavapipe the array's size costs time (192 → 48 entries: extend 5–9 %
 // faster against shade).
-// The array is made for the scene (src/layout.rs, qbvh_stack_size; src/render.rs,
+// The array is made for the scene (src/layout.rs, qbvh_stack_size; src/render/prepared.rs,
 // PreparedScene::gpu_features): its levels' largest deferred_bound less the two registers, at
 // least 1; the default, 48, in kernels made with every feature and the test kernels: made to
 // measure because its size costs time.

@@ -1,7 +1,7 @@
 // Reads of the scene's five large arrays: BVH nodes, triangles, their vertex indices, vertices
 // and texels. A kernel (bindings.glsl, SCENE_SPLIT_BINDINGS) reads an array that is larger than
 // one storage binding from up to four bindings of 2^shift elements each; the shifts are
-// specialization constants chosen per scene (src/gpu/pipelines.rs, SceneSplit), 32 meaning "one
+// specialization constants chosen per scene (src/gpu/bindings.rs, SceneSplit), 32 meaning "one
 // binding", so a scene that fits compiles to the plain read and pays nothing. The test kernels
 // declare only the first binding of each array and read it directly.
 #ifndef SCENE_ARRAYS_GLSL
@@ -23,11 +23,11 @@ layout(constant_id = 3) const uint VERTEX_SHIFT = 32u;
 layout(constant_id = 4) const uint TEXEL_SHIFT = 32u;
 // 1: BVH nodes, triangles, their vertex indices, vertices, materials and light BVH nodes are read
 // from storage images, 2: from the same images as sampled images (bindings.glsl;
-// src/gpu/pipelines.rs, SceneImage and SceneImages). On llvmpipe an image read loads each lane's
-// 16 bytes at once, where a storage-buffer read is a conditional load per lane and word (README,
-// "Performance").
+// src/gpu/bindings.rs, SceneImage and SceneImages). On llvmpipe an image read loads each lane's
+// 16 bytes at once, where a storage-buffer read is a conditional load per lane and word
+// (docs/perf-log/2026-12-02-lavapipe-scene-reads.md).
 layout(constant_id = 5) const uint SCENE_IMAGES = 0u;
-// Texels per image row: 1 << SCENE_IMAGE_SHIFT (memory.rs, SCENE_IMAGE_WIDTH).
+// Texels per image row: 1 << SCENE_IMAGE_SHIFT (src/gpu/bindings.rs, SCENE_IMAGE_WIDTH).
 #define SCENE_IMAGE_SHIFT 12u
 // Texels this invocation fetched from the scene images (count_scene_fetches).
 uint scene_fetches = 0u;

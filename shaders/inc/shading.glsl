@@ -23,7 +23,7 @@ vec3 bend_shading_normal(vec3 ns, vec3 ng, vec3 wo) {
 }
 
 // KHR_materials_anisotropy's (alpha_t, alpha_b) = (mix(alpha, 1, strength^2), alpha); a delta
-// where alpha_t < ALPHA_DELTA, else alpha_b at least ALPHA_DELTA (bsdf/mod.rs, anisotropic_alpha).
+// where alpha_t < ALPHA_DELTA, else alpha_b at least ALPHA_DELTA (bsdf/shading.rs, anisotropic_alpha).
 vec2 anisotropic_alpha(float alpha, float strength) {
     if (strength <= 0.0) return vec2(alpha);
     float at = alpha + (1.0 - alpha) * strength * strength;
@@ -31,7 +31,7 @@ vec2 anisotropic_alpha(float alpha, float strength) {
 }
 
 // The tangent frame about n: the anisotropy direction made orthogonal to n where strength > 0,
-// else (and where it is degenerate) build_frame's (bsdf/mod.rs, anisotropic_frame).
+// else (and where it is degenerate) build_frame's (bsdf/shading.rs, anisotropic_frame).
 void anisotropic_frame(vec3 n, float strength, vec3 direction, out vec3 t, out vec3 b) {
     if (strength > 0.0) {
         t = direction - n * dot(n, direction);

@@ -1,5 +1,5 @@
 // Owen-scrambled, shuffled Sobol points for the 2-D pairs of a path, after Burley, "Practical
-// Hash-based Owen Scrambling", JCGT 9(4), 2020: twin of src/sobol.rs (see there for the
+// Hash-based Owen Scrambling", JCGT 9(4), 2020: twin of src/sobol/mod.rs (see there for the
 // properties). Needs pcg4d and uint_to_unit_float of rng.glsl, which includes this file.
 #ifndef SOBOL_GLSL
 #define SOBOL_GLSL
@@ -7,7 +7,7 @@
 // Tag mixed into the keys ("SOBL").
 #define SOBOL_TAG 0x534f424cu
 
-// The superset-XOR transform of x's bits (src/sobol.rs says why): sobol2's dimension 1 before
+// The superset-XOR transform of x's bits (src/sobol/mod.rs says why): sobol2's dimension 1 before
 // its mirroring.
 uint superset_xor(uint x) {
     x ^= (x >> 1u) & 0x55555555u;
@@ -48,7 +48,7 @@ uvec4 sobol_keys(uint seed, uint pixel, uint dimension) {
 
 // Point index of the shuffled, scrambled Sobol (0,2)-sequence keyed by keys (Burley 2020, §4):
 // the scrambles of sobol2's coordinates with sobol2's mirror and the scramble's own cancelled
-// (src/sobol.rs).
+// (src/sobol/mod.rs).
 uvec2 shuffled_scrambled_sobol2(uint index, uvec4 keys) {
     uint shuffled = nested_uniform_scramble(index, keys.x);
     return uvec2(bitfieldReverse(laine_karras_permutation(shuffled, keys.y)),

@@ -87,7 +87,7 @@ void surface_to_world(inout SurfacePoint sp, GpuTriangle tri, GpuInstance inst) 
 // without one the scene is its one identity placement, 0.
 uint hit_instance(HitRecord hit) { return SCENE_HAS(FEATURE_TOP_LEVEL) ? hit.instance : 0u; }
 
-// The world-space surface of `hit` and its triangle `tri` (src/render.rs,
+// The world-space surface of `hit` and its triangle `tri` (src/render/prepared.rs,
 // PreparedScene::hit_surface): surface_point, then surface_to_world where there is a top level
 // (without one the bottom level is in world space, and its placement is not read).
 SurfacePoint hit_surface(HitRecord hit, out GpuTriangle tri) {
@@ -352,7 +352,7 @@ bool culled(uvec4 key, vec3 dir, vec3 e1, vec3 e2) {
 
 // Emitting triangle `index`'s (record `tri`) material at barycentrics b, textures at level 0, as
 // emitted_radiance reads it: surface_emitter at the point, whose attributes are interpolated
-// only where emitter_reads_surface says the emitter reads them (src/render.rs, emitter_at).
+// only where emitter_reads_surface says the emitter reads them (src/render/prepared.rs, emitter_at).
 GpuMaterial emitter_at(GpuTriangle tri, uint index, vec2 b) {
     GpuMaterial m = material_at(triangle_material(tri));
     if (!emitter_reads_surface(m)) return m;

@@ -3,7 +3,7 @@
 // frame.tlas_root. A scene with one identity instance (no instancing) skips the top level. Every
 // level is walked in its quantised 4-wide nodes (qbvh.glsl: the top level from
 // frame.tlas_wide_root, the bottom levels from GpuInstance.wide_root), or in its binary nodes
-// where it has none (src/render.rs, gpu_bvh).
+// where it has none (src/render/prepared.rs, gpu_bvh).
 #ifndef TLAS_GLSL
 #define TLAS_GLSL
 #include "scene_arrays.glsl"
@@ -24,7 +24,7 @@ void instance_ray(GpuInstance inst, vec3 origin, vec3 dir, out vec3 o, out vec3 
 
 // The bottom level of instance `inst` (in its space): in its quantised 4-wide nodes, or in its
 // binary ones where it has none (no triangles, or a walk that could defer more slots than
-// qbvh.glsl keeps; src/render.rs, gpu_bvh).
+// qbvh.glsl keeps; src/render/prepared.rs, gpu_bvh).
 bool blas_closest(GpuInstance inst, vec3 o, vec3 d, float t_min, uvec4 key, inout HitRecord hit) {
     return !SCENE_HAS(FEATURE_BINARY_WALK) || inst.wide_root != NO_WIDE_ROOT ? qbvh_closest_from(inst.wide_root, o, d, t_min, key, hit)
                                           : bvh_closest_from(inst.blas_root, o, d, t_min, key, hit);

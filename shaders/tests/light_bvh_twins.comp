@@ -1,9 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-// Runs the GLSL twins of src/light_bvh.rs (shaders/inc/light_bvh.glsl) on a light BVH the test
-// builds, so tests/light_bvh_twins.rs can compare each with its Rust twin. One invocation per
-// case; inputs and output slots are listed in tests/light_bvh_twins.rs.
+// Runs the GLSL twins of src/lights/light_bvh/mod.rs (shaders/inc/light_bvh.glsl) on a light BVH the test
+// builds, so tests/twins/light_bvh_twins.rs can compare each with its Rust twin. One invocation per
+// case; inputs and output slots are listed in tests/twins/light_bvh_twins.rs.
 #include "layout.glsl"
 #define LIGHT_BVH_NODE_ONLY
 #include "light_bvh.glsl"

@@ -2,8 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 // Runs the GLSL twins of src/texture.rs, src/surface.rs and bend_shading_normal on a synthetic
-// textured scene the test builds, so tests/surface_twins.rs can compare each with its Rust twin.
-// One invocation per case; inputs and output slots are listed in tests/surface_twins.rs.
+// textured scene the test builds, so tests/twins/surface_twins.rs can compare each with its Rust twin.
+// One invocation per case; inputs and output slots are listed in tests/twins/surface_twins.rs.
 #include "layout.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Inputs { vec4 inputs[]; };

@@ -1,9 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-// Runs the GLSL twins of src/sampling.rs, src/sobol.rs, src/bsdf/, src/mis.rs, src/bvh.rs and
-// src/scene/camera.rs on inputs the test chooses, so tests/twins.rs can compare each function
-// with its Rust twin and name the one that disagrees. One invocation per case; the output slots are listed in tests/twins.rs.
+// Runs the GLSL twins of src/sampling.rs, src/sobol/mod.rs, src/bsdf/, src/mis.rs, src/bvh/binary.rs and
+// src/scene/camera.rs on inputs the test chooses, so tests/twins/twins.rs can compare each function
+// with its Rust twin and name the one that disagrees. One invocation per case; the output slots are listed in tests/twins/twins.rs.
 #include "layout.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Inputs { vec4 inputs[]; };
@@ -30,7 +30,7 @@ layout(push_constant) uniform Push { uint case_count; };
 
 layout(local_size_x = WORKGROUP_SIZE) in;
 
-// The material of case i (tests/twins.rs, twin_material): roughness, metal, transmission,
+// The material of case i (tests/twins/twins.rs, twin_material): roughness, metal, transmission,
 // specular factor and colour, clearcoat, sheen, anisotropy, iridescence, diffuse transmission swept by the case index; one block of 64 in
 // 512 plain diffuse; the last 512 cases are unlit.
 GpuMaterial twin_material(uint i) {

@@ -7,7 +7,7 @@
 // numbers; t = 1: the pinhole, landing in another pixel) and weights the contribution by MIS
 // over all strategies of its path (bdpt_mis_weight). s = 0 splats at once; the others queue
 // their joining segment as a shadow ray, which connect_light traces and splats
-// (src/cpu/bidir.rs, connect and sample). The segment runs as on the CPU: from the light
+// (src/cpu/bidir/bdpt.rs, connect and sample). The segment runs as on the CPU: from the light
 // vertex to the pinhole's near plane for t = 1, from the camera vertex to the light vertex
 // otherwise (culling makes the direction matter).
 #include "layout.glsl"

@@ -2,7 +2,7 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 // Light tracing and BDPT, stage 1: per path an emitter chosen by power, a point on it and an
-// emission direction (src/cpu/bidir.rs, light_subpath: a uniform direction in a punctual
+// emission direction (src/cpu/bidir/bdpt.rs, light_subpath: a uniform direction in a punctual
 // light's cone, or cosine-weighted on the emitting side); the first ray goes to queue 0.
 // Light tracing queues the origin's join to the camera (s = 1, t = 1); BDPT stores the origin
 // as the light subpath's vertex 0.
@@ -60,7 +60,7 @@ void kernel_main() {
         bdpt_set_light_length(i, 1u);
     } else if (!point) {
         // The origin's join to the camera (s = 1, t = 1); a point or spot light is not seen
-        // directly (camera rays cannot hit a point: src/cpu/bidir.rs, sample).
+        // directly (camera rays cannot hit a point: src/cpu/bidir/bdpt.rs, sample).
         ShadowRay shadow;
         vec3 w;
         float dist;

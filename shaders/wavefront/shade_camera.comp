@@ -4,7 +4,7 @@
 // BDPT, the camera subpath: at each hit store the vertex (its forward density from the ray's
 // pdf, the previous vertex's reverse density once this one's next direction is sampled), then
 // sample the BSDF with the path tracer's random numbers and apply its Russian roulette
-// (src/cpu/bidir.rs, walk in radiance mode). params.depth = d: the hits are vertex d + 1 of
+// (src/cpu/bidir/bdpt.rs, walk in radiance mode). params.depth = d: the hits are vertex d + 1 of
 // their camera subpaths, z0 being the pinhole. No emission or emitter sampling here: every
 // strategy, s = 0 included, is connect_bdpt's.
 #include "layout.glsl"

@@ -3,7 +3,7 @@
 #extension GL_EXT_control_flow_attributes : require
 // Light tracing, stage 3: at each hit of a light subpath, queue the vertex's join to the camera
 // (a shadow ray that splats if unoccluded), then sample the adjoint BSDF for the next ray and
-// apply Russian roulette (src/cpu/bidir.rs, walk in importance mode). params.depth = d: the
+// apply Russian roulette (src/cpu/bidir/bdpt.rs, walk in importance mode). params.depth = d: the
 // hits are vertex d + 1 of their subpaths. BDPT stores each vertex instead of joining it.
 #include "layout.glsl"
 #include "bindings.glsl"
@@ -77,7 +77,7 @@ void kernel_main() {
     }
     if (depth + 1u >= frame.max_depth) return;
 
-    // The adjoint BSDF with the shading-normal correction (src/cpu/bidir.rs, module docs).
+    // The adjoint BSDF with the shading-normal correction (src/cpu/bidir/bdpt.rs, module docs).
     BsdfFrame f;
     if (!bsdf_frame_new_shading(mat, ng, ns, wo, f)) return;
     uint block = light_block(depth + 1u);
@@ -97,7 +97,7 @@ void kernel_main() {
     }
     if (bdpt) {
         // The delta flag, the ray's pdf for the next vertex, and the previous vertex's reverse
-        // density given this vertex's two directions (src/cpu/bidir.rs, walk).
+        // density given this vertex's two directions (src/cpu/bidir/bdpt.rs, walk).
         uint prev = bdpt_light_index(ray.path, k - 1u);
         if (delta) {
             bdpt_vertices[bdpt_light_index(ray.path, k)].kind |= BDPT_VERTEX_DELTA;

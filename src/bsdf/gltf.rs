@@ -1,8 +1,6 @@
 //! The glTF 2.0 metallic-roughness BSDF of one vertex ([`BsdfFrame`]): the base's diffuse,
 //! specular, metal, transmission, diffuse-transmission and sheen lobes, their evaluation, pdf and
 //! sampling, and the clear coat layered on top (`clearcoat.rs`). Twin of `shaders/inc/bsdf.glsl`.
-//! (Over 900 lines would be one reason to split further; the lobes' evaluation, pdf and sampling
-//! read side by side here as in bsdf.glsl.)
 
 use super::fresnel::{fresnel_coat, fresnel_layers, ThinFilm};
 use super::lambert::LambertFrame;

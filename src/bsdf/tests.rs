@@ -1,3 +1,4 @@
+//! (Over 900 lines: the statistical tests of every lobe and extension share their scenes, samplers and helpers.)
 //! The BSDF against its own pdf (χ² goodness of fit), `sample` against `eval`/`pdf`, energy,
 //! reciprocity and the Lambertian special case.
 

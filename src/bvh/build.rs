@@ -1,3 +1,4 @@
+//! (Over 900 lines: the binned build, its parallel split and the flattening are one algorithm, read top to bottom.)
 //! The binned SAH build (Wald 2007, "On fast Construction of SAH-based Bounding Volume
 //! Hierarchies") and its depth-first flattening; see the parent module's docs.
 //!

@@ -171,7 +171,7 @@ pub(crate) fn prepare(
 /// usable one or `--gpu-index` names a device, else the CPU reference, which `wavetrace bench`
 /// measures faster than a CPU Vulkan driver (lavapipe) on most of the committed scenes (the
 /// default Cornell box by about 1.3×; lavapipe leads on two or three of the nine by up to
-/// 1.16×, README "Performance"). Says which.
+/// 1.16×, docs/perf-log/2026-12-02-lavapipe-scene-reads.md). Says which.
 pub(crate) fn resolve_device(kind: DeviceKind, gpu_index: Option<usize>) -> DeviceKind {
     if kind != DeviceKind::Auto {
         return kind;

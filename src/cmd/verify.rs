@@ -79,7 +79,7 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
         bail!(
             "verify compares the path tracer (--integrator path, all paths): its per-tile test \
              takes a tile's pixels as independent, which light tracing's splats are not \
-             (tests/bidir.rs compares the light and bidirectional integrators over independent batches)"
+             (tests/integrators/bidir.rs compares the light and bidirectional integrators over independent batches)"
         );
     }
     if args.detect.is_some() && !args.against.is_empty() {

@@ -91,7 +91,7 @@ pub enum Binding {
     /// The hit records' first 16 bytes (t, triangle, u, v) as an RGBA32UI storage image, one
     /// texel a record (`hit_store`, `hit_load`; bindings.glsl), which `extend` writes and the
     /// shade kernels read: on llvmpipe a texel costs a fraction of four words of a storage
-    /// buffer (README, "Performance").
+    /// buffer (docs/perf-log/2026-12-03-lavapipe-instructions.md).
     HitImage = 65,
 }
 
@@ -200,8 +200,8 @@ pub enum SceneImages {
 
 impl SceneImages {
     /// The kind a device reads by default: storage images on a CPU implementation, where
-    /// llvmpipe's `imageLoad` costs about a quarter of its `texelFetch` (README,
-    /// "Performance"); sampled images on a GPU, which the one GPU measured (an NVIDIA H200,
+    /// llvmpipe's `imageLoad` costs about a quarter of its `texelFetch`
+    /// (docs/perf-log/2026-12-02-lavapipe-scene-reads.md); sampled images on a GPU, which the one GPU measured (an NVIDIA H200,
     /// 4 December 2026) rendered with, until a session with one compares the two.
     /// `WAVETRACE_SCENE_IMAGES` = `buffers` (or `0`), `storage` or `sampled` overrides it.
     pub fn for_device(cpu: bool, env: Option<&str>) -> Result<SceneImages> {

@@ -195,8 +195,8 @@ impl Drop for Buffer {
 /// row after row, `SCENE_IMAGE_WIDTH` texels a row, in the general layout both reads take. On
 /// llvmpipe an image read gathers the lanes' 16 bytes with one unconditional load each, where a
 /// storage-buffer read becomes a conditional load per lane and word; and a storage image's
-/// load, unlike a sampled image's `texelFetch`, does not work out a mip level per lane (README,
-/// "Performance").
+/// load, unlike a sampled image's `texelFetch`, does not work out a mip level per lane
+/// (docs/perf-log/2026-12-02-lavapipe-scene-reads.md).
 pub struct Image {
     device: ash::Device,
     allocator: Arc<Mutex<Allocator>>,

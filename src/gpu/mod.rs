@@ -1,3 +1,4 @@
+//! (Over 900 lines: the renderer's whole, ranged, banded and progressive renders share one setup; to be split by render kind.)
 //! The GPU integrator: Vulkan (ash) on any Vulkan 1.2 device, lavapipe included, running the
 //! wavefront kernels of `shaders/wavefront/`.
 

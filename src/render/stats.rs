@@ -30,8 +30,8 @@ pub struct RenderStats {
     pub kernel_features: Option<u32>,
     /// GPU only: how many of its kernels the render made before its first sample (pipelines
     /// not made for an earlier render of the renderer) and the seconds that took, which
-    /// `seconds` leaves out: on lavapipe nearly all of a small render's start-up (README,
-    /// "Performance").
+    /// `seconds` leaves out: on lavapipe nearly all of a small render's start-up
+    /// (docs/perf-log/2026-12-05-lavapipe-start-up.md).
     pub kernels_made: Option<(usize, f64)>,
     /// GPU only, on a device that reports them: per kernel, the driver's statistics of its
     /// compiled code (`VK_KHR_pipeline_executable_properties`).

@@ -1,5 +1,5 @@
 //! What a scene file may make wavetrace do: the folders it may read from and the memory it may
-//! take. A glTF file is untrusted input (README, "Running on untrusted files").
+//! take. A glTF file is untrusted input (docs/security.md, "Running on untrusted files").
 
 use super::model::Triangle;
 use crate::layout::{BvhNode, GpuTriangle, LightEntry};

@@ -1,4 +1,4 @@
-//! glTF 2.0 (`.gltf` / `.glb`) → [`Scene`]. The file is untrusted input (README, "Running on
+//! glTF 2.0 (`.gltf` / `.glb`) → [`Scene`]. The file is untrusted input (docs/security.md, "Running on
 //! untrusted files"):
 //!
 //! 1. the GLB container and the JSON are parsed here (`json.rs`), errors naming the chunk and

@@ -351,7 +351,7 @@ pub fn compare_batch_tiles(
 /// Per 8 × 8 tile and channel: the mean over `BATCHES` independent renders (seeds of their own)
 /// and the variance of that mean from the spread of the batch means — light tracing and BDPT
 /// splat into many pixels, so a per-pixel variance would understate a tile's (as
-/// tests/bidir.rs does with its own).
+/// tests/integrators/bidir.rs does with its own).
 pub fn batch_tiles(
     settings: &RenderSettings,
     seed: u32,

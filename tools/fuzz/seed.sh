@@ -2,7 +2,7 @@
 # Fills the fuzzer's corpus folder tools/fuzz/corpus/load_render (gitignored) with seeds: the
 # project's hostile corpus (tests/hostile) and the third-party glTF samples, read from where they
 # are (../shared/gltf-samples beside the repository, or $WAVETRACE_SAMPLES) and never committed.
-# Seeds over MAX_LEN bytes (default 512 KiB, the -max_len of the README's command) are left out.
+# Seeds over MAX_LEN bytes (default 512 KiB, the -max_len of the command in docs/security.md) are left out.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"

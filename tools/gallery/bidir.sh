@@ -1,5 +1,5 @@
 #!/bin/sh
-# Renders the README's pictures of the bidirectional integrators into tools/gallery/:
+# Renders the pictures of the bidirectional integrators in docs/integrators.md into tools/gallery/:
 #
 #     sh tools/gallery/bidir.sh        # builds wavetrace; CPU renders (the strategy images are the CPU twin's)
 #

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Renders the Khronos material-extension test models the README's "Material extensions" section
+# Renders the Khronos material-extension test models docs/materials.md's "Material extensions" section
 # shows, small, into tools/gallery/ext-*.png:
 #
 #     sh tools/gallery/extensions.sh                  # CPU reference (faster than lavapipe), builds wavetrace

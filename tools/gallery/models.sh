@@ -1,11 +1,11 @@
 #!/bin/sh
-# Renders the Khronos sample models the README shows, textured, into tools/gallery/:
+# Renders the Khronos sample models docs/materials.md shows, textured, into tools/gallery/:
 #
 #     sh tools/gallery/models.sh                      # GPU (lavapipe or a real one), builds wavetrace
 #     WAVETRACE=target/release/wavetrace DEVICE=cpu sh tools/gallery/models.sh
 #
 # The models and environment maps are third-party data read from ../shared/gltf-samples/
-# (never copied here); each image is credited in the README. DamagedHelmet and CesiumMilkTruck
+# (never copied here); each image is credited in docs/materials.md. DamagedHelmet and CesiumMilkTruck
 # are lit by Poly Haven HDR maps (--env), LightsPunctualLamp by its own KHR_lights_punctual
 # lamp and a dim studio map, TransmissionTest by a uniform white environment.
 set -eu

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Renders the two scale scenes of the README's "Scenes larger than one GPU binding" section into
+# Renders the two scale scenes of docs/distributed.md's "Scenes larger than one GPU binding" section into
 # tools/gallery/scale-*.png, after writing them with tools/gen_large.py into a temporary folder
 # (they are large and generated, so they are not kept):
 #

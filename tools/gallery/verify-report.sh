@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Renders the README's screenshot of a `wavetrace verify` report: every committed scene, GPU
+# Renders the screenshot in docs/verification.md of a `wavetrace verify` report: every committed scene, GPU
 # (lavapipe or whatever device is first) against the CPU reference, the HTML report opened in
 # headless Chromium (Debian's `chromium` package).
 #

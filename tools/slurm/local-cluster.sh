@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A single-node Slurm cluster on localhost, for testing the sbatch scripts of this folder end to
-# end (tests/slurm.rs): installs Debian's slurm-wlm and munge when missing, writes a minimal
+# end (tests/distributed/slurm.rs): installs Debian's slurm-wlm and munge when missing, writes a minimal
 # slurm.conf (one CPU-only node, this machine, in partition "debug"), creates the munge key and
 # starts munged, slurmctld and slurmd. Needs root (or sudo).
 #

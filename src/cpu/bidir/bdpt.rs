@@ -1,8 +1,7 @@
+//! (Over 900 lines: the vertex, its subpaths and the MIS weights read side by side with bdpt.glsl.)
 //! Bidirectional path tracing (Veach 1997, ch. 10) on the CPU: subpaths of [`Vertex`]es from
 //! the camera and from the emitters, every (s, t) connection and its MIS weight over all the
 //! strategies that can make the path. Twin of `shaders/inc/bdpt.glsl`, same names.
-//! (Over 900 lines: the vertex, its subpaths and the MIS weights read side by side with
-//! bdpt.glsl, whose structure this file keeps.)
 
 // `!(x > 0.0)` rejects NaN along with the non-positive, on purpose, as the GLSL twin does.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -8,7 +8,7 @@
 //! them separately and mixes the two choices.
 //!
 //! The GLSL twin is `shaders/inc/light_bvh.glsl` (same names, same arithmetic in the same order;
-//! tests/light_bvh_twins.rs compares them).
+//! tests/twins/light_bvh_twins.rs compares them).
 //!
 //! Build: top down, each light in its own leaf, split by the surface area orientation heuristic
 //! (SAOH, Conty Estevez & Kulla §4.2) over 12 buckets per axis, nodes flattened depth first

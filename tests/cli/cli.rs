@@ -3,9 +3,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 
-use common::wavetrace;
+use crate::common::wavetrace;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -515,7 +515,7 @@ fn bench_bvh_reports_the_quantised_walk() {
         assert_eq!(field("gpu_any_same"), rays, "{row}");
     } else {
         // A GPU that fuses a multiply and an add may send a ray through an edge to the
-        // neighbouring triangle (tests/gpu_vs_cpu.rs, the_gpu_walk_finds_the_cpu_references_hits).
+        // neighbouring triangle (tests/integrators/gpu_vs_cpu.rs, the_gpu_walk_finds_the_cpu_references_hits).
         assert!(field("gpu_hits_other_triangle") * 1000.0 <= rays, "{row}");
         assert!(field("gpu_any_other") * 1000.0 <= rays, "{row}");
     }

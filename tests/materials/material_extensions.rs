@@ -5,9 +5,7 @@
 //! family-wise α = 0.01, Šidák-corrected over the models of this file). Skipped with a notice
 //! where the folder is absent (a user's clone).
 
-mod common;
-
-use common::{assert_agree_at, render_cpu, render_gpu};
+use crate::common::{assert_agree_at, render_cpu, render_gpu};
 use glam::Vec3;
 use std::path::PathBuf;
 use wavetrace::render::{PreparedScene, RenderSettings};

@@ -1,14 +1,14 @@
 //! Renders that stop at a target noise level (`--target-error`, `--adaptive`, `--max-spp`,
-//! `--time-limit`; `src/progressive.rs`) on the Cornell box: the bound is reached on CPU and GPU,
+//! `--time-limit`; `src/render/progressive.rs`) on the Cornell box: the bound is reached on CPU and GPU,
 //! passes continue each pixel's sample sequence exactly (a pixel's accumulators are, bit for bit,
 //! those of a plain render with its sample count), the decisions and the image are the same on
 //! every run and whatever the wavefront size or film band, an adaptive render agrees with a plain
 //! one per tile (α = 0.01, Šidák), it spends fewer samples, and the command line reports and
 //! refuses as it should.
 
-mod common;
+use crate::common;
 
-use common::{assert_agree_at, gpu, prepared, render_cpu, render_gpu, wavetrace};
+use crate::common::{assert_agree_at, gpu, prepared, render_cpu, render_gpu, wavetrace};
 use indicatif::ProgressBar;
 use wavetrace::cpu::{render_progressive, trace_path, RayCounts};
 use wavetrace::film::accumulate;

@@ -4,9 +4,9 @@
 //! and the two integrators agree per tile (Welch tests at family-wise α = 0.01, Šidák-corrected
 //! over the models). Skipped with a notice where the folder is absent (a user's clone).
 
-mod common;
+use crate::common;
 
-use common::{assert_agree_at, render_cpu, render_gpu};
+use crate::common::{assert_agree_at, render_cpu, render_gpu};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use wavetrace::gpu::SceneImages;

@@ -4,9 +4,9 @@
 
 use std::path::PathBuf;
 
-mod common;
+use crate::common;
 
-use common::wavetrace;
+use crate::common::wavetrace;
 
 fn temp(name: &str) -> PathBuf {
     common::temp("verify", name)

@@ -3,9 +3,7 @@
 //! sampling, and Owen-scrambled Sobol points (a (0,2)-sequence per pair: stratified in every
 //! elementary interval, not only rows and columns) lower it below N rooks.
 
-mod common;
-
-use common::{prepared, render_cpu};
+use crate::common::{prepared, render_cpu};
 use wavetrace::layout::{SAMPLER_INDEPENDENT, SAMPLER_SOBOL, SAMPLER_STRATIFIED};
 use wavetrace::render::RenderSettings;
 

@@ -11,7 +11,7 @@
 //! log2) to 1e-4. A case whose texel coordinate or level lies within 1e-3 of a rounding
 //! boundary may legitimately pick a different texel or level and is skipped.
 
-mod common;
+use crate::common;
 
 use glam::{UVec4, Vec2, Vec3, Vec4};
 use wavetrace::bsdf::bend_shading_normal;

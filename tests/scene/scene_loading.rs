@@ -1,7 +1,7 @@
 //! Scene loading: the committed scenes have the geometry, materials and camera they claim,
 //! transforms keep front faces, and every broken file gives an error naming it (never a panic).
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};

@@ -2,9 +2,7 @@
 //! emitting Le = 0.5, so L = Le·(1 − a^(N+1))/(1 − a) at --max-depth N, 1.0 in the limit. Each
 //! integrator's image mean must lie within 4 standard errors of it, Russian roulette on.
 
-mod common;
-
-use common::{prepared, render_cpu, render_gpu};
+use crate::common::{prepared, render_cpu, render_gpu};
 use wavetrace::film::Film;
 use wavetrace::mis::Heuristic;
 use wavetrace::render::RenderSettings;

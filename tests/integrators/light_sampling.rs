@@ -1,5 +1,5 @@
 //! Choosing the emitter for next event estimation (issue 9, "many lights"): through the light
-//! BVH (`--light-sampler bvh`, src/light_bvh.rs) or by power (`--light-sampler power`).
+//! BVH (`--light-sampler bvh`, src/lights/light_bvh/mod.rs) or by power (`--light-sampler power`).
 //!
 //! - Both samplers estimate the same image (per-tile Welch tests) on the 10 240-emitter scene
 //!   and on a scene mixing emissive triangles, point, spot and directional lights and an
@@ -8,9 +8,9 @@
 //! - The GPU agrees with the CPU with the light BVH on the many-light scene.
 //! - On the many-light scene the BVH's per-sample variance is lower (the factor is printed).
 
-mod common;
+use crate::common;
 
-use common::{assert_agree_at, render_cpu, render_gpu};
+use crate::common::{assert_agree_at, render_cpu, render_gpu};
 use glam::Vec3;
 use std::sync::Arc;
 use wavetrace::layout::*;

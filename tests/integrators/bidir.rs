@@ -8,9 +8,9 @@
 //! correlation inside a batch, and Welch's test runs on them, Šidák-corrected over tiles ×
 //! channels at α = 0.01.
 
-mod common;
+use crate::common;
 
-use common::prepared;
+use crate::common::prepared;
 use wavetrace::layout::SAMPLER_INDEPENDENT;
 use wavetrace::paths::PathExpr;
 use wavetrace::render::Integrator;

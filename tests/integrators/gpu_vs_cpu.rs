@@ -3,9 +3,9 @@
 //! channels); a deliberately biased GPU render must fail the same test; same seed ⇒ the same
 //! bits, whatever the batch size; orthographic and thin-lens cameras agree too.
 
-mod common;
+use crate::common;
 
-use common::{
+use crate::common::{
     assert_agree, gpu_agrees_with_cpu, prepared, render_cpu, render_gpu, render_gpu_banded,
 };
 use wavetrace::film::Film;

@@ -1,3 +1,4 @@
+//! (Over 900 lines: one test per clause of the glTF texture specification, sharing the scenes they build.)
 //! Textures against their specifications, on the CPU and (where there is one) the GPU.
 //!
 //! Every expectation is computed here from the definitions — glTF 2.0 "Texture Data" and
@@ -36,14 +37,12 @@
 //! materials (material.doubleSided): its back-facing quad's red cross must never show.
 //!
 //! Tolerances: a decoded texel is held to 1e-4 absolute (the precision Vulkan requires of pow,
-//! as in tests/surface_twins.rs); where a pixel's samples legitimately differ, to Student-t
+//! as in tests/twins/surface_twins.rs); where a pixel's samples legitimately differ, to Student-t
 //! multiples of the film's own standard error of the pixel mean (Bonferroni over the
 //! comparisons), or to a binomial distribution (BLEND coverage); the oracle's intervals are
 //! exact bounds.
 
-mod common;
-
-use common::{render_cpu, render_gpu, temp, wavetrace};
+use crate::common::{render_cpu, render_gpu, temp, wavetrace};
 use glam::{DMat4, DQuat, DVec2, DVec3, DVec4, Vec3};
 use serde_json::{json, Value};
 use std::collections::HashMap;
@@ -63,7 +62,7 @@ const MIRRORED_REPEAT: u32 = 33648;
 const CLAMP_TO_EDGE: u32 = 33071;
 
 /// A decoded texel's precision: the sRGB decode is a pow, which Vulkan requires to be as exact
-/// as exp2(y·log2 x) (a few ulp); 1e-4 absolute on values up to 1, as tests/surface_twins.rs.
+/// as exp2(y·log2 x) (a few ulp); 1e-4 absolute on values up to 1, as tests/twins/surface_twins.rs.
 const FLOAT_TOL: f64 = 1e-4;
 
 /// Family-wise significance of the statistical assertions of one test.

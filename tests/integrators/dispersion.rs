@@ -12,9 +12,9 @@
 //!   dispersive material stay RGB and carry no colour noise.
 //! - The GPU agrees with the CPU per tile for the path tracer, light tracing and BDPT.
 
-mod common;
+use crate::common;
 
-use common::{batch_tiles, compare_batch_tiles, BATCHES};
+use crate::common::{batch_tiles, compare_batch_tiles, BATCHES};
 use wavetrace::film::Film;
 use wavetrace::layout::SAMPLER_INDEPENDENT;
 use wavetrace::render::Integrator;

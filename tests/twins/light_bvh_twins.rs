@@ -1,5 +1,5 @@
 //! The GLSL twin of the light BVH (shaders/inc/light_bvh.glsl) runs on the GPU
-//! (shaders/tests/light_bvh_twins.comp) against src/light_bvh.rs on a random scene of 500
+//! (shaders/tests/light_bvh_twins.comp) against src/lights/light_bvh/mod.rs on a random scene of 500
 //! lights: the sampled light and its pmf, the pmf of a given light, and the importance of a
 //! given node, for random shading points, normals and random numbers. Also checks that the GLSL
 //! `GpuLightNode` has the Rust struct's member offsets and size.
@@ -12,7 +12,7 @@
 //! bounding sphere), where rounding may take either side, are skipped, and a differing light is
 //! accepted when u lies within 1e-4 of the boundary of the CPU light's interval of u.
 
-mod common;
+use crate::common;
 
 use glam::{Vec3, Vec4};
 use std::f32::consts::PI;
@@ -238,7 +238,7 @@ fn light_bvh_functions_equal_their_rust_twins() {
 }
 
 /// The GLSL struct's members and offsets, read from the SPIR-V by naga, equal the Rust
-/// `#[repr(C)]` struct's (the check tests/shaders.rs makes for src/layout.rs).
+/// `#[repr(C)]` struct's (the check tests/twins/shaders.rs makes for src/layout.rs).
 #[test]
 fn gpu_light_node_layout_matches_glsl() {
     let (_, bytes) = TEST_KERNELS

@@ -7,9 +7,9 @@
 //! absolute and 1e-5 relative for f32 rounding); the GPU must agree with the CPU per tile.
 //! LightsPunctualLamp renders alike.
 
-mod common;
+use crate::common;
 
-use common::{assert_agree_at, render_cpu, render_gpu};
+use crate::common::{assert_agree_at, render_cpu, render_gpu};
 use glam::{Vec2, Vec3};
 use wavetrace::layout::*;
 use wavetrace::render::{PreparedScene, RenderSettings};

@@ -249,3 +249,85 @@ fn descriptor_bindings_match_the_host_layout() {
         "some host bindings are used by no kernel: {used:?}"
     );
 }
+
+/// The value of a constant as src/layout.rs or layout.glsl writes it (`64`, `0x3fffffffu`,
+/// `(1u << 24)`, `1 << 20`, `u32::MAX`); None for anything else (an expression of other names).
+fn constant_value(text: &str) -> Option<u64> {
+    let t = text
+        .trim()
+        .trim_start_matches('(')
+        .trim_end_matches(')')
+        .trim();
+    let number = |n: &str| -> Option<u64> {
+        let n = n.trim().trim_end_matches('u').replace('_', "");
+        match n.strip_prefix("0x") {
+            Some(hex) => u64::from_str_radix(hex, 16).ok(),
+            None if n == "u32::MAX" => Some(u32::MAX as u64),
+            None => n.parse().ok(),
+        }
+    };
+    match t.split_once("<<") {
+        Some((a, b)) => Some(number(a)? << number(b)?),
+        None => number(t),
+    }
+}
+
+/// Every integer constant of layout.glsl has a twin of the same name and value in
+/// src/layout.rs (the constants of its `counter` and `args` modules as COUNTER_* and ARGS_*):
+/// the shared constants are defined once per language, in the checked layout.
+#[test]
+fn shared_constants_have_the_same_values_in_both_languages() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rust = std::fs::read_to_string(root.join("src/layout.rs")).unwrap();
+    let mut rust_constants = std::collections::BTreeMap::new();
+    let mut module = String::new();
+    for line in rust.lines() {
+        if let Some(name) = line
+            .strip_prefix("pub mod ")
+            .and_then(|l| l.strip_suffix(" {"))
+        {
+            module = name.to_owned();
+        } else if line == "}" {
+            module.clear();
+        }
+        let Some(decl) = line.trim().strip_prefix("pub const ") else {
+            continue;
+        };
+        let Some((name, rest)) = decl.split_once(": u32 = ") else {
+            continue;
+        };
+        let prefix = match module.as_str() {
+            "counter" => "COUNTER_",
+            "args" => "ARGS_",
+            _ => "",
+        };
+        if let Some(v) = constant_value(rest.trim_end_matches(';')) {
+            rust_constants.insert(format!("{prefix}{name}"), v);
+        }
+    }
+    let glsl = std::fs::read_to_string(root.join("shaders/inc/layout.glsl")).unwrap();
+    let (mut compared, mut differ, mut alone) = (0, Vec::new(), Vec::new());
+    for line in glsl.lines() {
+        let Some(def) = line.strip_prefix("#define ") else {
+            continue;
+        };
+        let def = def.split("//").next().unwrap().trim();
+        let Some((name, value)) = def.split_once(char::is_whitespace) else {
+            continue;
+        };
+        let Some(value) = constant_value(value) else {
+            continue;
+        };
+        match rust_constants.get(name) {
+            Some(&v) if v == value => compared += 1,
+            Some(&v) => differ.push(format!("{name}: layout.glsl {value}, layout.rs {v}")),
+            None => alone.push(name.to_owned()),
+        }
+    }
+    assert!(differ.is_empty(), "constants that differ: {differ:?}");
+    assert!(
+        alone.is_empty(),
+        "layout.glsl constants without a twin in src/layout.rs: {alone:?}"
+    );
+    assert!(compared >= 80, "only {compared} constants compared");
+}

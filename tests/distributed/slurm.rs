@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-mod common;
+use crate::common;
 
 /// Whether a Slurm controller answers, with a node up.
 fn cluster_up() -> bool {

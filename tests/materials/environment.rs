@@ -1,4 +1,4 @@
-//! Environment maps on both integrators (src/environment.rs, shaders/inc/environment.glsl):
+//! Environment maps on both integrators (src/lights/environment.rs, shaders/inc/environment.glsl):
 //!
 //! - a map that is 1 above the horizon and 0 below lights an upward Lambertian plane with its
 //!   albedo (less the map's own bilinear ramp at the horizon, integrated here exactly), and
@@ -10,9 +10,9 @@
 //! - the GPU agrees with the CPU per tile, with a synthetic map turned by --env-rotate and with
 //!   an HDR file from ../shared/gltf-samples/env/ (skipped where absent).
 
-mod common;
+use crate::common;
 
-use common::{assert_agree_at, render_cpu, render_gpu};
+use crate::common::{assert_agree_at, render_cpu, render_gpu};
 use glam::{Vec2, Vec3};
 use std::f64::consts::PI;
 use std::sync::Arc;

@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-mod common;
+use crate::common;
 
-use common::{assert_bitwise_equal, assert_same_samples, read_exr_file, wavetrace};
+use crate::common::{assert_bitwise_equal, assert_same_samples, read_exr_file, wavetrace};
 use wavetrace::shard::SampleRange;
 
 fn temp(name: &str) -> PathBuf {

@@ -16,10 +16,10 @@
 //! shows its transmission colour, and every integrator on CPU and GPU agrees with the CPU path
 //! tracer per tile.
 
-mod common;
+use crate::common;
 
+use crate::common::{assert_agree_at, batch_tiles, compare_batch_tiles, render_cpu, render_gpu};
 use base64::Engine;
-use common::{assert_agree_at, batch_tiles, compare_batch_tiles, render_cpu, render_gpu};
 use glam::Vec3;
 use std::path::PathBuf;
 use wavetrace::render::{PreparedScene, RenderSettings};

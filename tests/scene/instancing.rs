@@ -6,9 +6,7 @@
 //! space (an independent path: the baked loader swaps mirrored winding, the instanced one
 //! transforms normals), and the GPU agrees with the CPU on it.
 
-mod common;
-
-use common::{assert_agree_at, gpu_agrees_with_cpu, render_cpu, scene_path};
+use crate::common::{assert_agree_at, gpu_agrees_with_cpu, render_cpu, scene_path};
 use glam::Vec3;
 use wavetrace::render::{PreparedScene, RenderSettings};
 use wavetrace::scene::{Budget, LoadOptions, Scene};

@@ -7,7 +7,7 @@
 //! be off by 2⁻¹¹ absolute on [−π, π], so everything downstream of a sampled angle is held to
 //! 2⁻¹⁰; atan by 4096 ulp; sqrt, division and the rest by a few ulp, held to 1e-5 relative.
 
-mod common;
+use crate::common;
 
 use glam::{UVec4, Vec2, Vec3, Vec4};
 use wavetrace::bsdf::microfacet::*;

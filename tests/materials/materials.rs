@@ -3,9 +3,9 @@
 //! sphere in a white environment is exactly 1; the material scenes agree between GPU and CPU in
 //! every --mis, --rr and sampler mode, and every mode agrees with the default within noise.
 
-mod common;
+use crate::common;
 
-use common::{assert_agree_at, prepared, render_cpu, render_gpu};
+use crate::common::{assert_agree_at, prepared, render_cpu, render_gpu};
 use glam::Vec3;
 use std::f32::consts::PI;
 use wavetrace::bsdf::microfacet::{dielectric_f0, fresnel_conductor, fresnel_dielectric};

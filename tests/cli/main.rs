@@ -1,0 +1,10 @@
+//! The `wavetrace` binary as a user runs it: every command, its output and exit status, and
+//! `wavetrace verify`'s reports.
+//!
+//! One test binary for what these files prove together (linking the crate once, not once per file).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cli;
+mod verify;
