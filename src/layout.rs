@@ -181,7 +181,9 @@ pub struct GpuMaterial {
     /// attenuationDistance (per metre, per channel) of the medium behind the back faces; 0 for
     /// no volume (no extension, thicknessFactor 0: thin-walled, or an infinite distance).
     pub attenuation: [f32; 3], // 12 bytes
-    /// thicknessFactor (only its being 0, thin-walled, matters to a path tracer).
+    /// thicknessFactor: 0 makes a transmissive surface thin-walled (light passes without bending
+    /// and enters no medium), > 0 the boundary of a refracting volume; its value does not
+    /// matter to a path tracer, which measures the distance through the mesh itself.
     pub thickness: f32, // 4 bytes
     /// KHR_materials_diffuse_transmission: diffuseTransmissionColorFactor (linear RGB) and
     /// diffuseTransmissionFactor (0: none).

@@ -128,10 +128,15 @@ pub fn dispersive_ior(ior: f32, dispersion: f32, lambda: f32) -> f32 {
 }
 
 /// Whether a surface's refraction depends on the wavelength: KHR_materials_dispersion over a
-/// transmissive, non-metallic, lit material (the extension enhances the volume's
-/// transmission; reflection's Fresnel change with λ is left out with it).
+/// transmissive, non-metallic, lit material with a volume (the extension enhances the volume's
+/// transmission; a thin wall, thicknessFactor 0, bends nothing; reflection's Fresnel change
+/// with λ is left out with it).
 pub fn is_dispersive(m: &GpuMaterial) -> bool {
-    m.dispersion > 0.0 && m.transmission > 0.0 && m.metallic < 1.0 && m.flags & MATERIAL_UNLIT == 0
+    m.dispersion > 0.0
+        && m.transmission > 0.0
+        && m.thickness > 0.0
+        && m.metallic < 1.0
+        && m.flags & MATERIAL_UNLIT == 0
 }
 
 /// The material as a path of wavelength `lambda` sees it (0: none, no change): a dispersive
@@ -270,6 +275,7 @@ mod tests {
             metallic: 0.0,
             transmission: 1.0,
             dispersion: 1.0,
+            thickness: 1.0,
             ..GpuMaterial::default()
         };
         assert!(is_dispersive(&glass));
@@ -280,6 +286,10 @@ mod tests {
             },
             GpuMaterial {
                 transmission: 0.0,
+                ..glass
+            },
+            GpuMaterial {
+                thickness: 0.0,
                 ..glass
             },
             GpuMaterial {

@@ -309,9 +309,12 @@ def cornell_materials():
         copper = g.material("rough copper", (0.95, 0.64, 0.54), metallic=1.0, roughness=0.3)
         g.node({"name": "tall box", "mesh": g.mesh("copper cube", g.geometry(*cube()), copper),
                 "matrix": column_major(TALL_BOX)})
+        # Solid glass: KHR_materials_volume makes the sphere the boundary of a medium (without
+        # it glTF's transmission is thin-walled, a soap bubble); thicknessFactor is the diameter.
         glass = g.material("glass", (1.0, 1.0, 1.0), metallic=0.0, roughness=0.0, extensions={
             "KHR_materials_transmission": {"transmissionFactor": 1.0},
-            "KHR_materials_ior": {"ior": 1.5}})
+            "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 0.6}})
         positions, triangles = icosphere(3)
         # Centred over the short box's footprint, its lowest vertex on the floor (y = -1).
         radius = 0.3
@@ -400,8 +403,10 @@ def instances():
     white = g.lambertian("floor", (0.6, 0.6, 0.6))
     light = g.lambertian("light", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 12.0)
     copper = g.material("rough copper", (0.95, 0.64, 0.54), metallic=1.0, roughness=0.4)
+    # Solid glass cubes (KHR_materials_volume; thicknessFactor: the unit cube's edge).
     glass = g.material("glass", (0.9, 1.0, 0.95), metallic=0.0, roughness=0.1, extensions={
-        "KHR_materials_transmission": {"transmissionFactor": 1.0}})
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_volume": {"thicknessFactor": 1.0}})
     rect = g.geometry(*rectangle())
     # The floor: the unit rectangle (z = 0, front +Z) turned to face +Y and scaled to 24 x 24.
     g.node({"name": "floor", "mesh": g.mesh("floor", rect, white),
@@ -456,8 +461,10 @@ def caustic():
     g = Gltf()
     white = g.lambertian("white", (0.75, 0.75, 0.75))
     light = g.lambertian("light", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 3600.0)
+    # Solid glass (KHR_materials_volume; thicknessFactor: the diameter).
     glass = g.material("glass", (1.0, 1.0, 1.0), metallic=0.0, roughness=0.0, extensions={
-        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}})
+        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+        "KHR_materials_volume": {"thicknessFactor": 2.0}})
     rect = g.geometry(*rectangle())
     g.node({"name": "floor", "mesh": g.mesh("floor", rect, white),
             "matrix": column_major([[6, 0, 0, 0], [0, 0, 6, 0], [0, -6, 0, 0]])})

@@ -34,7 +34,8 @@ struct BsdfFrame {
     float metallic;
     float transmission;
     vec2 alpha;        // GGX (alpha_t, alpha_b) along t and b (anisotropic_alpha)
-    float etap;        // eta on the far side / eta on wo's side
+    float etap;        // eta on the far side / eta on wo's side (ior from either side of a thin wall)
+    bool thin;         // thin-walled transmission: passes without bending, bounds no medium
     vec3 f0;           // the dielectric Fresnel's RGB F0 (specular_f0) and F90 (specular)
     float f90;
     float film;        // KHR_materials_iridescence's film: factor (0: none), index, thickness (nm)
@@ -104,7 +105,7 @@ bool bsdf_specular_free(BsdfFrame f) {
 bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFrame f) {
     float cos_g = dot(ng, wo);
     f.t = vec3(0.0); f.b = vec3(0.0); f.n = vec3(0.0); f.wo = vec3(0.0); f.base = vec3(0.0);
-    f.metallic = 0.0; f.transmission = 0.0; f.alpha = vec2(0.0); f.etap = 1.0; f.f0 = vec3(0.0); f.f90 = 0.0;
+    f.metallic = 0.0; f.transmission = 0.0; f.alpha = vec2(0.0); f.etap = 1.0; f.thin = false; f.f0 = vec3(0.0); f.f90 = 0.0;
     f.film = 0.0; f.film_ior = 1.0; f.film_thickness = 0.0;
     f.lobe_pmf = vec4(0.0); f.sheen_pmf = 0.0; f.dt_pmf = 0.0;
     f.dt = 0.0; f.dt_color = vec3(0.0);
@@ -128,7 +129,10 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     // An unlit surface scatters nothing: every lobe's weight is 0.
     f.transmission = (m.metallic < 1.0 && !unlit) ? m.transmission : 0.0;
     float ior = max(m.ior, 1.0);
-    f.etap = (f.transmission > 0.0 && !front) ? 1.0 / ior : ior;
+    // glTF's default is thin-walled: only a volume (thicknessFactor > 0) makes the mesh the
+    // boundary of a medium of index ior (KHR_materials_volume, "Overview").
+    f.thin = f.transmission > 0.0 && m.thickness <= 0.0;
+    f.etap = (f.transmission > 0.0 && !front && !f.thin) ? 1.0 / ior : ior;
     float specular = unlit ? 0.0 : m.specular;
     f.base = unlit ? vec3(0.0) : m.base_color;
     f.metallic = unlit ? 0.0 : m.metallic;
@@ -233,12 +237,17 @@ bool bsdf_is_delta(BsdfFrame f) {
     return f.alpha.x < ALPHA_DELTA;
 }
 
-// The transmission lobe is a delta where the reflection is and where |eta - 1| < ETA_DELTA:
-// every microfacet then refracts within about |eta - 1|.alpha of straight through
-// (BsdfFrame::transmission_is_delta).
+// The transmission lobe is a delta where the reflection is and, through a volume's boundary,
+// where |eta - 1| < ETA_DELTA: every microfacet then refracts within about |eta - 1|.alpha of
+// straight through (BsdfFrame::transmission_is_delta).
 #define ETA_DELTA 1e-3
 bool bsdf_transmission_is_delta(BsdfFrame f) {
-    return bsdf_is_delta(f) || abs(f.etap - 1.0) < ETA_DELTA;
+    return bsdf_is_delta(f) || (!f.thin && abs(f.etap - 1.0) < ETA_DELTA);
+}
+
+// A local direction mirrored through the surface plane (z negated).
+vec3 bsdf_mirror(vec3 w) {
+    return vec3(w.xy, -w.z);
 }
 
 // Generalised half vector of a refraction (Walter et al. 2007, eq. 16) on wo's side.
@@ -255,6 +264,17 @@ float bsdf_sheen_scale(BsdfFrame f, float cos_i) {
     if (f.sheen_max <= 0.0) return 1.0;
     float e = sheen_albedo(cos_i, f.sheen_roughness);
     return min(f.sheen_scale_o, max(1.0 - f.sheen_max * e, 0.0));
+}
+
+// The thin-walled transmission lobe at local wi (wi.z < 0): the GGX reflection lobe mirrored
+// through the surface, no refraction and no eta^2 (BsdfFrame::eval_thin_transmission).
+vec3 bsdf_eval_thin_transmission(BsdfFrame f, vec3 wi) {
+    vec3 wm = bsdf_mirror(wi);
+    vec3 h = normalize(f.wo + wm);
+    vec3 fd, fm;
+    bsdf_fresnel(f, dot(f.wo, h), fd, fm);
+    float ft = ggx_d(h, f.alpha) * ggx_visibility(f.wo, wm, f.alpha);
+    return (1.0 - f.metallic) * f.transmission * (1.0 - max3(fd)) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
 }
 
 // KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local wi (wi.z < 0), F on
@@ -293,6 +313,7 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
     if (wi.z < 0.0) {
         vec3 diffuse = bsdf_eval_diffuse_transmission(f, wi);
         if (f.transmission <= 0.0 || bsdf_transmission_is_delta(f)) return diffuse;
+        if (f.thin) return diffuse + bsdf_eval_thin_transmission(f, wi);
         vec3 m;
         if (!refraction_half_vector(f, wi, m)) return diffuse;
         float om = dot(wo, m);
@@ -326,6 +347,10 @@ float bsdf_pdf_local(BsdfFrame f, vec3 wi) {
     if (wi.z < 0.0) {
         float diffuse = f.dt_pmf * cosine_hemisphere_pdf(-wi.z);
         if (bsdf_transmission_is_delta(f) || f.lobe_pmf.z <= 0.0) return diffuse;
+        if (f.thin) {
+            vec3 h = normalize(wo + bsdf_mirror(wi));
+            return diffuse + f.lobe_pmf.z * ggx_vndf_pdf(wo, h, f.alpha) / (4.0 * dot(wo, h));
+        }
         vec3 m;
         if (!refraction_half_vector(f, wi, m)) return diffuse;
         float denom = f.etap * dot(wi, m) + dot(wo, m);
@@ -347,9 +372,14 @@ bool bsdf_delta_lobe(BsdfFrame f, uint lobe, uint mode, out vec3 wi, out vec3 va
         return true;
     }
     value = vec3(0.0);
-    if (!refract_through(wo, vec3(0.0, 0.0, 1.0), f.etap, wi)) return false;
+    // Through a thin wall: straight on, no 1/eta^2 (nothing is entered).
+    if (f.thin) {
+        wi = -wo;
+    } else if (!refract_through(wo, vec3(0.0, 0.0, 1.0), f.etap, wi)) {
+        return false;
+    }
     value = dielectric * f.transmission * (1.0 - max3(fd)) * bsdf_sheen_scale(f, wi.z) * f.base;
-    if (mode == TRANSPORT_RADIANCE) value /= f.etap * f.etap;
+    if (mode == TRANSPORT_RADIANCE && !f.thin) value /= f.etap * f.etap;
     return true;
 }
 
@@ -463,6 +493,8 @@ bool bsdf_frame_sample(BsdfFrame f, vec3 u, uint mode,
             local = sample_uniform_cone(u.xy, 0.0);
         } else if (lobe == LOBE_REFLECTION) {
             local = reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy));
+        } else if (f.thin) {
+            local = bsdf_mirror(reflect_about(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy)));
         } else if (!refract_through(f.wo, sample_ggx_vndf(f.wo, f.alpha, u.xy), f.etap, local)) {
             return false;
         }

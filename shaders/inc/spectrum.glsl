@@ -63,7 +63,8 @@ float dispersive_ior(float ior, float dispersion, float lambda) {
 }
 
 bool is_dispersive(GpuMaterial m) {
-    return m.dispersion > 0.0 && m.transmission > 0.0 && m.metallic < 1.0 && (m.flags & MATERIAL_UNLIT) == 0u;
+    return m.dispersion > 0.0 && m.transmission > 0.0 && m.thickness > 0.0 && m.metallic < 1.0
+        && (m.flags & MATERIAL_UNLIT) == 0u;
 }
 
 // The material as a path of wavelength lambda sees it (0: no change).

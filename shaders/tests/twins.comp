@@ -72,7 +72,7 @@ GpuMaterial twin_material(uint i) {
     m.iridescence_texture = NO_TEXTURE;
     m.iridescence_thickness_texture = NO_TEXTURE;
     m.attenuation = vec3(0.0);
-    m.thickness = 0.0;
+    m.thickness = (i / 32u) % 2u == 1u ? 1.0 : 0.0;
     m.diffuse_transmission = (i / 5u) % 3u == 1u ? 0.6 : 0.0;
     m.diffuse_transmission_color = vec3(0.3, 0.9, 0.5);
     m.diffuse_transmission_texture = NO_TEXTURE;

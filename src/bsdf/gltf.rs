@@ -33,8 +33,13 @@ pub struct BsdfFrame {
     pub(super) transmission: f32,
     /// GGX α along `t` and `b` ([`anisotropic_alpha`]).
     pub(super) alpha: Vec2,
-    /// η on the far side / η on `wo`'s side (1 for opaque surfaces' geometry).
+    /// η on the far side / η on `wo`'s side (1 for opaque surfaces' geometry); ior from either
+    /// side of a thin-walled surface.
     pub(super) etap: f32,
+    /// A thin-walled transmissive surface (KHR_materials_transmission without
+    /// KHR_materials_volume, or thicknessFactor 0): an infinitely thin shell that transmits
+    /// without bending and bounds no medium ([`eval_thin_transmission`](Self::eval_thin_transmission)).
+    pub(super) thin: bool,
     /// The dielectric Fresnel's RGB F0 ([`specular_f0`]) and F90 (specular).
     pub(super) f0: Vec3,
     pub(super) f90: f32,
@@ -115,7 +120,10 @@ impl BsdfFrame {
             0.0
         };
         let ior = m.ior.max(1.0);
-        let etap = if transmission > 0.0 && !front {
+        // glTF's default is thin-walled: only a volume (thicknessFactor > 0) makes the mesh the
+        // boundary of a medium of index ior (KHR_materials_volume, "Overview").
+        let thin = transmission > 0.0 && m.thickness <= 0.0;
+        let etap = if transmission > 0.0 && !front && !thin {
             1.0 / ior
         } else {
             ior
@@ -208,6 +216,7 @@ impl BsdfFrame {
             transmission,
             alpha: anisotropic_alpha(m.roughness * m.roughness, anisotropy),
             etap,
+            thin,
             f0,
             f90,
             film,
@@ -284,8 +293,9 @@ impl BsdfFrame {
     /// direction wi is ∝ wo + η·wi (Walter et al. 2007, eq. 16), so every microfacet refracts
     /// within about |η − 1|·α of straight through, whatever the roughness (an ior of 1 passes
     /// a sharp image, as KHR_materials_transmission's TransmissionRoughnessTest shows).
+    /// A thin-walled surface's transmission is a delta only where its reflection is.
     pub(super) fn transmission_is_delta(&self) -> bool {
-        self.is_delta() || (self.etap - 1.0).abs() < ETA_DELTA
+        self.is_delta() || (!self.thin && (self.etap - 1.0).abs() < ETA_DELTA)
     }
 
     /// The generalised half vector of a refraction (Walter et al. 2007, eq. 16), on `wo`'s side;
@@ -349,6 +359,9 @@ impl BsdfFrame {
             if self.transmission <= 0.0 || self.transmission_is_delta() {
                 return diffuse;
             }
+            if self.thin {
+                return diffuse + self.eval_thin_transmission(wi);
+            }
             let Some(m) = self.refraction_half_vector(wi) else {
                 return diffuse;
             };
@@ -372,6 +385,25 @@ impl BsdfFrame {
         } else {
             Vec3::ZERO
         }
+    }
+
+    /// The thin-walled transmission lobe at local `wi` (wi.z < 0): the GGX reflection lobe
+    /// mirrored through the surface, dielectric · transmission · (1 − max F(wo·h)) · D(h) ·
+    /// V(wo, wi') · c with wi' = `wi` mirrored to `wo`'s side and h the half vector of wo and
+    /// wi' (KHR_materials_transmission, "Thin-walled": the light passes the shell without
+    /// bending; roughness blurs it about the straight-through −wo). No refraction, so no η²:
+    /// symmetric in wo and wi, and the same in both transport modes.
+    pub(super) fn eval_thin_transmission(&self, wi: Vec3) -> Vec3 {
+        let (wo, wm) = (self.wo, mirror(wi));
+        let h = (wo + wm).normalize();
+        let fd = self.fresnel(wo.dot(h)).0.max_element();
+        let ft = ggx_d(h, self.alpha) * ggx_visibility(wo, wm, self.alpha);
+        (1.0 - self.metallic)
+            * self.transmission
+            * (1.0 - fd)
+            * ft
+            * self.sheen_scale(wi.z)
+            * self.base
     }
 
     /// KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local `wi`
@@ -416,6 +448,11 @@ impl BsdfFrame {
             if self.transmission_is_delta() || p_transmission <= 0.0 {
                 return diffuse;
             }
+            if self.thin {
+                let h = (wo + mirror(wi)).normalize();
+                return diffuse
+                    + p_transmission * ggx_vndf_pdf(wo, h, self.alpha) / (4.0 * wo.dot(h));
+            }
             let Some(m) = self.refraction_half_vector(wi) else {
                 return diffuse;
             };
@@ -445,13 +482,18 @@ impl BsdfFrame {
                 value * self.sheen_scale(wo.z),
             ))
         } else {
-            let wi = refract_through(wo, Vec3::Z, self.etap)?;
+            // Through a thin wall: straight on, no 1/η² (nothing is entered).
+            let wi = if self.thin {
+                -wo
+            } else {
+                refract_through(wo, Vec3::Z, self.etap)?
+            };
             let mut value = dielectric
                 * self.transmission
                 * (1.0 - fd.max_element())
                 * self.sheen_scale(wi.z)
                 * self.base;
-            if mode == TransportMode::Radiance {
+            if mode == TransportMode::Radiance && !self.thin {
                 value /= self.etap * self.etap;
             }
             Some((wi, value))
@@ -570,6 +612,10 @@ impl BsdfFrame {
                 // sparse).
                 LOBE_SHEEN => sample_uniform_cone(uv, 0.0),
                 LOBE_REFLECTION => reflect_about(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv)),
+                _ if self.thin => mirror(reflect_about(
+                    self.wo,
+                    sample_ggx_vndf(self.wo, self.alpha, uv),
+                )),
                 _ => refract_through(self.wo, sample_ggx_vndf(self.wo, self.alpha, uv), self.etap)?,
             };
             // Each lobe keeps to its side: a reflection below or a refraction above the surface
@@ -596,6 +642,11 @@ impl BsdfFrame {
             delta: false,
         })
     }
+}
+
+/// A local direction mirrored through the surface plane (z negated).
+fn mirror(w: Vec3) -> Vec3 {
+    Vec3::new(w.x, w.y, -w.z)
 }
 
 /// f(wo, wi) of the non-delta lobes (without the cosine).

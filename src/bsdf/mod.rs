@@ -21,8 +21,11 @@
 //! specularColor, 1) · specular, F90 = specular, and the layers below the specular one are
 //! scaled by 1 − max(F_d) (the extension's "Implementation" section; with the default
 //! specularColor 1 the three channels are equal and this is the core model). The
-//! transmission lobe is a rough dielectric (Walter et al. 2007, eq. 21) refracting by `ior`,
-//! tinted by c as KHR_materials_transmission says. No energy compensation: at grazing angles
+//! transmission lobe is thin-walled by default, as the specification says: without
+//! KHR_materials_volume (or with thicknessFactor 0) it is the reflection lobe mirrored through
+//! the surface, straight through when smooth, with no η (`BsdfFrame::eval_thin_transmission`);
+//! with a volume it is a rough dielectric (Walter et al. 2007, eq. 21) refracting by `ior` into
+//! the medium the mesh bounds; tinted by c either way as KHR_materials_transmission says. No energy compensation: at grazing angles
 //! the spec's dielectric mix (1 − F)·diffuse + F·specular reflects a little more than it
 //! receives where the GGX lobe is rough (see `tests::dielectric_mix_gains_energy_at_grazing`).
 //!

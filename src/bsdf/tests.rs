@@ -22,6 +22,9 @@ fn material(base: f32, metallic: f32, roughness: f32, transmission: f32) -> GpuM
         ior: 1.5,
         transmission,
         specular: 1.0,
+        // Solid glass: the boundary of a volume (thicknessFactor > 0); the thin-walled cases
+        // (`thin_pane`) set it to 0.
+        thickness: 1.0,
         ..Default::default()
     }
 }
@@ -1614,4 +1617,179 @@ fn shading_frames_are_the_general_frames() {
 /// A unit vector from four uniform numbers (the first three, centred).
 fn unit(u: glam::Vec4) -> Vec3 {
     (Vec3::new(u.x, u.y, u.z) - Vec3::splat(0.5)).normalize()
+}
+
+/// A thin-walled pane (KHR_materials_transmission without a volume: thicknessFactor 0).
+fn thin_pane(base: [f32; 3], roughness: f32, transmission: f32) -> GpuMaterial {
+    GpuMaterial {
+        base_color: base,
+        thickness: 0.0,
+        ..material(0.0, 0.0, roughness, transmission)
+    }
+}
+
+fn thin_cases() -> Vec<(GpuMaterial, Vec3, String)> {
+    let mut cases = Vec::new();
+    for r in [0.3, 0.7] {
+        for transmission in [1.0, 0.5] {
+            for cos in [0.95, 0.5, 0.12] {
+                // Both sides alike: a thin wall has no inside.
+                for side in [1.0, -1.0] {
+                    let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                    let name = format!("thin, roughness {r}, transmission {transmission}, wo {wo}");
+                    cases.push((thin_pane([0.9, 0.6, 0.3], r, transmission), wo, name));
+                }
+            }
+        }
+    }
+    // Under a sheen and a coat, and anisotropic.
+    for (k, wo) in [
+        direction(0.6, 0.2),
+        direction(0.3, 1.0) * Vec3::new(1.0, 1.0, -1.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let base = thin_pane([0.8; 3], 0.5, 1.0);
+        cases.push((
+            GpuMaterial {
+                sheen_color: [0.5, 0.7, 0.9],
+                sheen_roughness: 0.4,
+                clearcoat: 0.5,
+                clearcoat_roughness: 0.3,
+                ..base
+            },
+            wo,
+            format!("thin under sheen and coat, wo {wo} ({k})"),
+        ));
+        cases.push((
+            GpuMaterial {
+                anisotropy: 0.7,
+                anisotropy_direction: [1.0, 0.0, 0.0],
+                ..base
+            },
+            wo,
+            format!("thin anisotropic, wo {wo} ({k})"),
+        ));
+    }
+    cases
+}
+
+#[test]
+fn thin_walled_sampling_matches_its_pdf_and_eval() {
+    assert_sampling_matches_pdf_and_eval(&thin_cases(), "thin-walled transmission", false);
+}
+
+#[test]
+fn thin_walled_transmission_is_symmetric_in_both_modes() {
+    // No refraction, no η²: f(a → b below) = f(b below → a) in radiance, and the importance
+    // BSDF equals the radiance one (where solid glass differs by η², see
+    // `reflection_is_reciprocal_and_refraction_obeys_the_eta_squared_rule`). Without the coat,
+    // whose F_c on V makes it non-reciprocal (`clearcoat_importance_is_the_transposed_radiance_bsdf`).
+    let cases: Vec<_> = thin_cases()
+        .into_iter()
+        .filter(|(m, _, _)| m.clearcoat == 0.0)
+        .collect();
+    assert_reciprocal_and_transposed(&cases);
+    let dirs = RECIPROCITY_DIRECTIONS.map(|(cos, phi)| direction(cos, phi));
+    for (m, _, name) in &cases {
+        for a in dirs {
+            for b in dirs {
+                let below = b * Vec3::new(1.0, 1.0, -1.0);
+                let out_in = bsdf_eval(m, NG, a, below, TransportMode::Radiance);
+                let in_out = bsdf_eval(m, NG, below, a, TransportMode::Radiance);
+                let importance = bsdf_eval(m, NG, a, below, TransportMode::Importance);
+                for other in [in_out, importance] {
+                    assert!(
+                        (other - out_in).abs().max_element()
+                            <= 1e-4 * out_in.max_element().max(1e-3),
+                        "{name}: {out_in} vs {other}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn rough_thin_walls_blur_about_the_straight_through_direction() {
+    // The transmitted lobe is the reflection lobe mirrored through the plane: its peak is at
+    // −wo, not at the refracted direction, and its value there is the reflection's at the
+    // mirror direction times (1 − F)/F · c (the same D, V and half vector).
+    let m = thin_pane([0.9, 0.6, 0.3], 0.4, 1.0);
+    for cos in [0.9f32, 0.5] {
+        let wo = direction(cos, 0.3);
+        let frame = BsdfFrame::new(&m, NG, wo).unwrap();
+        let through = frame.eval(-wo, TransportMode::Radiance);
+        let refracted = refract_through(wo, Vec3::Z, 1.5).unwrap();
+        let bent = frame.eval(refracted, TransportMode::Radiance);
+        assert!(through.x > bent.x, "cos {cos}: {through} ≤ {bent}");
+        let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
+        let h = Vec3::Z;
+        let fd = frame.fresnel(wo.dot(h)).0.max_element();
+        let spec = ggx_d(h, frame.alpha) * ggx_visibility(wo, mirror, frame.alpha);
+        let want = (1.0 - fd) * spec * Vec3::new(0.9, 0.6, 0.3);
+        assert!(
+            (through - want).abs().max_element() <= 1e-5 * want.max_element(),
+            "cos {cos}: {through} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn smooth_thin_pane_passes_one_minus_fresnel_of_its_colour_straight_through() {
+    // A smooth thin pane of base colour C seen from either side at angle θ: the transmitted
+    // sample leaves along −wo with f·|cos| = (1 − F(θ))·C in both transport modes (no 1/η²),
+    // and the reflected one carries F(θ): together, for a white pane, exactly 1.
+    let c = Vec3::new(0.9, 0.6, 0.3);
+    let m = thin_pane(c.to_array(), 0.0, 1.0);
+    for side in [1.0, -1.0] {
+        for cos in [1.0f32, 0.7, 0.3, 0.05] {
+            let wo = direction(cos, 0.4) * Vec3::new(1.0, 1.0, side);
+            let f = fresnel_dielectric(cos, dielectric_f0(1.5), 1.0, 1.5);
+            let frame = BsdfFrame::new(&m, NG, wo).unwrap();
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let (wi, value) = frame.delta_lobe(LOBE_TRANSMISSION, mode).unwrap();
+                assert!((frame.to_world(wi) + wo).length() < 1e-6, "{wi} vs {wo}");
+                let want = (1.0 - f) * c;
+                assert!(
+                    (value - want).abs().max_element() < 1e-6,
+                    "side {side}, cos {cos}: {value} vs {want}"
+                );
+                let (_, reflected) = frame.delta_lobe(LOBE_REFLECTION, mode).unwrap();
+                assert!((reflected - Vec3::splat(f)).abs().max_element() < 1e-6);
+            }
+            // Sampled: weight · pmf is the same (1 − F)·C.
+            let mut seen = false;
+            for i in 0..64 {
+                let Some(s) = frame.sample(u3(21, i), TransportMode::Radiance) else {
+                    continue;
+                };
+                assert!(s.delta);
+                if s.wi.dot(NG) * side < 0.0 {
+                    let got = s.weight * frame.lobe_pmf[LOBE_TRANSMISSION];
+                    assert!((got - (1.0 - f) * c).abs().max_element() < 1e-5, "{got}");
+                    seen = true;
+                }
+            }
+            assert!(seen, "side {side}, cos {cos}: no transmitted sample");
+        }
+    }
+}
+
+#[test]
+fn white_thin_walls_conserve_energy() {
+    // A white thin pane reflects F and transmits the rest: at most 1 (single scattering loses
+    // a little at high roughness, as the reflection lobe does).
+    let mut checks = Vec::new();
+    for r in [0.0, 0.2, 0.6, 1.0] {
+        for cos in [0.95, 0.5, 0.12] {
+            for side in [1.0, -1.0] {
+                let wo = direction(cos, 0.7) * Vec3::new(1.0, 1.0, side);
+                checks.push((thin_pane([1.0; 3], r, 1.0), wo));
+            }
+        }
+    }
+    let largest = assert_albedo_at_most_one(&checks);
+    println!("white thin walls: largest albedo {largest:.4}");
 }

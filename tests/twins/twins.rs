@@ -105,6 +105,8 @@ fn twin_material(i: u32) -> GpuMaterial {
         diffuse_transmission: if (i / 5) % 3 == 1 { 0.6 } else { 0.0 },
         diffuse_transmission_color: [0.3, 0.9, 0.5],
         dispersion: if (i / 8) % 2 == 1 { 1.5 } else { 0.0 },
+        // Half thin-walled (thicknessFactor 0, glTF's default), half a volume's boundary.
+        thickness: if (i / 32) % 2 == 1 { 1.0 } else { 0.0 },
         ..Default::default()
     };
     if (i / 64) % 8 == 5 && i / 512 != 7 {
