@@ -392,6 +392,29 @@ pub struct RenderOptions {
     /// camera's or node's name (default: the first camera met in the scene's node tree).
     #[arg(long, value_name = "N|NAME")]
     pub camera: Option<String>,
+    /// Place a perspective camera by hand at X,Y,Z looking at --look-at (instead of the file's
+    /// camera or the default framing).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_negative_numbers = true,
+          requires = "look_at", conflicts_with_all = ["camera", "orbit"])]
+    pub from: Option<glam::Vec3>,
+    /// The point the --from camera looks at.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_negative_numbers = true,
+          requires = "from")]
+    pub look_at: Option<glam::Vec3>,
+    /// The direction towards the top of the image for --from (default +Y).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_negative_numbers = true,
+          requires = "from")]
+    pub up: Option<glam::Vec3>,
+    /// Place a perspective camera on a sphere about the scene's centre: AZ degrees about +Y from
+    /// the default view (+Z side; 90 is +X), EL degrees up, DIST from the centre (default: the
+    /// distance at which the bounding sphere fits the view).
+    #[arg(long, value_name = "AZ,EL[,DIST]", value_parser = parse_orbit, allow_negative_numbers = true,
+          conflicts_with = "camera")]
+    pub orbit: Option<(f32, f32, Option<f32>)>,
+    /// Vertical field of view in degrees of a perspective camera: the one --from or --orbit
+    /// places (default 40), or the file's or the default one.
+    #[arg(long, value_name = "DEG", value_parser = parse_fov)]
+    pub fov: Option<f32>,
     /// Thin-lens depth of field: the lens diameter in scene units (perspective cameras; default 0,
     /// a pinhole).
     #[arg(long, default_value_t = 0.0, value_parser = parse_aperture, value_name = "D", allow_negative_numbers = true)]
@@ -452,13 +475,15 @@ pub struct RenderOptions {
     /// where coarse mip levels of a texture atlas bleed across its islands.
     #[arg(long, value_enum, default_value_t = TextureLodArg::Cones)]
     pub texture_lod: TextureLodArg,
-    /// Radiance of rays that leave the scene: one value (grey) or R,G,B.
-    #[arg(long, value_parser = parse_radiance, default_value = "0")]
-    pub environment: glam::Vec3,
-    /// An equirectangular environment map (Radiance .hdr or OpenEXR) lighting the scene from
-    /// every direction: +Y up, the image's top row straight up, its centre looking along −Z.
-    #[arg(long, value_name = "FILE", conflicts_with = "environment")]
-    pub env: Option<PathBuf>,
+    /// Radiance of rays that leave the scene: one value (grey) or R,G,B (0: black).
+    #[arg(long, value_parser = parse_radiance)]
+    pub environment: Option<glam::Vec3>,
+    /// What lights the scene from every direction: an equirectangular map FILE (Radiance .hdr or
+    /// OpenEXR; +Y up, the image's top row straight up, its centre looking along −Z), `studio`
+    /// (the built-in neutral studio) or `none` (black). Without it (and without
+    /// --environment), a scene with no light of its own is lit by the studio.
+    #[arg(long, value_name = "FILE|studio|none", conflicts_with = "environment", value_parser = parse_env)]
+    pub env: Option<EnvArg>,
     /// Turn the environment map by DEG degrees about +Y (counter-clockwise seen from above).
     #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_finite)]
     pub env_rotate: f32,
@@ -495,6 +520,51 @@ fn parse_finite(text: &str) -> Result<f32, String> {
     }
 }
 
+/// A point or direction: three finite numbers X,Y,Z.
+fn parse_point(text: &str) -> Result<glam::Vec3, String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(parse_finite)
+        .collect::<Result<_, _>>()?;
+    match values.as_slice() {
+        [x, y, z] => Ok(glam::Vec3::new(*x, *y, *z)),
+        _ => Err("expected three numbers X,Y,Z".into()),
+    }
+}
+
+/// `--orbit AZ,EL[,DIST]`: finite angles in degrees (elevation within ±90), a positive
+/// distance.
+fn parse_orbit(text: &str) -> Result<(f32, f32, Option<f32>), String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(parse_finite)
+        .collect::<Result<_, _>>()?;
+    let (az, el, dist) = match values.as_slice() {
+        [az, el] => (*az, *el, None),
+        [az, el, d] => (*az, *el, Some(*d)),
+        _ => return Err("expected AZ,EL or AZ,EL,DIST (degrees, degrees, scene units)".into()),
+    };
+    if el.abs() > 90.0 {
+        return Err(format!("elevation {el} must lie within -90 and 90 degrees"));
+    }
+    if dist.is_some_and(|d| d <= 0.0) {
+        return Err("the distance must be positive".into());
+    }
+    Ok((az, el, dist))
+}
+
+/// A field of view in degrees, in (0, 180).
+fn parse_fov(text: &str) -> Result<f32, String> {
+    let v = parse_finite(text)?;
+    if v > 0.0 && v < 180.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v}: a field of view lies between 0 and 180 degrees"
+        ))
+    }
+}
+
 /// A finite, non-negative factor.
 fn parse_scale(text: &str) -> Result<f32, String> {
     let v = parse_finite(text)?;
@@ -506,6 +576,23 @@ fn parse_scale(text: &str) -> Result<f32, String> {
 }
 
 /// "v" or "r,g,b": finite, non-negative radiance.
+/// `--env`: a map file, the built-in studio or none (a file named `studio` or `none` is reached
+/// as `./studio`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum EnvArg {
+    File(PathBuf),
+    Studio,
+    None,
+}
+
+fn parse_env(text: &str) -> Result<EnvArg, String> {
+    Ok(match text {
+        "studio" => EnvArg::Studio,
+        "none" => EnvArg::None,
+        _ => EnvArg::File(PathBuf::from(text)),
+    })
+}
+
 pub(crate) fn parse_radiance(text: &str) -> Result<glam::Vec3, String> {
     let values: Vec<f32> = text
         .split(',')

@@ -1,7 +1,7 @@
 //! From the command line to a render: the scene loaded under the options' limits, the image
 //! size, the memory a render reserves, the settings, and which device `--device auto` picks.
 
-use super::options::{DeviceKind, RenderOptions, TextureLodArg};
+use super::options::{DeviceKind, EnvArg, RenderOptions, TextureLodArg};
 use anyhow::{bail, Context as _, Result};
 use std::mem::size_of;
 use std::path::{Path, PathBuf};
@@ -96,6 +96,7 @@ pub(crate) fn prepare(
     if let Some(which) = &opts.camera {
         scene.select_camera(which)?;
     }
+    place_camera(&mut scene, opts).with_context(|| format!("{}", path.display()))?;
     let prepared = PreparedScene::new(&scene);
     let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio());
     if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
@@ -111,7 +112,7 @@ pub(crate) fn prepare(
         device,
     )?;
     let env_map = match &opts.env {
-        Some(file) => {
+        Some(EnvArg::File(file)) => {
             let left = options.budget.limit().saturating_sub(options.budget.used());
             let map = EnvironmentMap::load(file, left)?;
             options.budget.reserve(
@@ -122,7 +123,18 @@ pub(crate) fn prepare(
             )?;
             Some(std::sync::Arc::new(map))
         }
-        None => None,
+        Some(EnvArg::Studio) => Some(wavetrace::lights::studio()),
+        // A file with no light of its own, and no word on the environment: the studio
+        // (DESIGN.md, "Lighting by default").
+        None if opts.environment.is_none() && prepared.lights.is_empty() => {
+            eprintln!(
+                "note: {}: the file has no lights: lit by the built-in studio environment \
+                 (--env none for black, --env FILE for a map of your own)",
+                path.display()
+            );
+            Some(wavetrace::lights::studio())
+        }
+        Some(EnvArg::None) | None => None,
     };
     let settings = RenderSettings {
         width,
@@ -130,7 +142,7 @@ pub(crate) fn prepare(
         spp: opts.spp,
         max_depth: opts.max_depth,
         seed: opts.seed,
-        environment: opts.environment,
+        environment: opts.environment.unwrap_or(glam::Vec3::ZERO),
         env_map,
         env_scale: opts.env_scale,
         env_rotate: opts.env_rotate,
@@ -223,4 +235,26 @@ mod tests {
         assert_eq!(image_size(Some(64), Some(48), Some(1.0)), (64, 48));
         assert_eq!(image_size(Some(64), None, Some(f32::NAN)), (64, 64));
     }
+}
+
+/// `--from`/`--look-at`/`--up`, `--orbit` and `--fov`: a camera placed by hand, or the file's
+/// (or default) perspective camera with another field of view.
+fn place_camera(scene: &mut Scene, opts: &RenderOptions) -> Result<()> {
+    use wavetrace::scene::{Camera, Projection};
+    let yfov = opts.fov.map_or(Camera::framing_yfov(), f32::to_radians);
+    if let (Some(from), Some(at)) = (opts.from, opts.look_at) {
+        let up = opts.up.unwrap_or(glam::Vec3::Y);
+        scene.camera = Camera::look_at(from, at, up, yfov)
+            .map_err(|e| anyhow::anyhow!("--from {from} --look-at {at}: {e}"))?;
+    } else if let Some((azimuth, elevation, distance)) = opts.orbit {
+        scene.camera = Camera::orbit(scene.bounds(), azimuth, elevation, distance, yfov);
+    } else if let Some(degrees) = opts.fov {
+        match &mut scene.camera.projection {
+            Projection::Perspective { yfov, .. } => *yfov = degrees.to_radians(),
+            Projection::Orthographic { .. } => {
+                bail!("--fov {degrees}: the camera is orthographic (it has no field of view)")
+            }
+        }
+    }
+    Ok(())
 }

@@ -73,7 +73,7 @@ pub fn record(
         }
         None => format!(
             "{:?},{:?},{:?}",
-            o.environment.x, o.environment.y, o.environment.z
+            settings.environment.x, settings.environment.y, settings.environment.z
         ),
     };
     let mis = match o.mis {

@@ -62,26 +62,35 @@ pub struct ThinLens {
 /// Field of view of the default camera.
 const FRAMING_YFOV_DEGREES: f32 = 40.0;
 
+/// The centre of `bounds` (min, max) and the distance from it at which their bounding sphere
+/// just fits a vertical field of view `yfov`: a sphere of radius r seen from distance d fills a
+/// half-angle asin(r / d). (The origin and 1 for empty or non-finite bounds.)
+fn framing_sphere(bounds: (Vec3, Vec3), yfov: f32) -> (Vec3, f32) {
+    let (lo, hi) = bounds;
+    let centre = 0.5 * (lo + hi);
+    let radius = 0.5 * (hi - lo).length();
+    let distance = if radius.is_finite() && radius > 0.0 {
+        radius / (0.5 * yfov).sin()
+    } else {
+        1.0
+    };
+    (
+        if centre.is_finite() {
+            centre
+        } else {
+            Vec3::ZERO
+        },
+        distance,
+    )
+}
+
 impl Camera {
     /// The default camera for a scene without one: looks down −Z with +Y up, yfov 40°, on the
     /// +Z side of the centre of `bounds` (min, max), just far enough for the bounding sphere
     /// to fit in the vertical field of view; no near plane.
     pub fn framing(bounds: (Vec3, Vec3)) -> Camera {
-        let (lo, hi) = bounds;
-        let centre = 0.5 * (lo + hi);
-        let radius = 0.5 * (hi - lo).length();
         let yfov = FRAMING_YFOV_DEGREES.to_radians();
-        // A sphere of radius r seen from distance d fills a half-angle asin(r / d).
-        let distance = if radius.is_finite() && radius > 0.0 {
-            radius / (0.5 * yfov).sin()
-        } else {
-            1.0
-        };
-        let centre = if centre.is_finite() {
-            centre
-        } else {
-            Vec3::ZERO
-        };
+        let (centre, distance) = framing_sphere(bounds, yfov);
         Camera {
             position: centre + Vec3::Z * distance,
             forward: Vec3::NEG_Z,
@@ -93,6 +102,63 @@ impl Camera {
             },
             znear: 0.0,
         }
+    }
+
+    /// A perspective camera at `from` looking at `at` with `up` towards the top of the image
+    /// (`--from`, `--look-at`, `--up`), vertical field of view `yfov` radians; no near plane.
+    /// Errors say what is wrong: the two points coincide, or up is parallel to the view.
+    pub fn look_at(from: Vec3, at: Vec3, up: Vec3, yfov: f32) -> Result<Camera, String> {
+        let Some(forward) = (at - from).try_normalize() else {
+            return Err(format!("the camera at {from} looks at itself"));
+        };
+        let Some(right) = forward.cross(up).try_normalize() else {
+            return Err(format!(
+                "up {up} is parallel to the viewing direction {forward}"
+            ));
+        };
+        Ok(Camera {
+            position: from,
+            forward,
+            right,
+            up: right.cross(forward),
+            projection: Projection::Perspective {
+                yfov,
+                aspect_ratio: None,
+            },
+            znear: 0.0,
+        })
+    }
+
+    /// A perspective camera on a sphere about the centre of `bounds` (`--orbit`): azimuth
+    /// `azimuth` degrees about +Y from the default view's +Z side (counter-clockwise seen from
+    /// above, so 90° is on +X), elevation `elevation` degrees above the horizontal, at
+    /// `distance` from the centre (None: the default framing's distance for `yfov`), looking at
+    /// the centre with +Y up (straight above or below, up is the horizontal direction away from
+    /// the azimuth's side).
+    pub fn orbit(
+        bounds: (Vec3, Vec3),
+        azimuth: f32,
+        elevation: f32,
+        distance: Option<f32>,
+        yfov: f32,
+    ) -> Camera {
+        let (centre, fits) = framing_sphere(bounds, yfov);
+        let distance = distance.unwrap_or(fits);
+        let (sa, ca) = azimuth.to_radians().sin_cos();
+        let (se, ce) = elevation.to_radians().sin_cos();
+        let offset = Vec3::new(sa * ce, se, ca * ce);
+        let up = if ce.abs() < 1e-4 {
+            -Vec3::new(sa, 0.0, ca) * se.signum()
+        } else {
+            Vec3::Y
+        };
+        Camera::look_at(centre + distance * offset, centre, up, yfov)
+            .expect("an orbit's up is never parallel to its view")
+    }
+
+    /// The field of view of the default camera (`Camera::framing`), in radians.
+    pub fn framing_yfov() -> f32 {
+        FRAMING_YFOV_DEGREES.to_radians()
     }
 
     /// A camera at a glTF camera node: origin, −Z and +Y of `world` give position, forward and
@@ -300,6 +366,49 @@ mod tests {
         assert_eq!(cam.forward, Vec3::NEG_Z);
         assert!((cam.position.z - centre.z - d).abs() < 1e-5);
         assert_eq!(cam.znear, 0.0);
+    }
+
+    #[test]
+    fn orbit_zero_is_the_default_view_and_turns_counter_clockwise() {
+        let bounds = (Vec3::new(-1.0, -2.0, -3.0), Vec3::new(3.0, 2.0, 1.0));
+        let centre = Vec3::new(1.0, 0.0, -1.0);
+        let framing = Camera::framing(bounds);
+        let yfov = Camera::framing_yfov();
+        let front = Camera::orbit(bounds, 0.0, 0.0, None, yfov);
+        assert!((front.position - framing.position).length() < 1e-5);
+        assert!((front.forward - framing.forward).length() < 1e-6);
+        assert!((front.up - framing.up).length() < 1e-6);
+        // 90° of azimuth: on +X looking back along −X; 30° up at distance 5.
+        let side = Camera::orbit(bounds, 90.0, 0.0, Some(5.0), yfov);
+        assert!((side.position - (centre + 5.0 * Vec3::X)).length() < 1e-5);
+        assert!((side.forward + Vec3::X).length() < 1e-6);
+        let high = Camera::orbit(bounds, 0.0, 30.0, Some(2.0), yfov);
+        assert!((high.position - centre - Vec3::new(0.0, 1.0, 3f32.sqrt())).length() < 1e-5);
+        // Straight down: a finite frame whose image top points away from the camera's side.
+        let top = Camera::orbit(bounds, 0.0, 90.0, Some(2.0), yfov);
+        assert!((top.forward + Vec3::Y).length() < 1e-6);
+        assert!((top.up + Vec3::Z).length() < 1e-5, "{}", top.up);
+        for cam in [front, side, high, top] {
+            assert!((cam.right - cam.forward.cross(cam.up)).length() < 1e-5);
+            assert!(
+                (cam.position + cam.forward * cam.distance_to_centre(bounds) - centre).length()
+                    < 1e-4
+            );
+        }
+    }
+
+    #[test]
+    fn look_at_refuses_what_has_no_frame() {
+        let cam = Camera::look_at(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, Vec3::Y, 0.5).unwrap();
+        assert!((cam.forward - Vec3::new(0.0, -1.0, -4.0).normalize()).length() < 1e-6);
+        assert!(cam.up.y > 0.9 && cam.up.dot(cam.forward).abs() < 1e-6);
+        assert_eq!(cam.yfov(), Some(0.5));
+        assert!(Camera::look_at(Vec3::ONE, Vec3::ONE, Vec3::Y, 0.5)
+            .unwrap_err()
+            .contains("looks at itself"));
+        assert!(Camera::look_at(Vec3::Y, Vec3::ZERO, Vec3::Y, 0.5)
+            .unwrap_err()
+            .contains("parallel"));
     }
 
     #[test]

@@ -78,6 +78,43 @@ fn gpu_render_writes_a_png() {
 }
 
 #[test]
+fn a_camera_placed_by_hand_sees_another_view() {
+    // The Cornell box (its own camera on +Z looking in) from the default view, turned 30° by
+    // --orbit, and from a point of our choice: three different images, each lit.
+    let render = |name: &str, extra: &[&str]| {
+        let out = temp(name);
+        let mut args = vec![
+            "render",
+            "scenes/cornell-box.gltf",
+            "--device",
+            "cpu",
+            "--width",
+            "12",
+            "--height",
+            "12",
+            "--spp",
+            "2",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = wavetrace(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        wavetrace::image_io::read_exr(&out).unwrap().mean
+    };
+    let own = render("own-camera.exr", &[]);
+    let orbit = render("orbit.exr", &["--orbit", "30,10"]);
+    let by_hand = render(
+        "from.exr",
+        &["--from", "0.5,0.2,3", "--look-at", "0,0,0", "--fov", "50"],
+    );
+    assert!(own != orbit && own != by_hand && orbit != by_hand);
+    for image in [&own, &orbit, &by_hand] {
+        assert!(image.iter().any(|p| p.iter().any(|&c| c > 0.0)));
+    }
+}
+
+#[test]
 fn bad_input_fails_with_a_message_naming_it() {
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["render", "no/such/scene.gltf"], "no/such/scene.gltf"),
@@ -89,6 +126,38 @@ fn bad_input_fails_with_a_message_naming_it() {
         (vec!["render", "--environment", "nan"], "--environment"),
         (vec!["render", "--aperture", "-1"], "--aperture"),
         (vec!["render", "--focus-distance", "0"], "--focus-distance"),
+        (vec!["render", "--orbit", "0,100"], "--orbit"),
+        (vec!["render", "--orbit", "10"], "--orbit"),
+        (vec!["render", "--fov", "180"], "--fov"),
+        (vec!["render", "--from", "0,0,1"], "--look-at"),
+        (
+            vec!["render", "--from", "0,0,nan", "--look-at", "0,0,0"],
+            "--from",
+        ),
+        (
+            vec![
+                "render",
+                "--from",
+                "1,1,1",
+                "--look-at",
+                "1,1,1",
+                "--device",
+                "cpu",
+            ],
+            "cornell-box.gltf",
+        ),
+        (
+            vec![
+                "render",
+                "--from",
+                "0,3,0",
+                "--look-at",
+                "0,0,0",
+                "--device",
+                "cpu",
+            ],
+            "parallel",
+        ),
     ];
     for (args, needle) in cases {
         let o = wavetrace(&args);

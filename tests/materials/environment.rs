@@ -8,7 +8,11 @@
 //! - on a small bright "sun", environment sampling with MIS cuts the variance against BSDF
 //!   sampling alone (the factor is printed), with the same mean;
 //! - the GPU agrees with the CPU per tile, with a synthetic map turned by --env-rotate and with
-//!   an HDR file from ../shared/gltf-samples/env/ (skipped where absent).
+//!   an HDR file from ../shared/gltf-samples/env/ (skipped where absent);
+//! - the built-in studio (src/lights/studio.rs) lights an upward plane with ρ/π times its
+//!   irradiance, integrated here from the lookup, on CPU and GPU; a file without lights is lit
+//!   by it with a note, `--env none` and `--environment 0` keep it black, a file with lights
+//!   keeps its own.
 
 use crate::common;
 
@@ -415,4 +419,87 @@ fn bad_environment_files_are_refused_by_name() {
             "{file}: {stderr}"
         );
     }
+}
+
+#[test]
+fn the_studio_lights_a_plane_with_its_irradiance() {
+    use wavetrace::lights::environment::env_radiance;
+    let map = wavetrace::lights::studio();
+    let mut frame = FrameParams::default();
+    map.write_frame_params(Vec3::ONE, 0.0, &mut frame);
+    // E = ∫ L(ω) cos θ dω over the upper hemisphere of the lookup the renderers use, by the
+    // midpoint rule on 4096 × 1024 cells in (φ, θ) (the lookup is bilinear between 512 × 256
+    // texels, so each cell sees a smooth piece of it).
+    let (nphi, ntheta) = (4096, 1024);
+    let mut e = 0.0f64;
+    for j in 0..ntheta {
+        let theta = (j as f64 + 0.5) / ntheta as f64 * PI / 2.0;
+        for i in 0..nphi {
+            let phi = (i as f64 + 0.5) / nphi as f64 * 2.0 * PI;
+            let d = Vec3::new(
+                (theta.sin() * phi.cos()) as f32,
+                theta.cos() as f32,
+                (theta.sin() * phi.sin()) as f32,
+            );
+            e += env_radiance(&map, &frame, d).x as f64 * theta.cos() * theta.sin();
+        }
+    }
+    e *= (PI / 2.0 / ntheta as f64) * (2.0 * PI / nphi as f64);
+    let want = ALBEDO as f64 / PI * e;
+    println!("studio: irradiance of an upward plane {e:.4}, its radiance {want:.4}");
+    let above = plane_scene(false);
+    let cpu = render_cpu(&above, &settings(&map, 5, 256));
+    assert_eq!(cpu.film.dropped, 0);
+    assert_pixels_near(&cpu.film, Vec3::splat(want as f32), "studio plane (CPU)");
+    if let Some(gpu) = render_gpu(&above, &settings(&map, 6, 256), None) {
+        assert_eq!(gpu.film.dropped, 0);
+        assert_pixels_near(&gpu.film, Vec3::splat(want as f32), "studio plane (GPU)");
+        assert_agree_at(&gpu.film, &cpu.film, 0.01, "studio plane");
+    }
+}
+
+#[test]
+fn a_file_without_lights_is_lit_by_the_studio_unless_told_otherwise() {
+    // The Cornell box without its light (emission removed from every material).
+    let mut doc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(common::scene_path("cornell-box.gltf")).unwrap(),
+    )
+    .unwrap();
+    for m in doc["materials"].as_array_mut().unwrap() {
+        m.as_object_mut().unwrap().remove("emissiveFactor");
+    }
+    let dark = common::temp("environment", "unlit-box.gltf");
+    std::fs::write(&dark, doc.to_string()).unwrap();
+    let render = |file: &str, extra: &[&str]| {
+        let out = common::temp("environment", "default-light.exr");
+        let mut args = vec![
+            "render", file, "--device", "cpu", "--width", "8", "--height", "8", "--spp", "4", "-o",
+        ];
+        args.push(out.to_str().unwrap());
+        args.extend(extra);
+        let run = common::wavetrace(&args);
+        let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+        assert!(run.status.success(), "{args:?}: {stderr}");
+        let film = common::read_exr_file(&out).film;
+        let sum: f64 = (0..film.pixels.len())
+            .map(|p| film.mean_f64(p).iter().sum::<f64>())
+            .sum();
+        (stderr, sum)
+    };
+    let dark = dark.to_str().unwrap();
+    let (stderr, sum) = render(dark, &[]);
+    assert!(stderr.contains("built-in studio"), "{stderr}");
+    assert!(sum > 0.0, "the studio lights nothing");
+    let (stderr, studio) = render(dark, &["--env", "studio"]);
+    assert!(!stderr.contains("has no lights"), "{stderr}");
+    assert_eq!(studio, sum, "--env studio is the default's studio");
+    for told in [&["--env", "none"][..], &["--environment", "0"]] {
+        let (stderr, sum) = render(dark, told);
+        assert!(!stderr.contains("built-in studio"), "{told:?}: {stderr}");
+        assert!(stderr.contains("nothing emits light"), "{told:?}: {stderr}");
+        assert_eq!(sum, 0.0, "{told:?}");
+    }
+    // A file with a light keeps it alone.
+    let (stderr, _) = render("scenes/cornell-box.gltf", &[]);
+    assert!(!stderr.contains("studio"), "{stderr}");
 }

@@ -28,6 +28,9 @@ fn material(base: Vec3, metallic: f32, roughness: f32, transmission: f32) -> Mat
         specular: 1.0,
         emission: Vec3::ZERO,
         double_sided: false,
+        // Transmissive test materials are solid glass: the boundary of a volume
+        // (KHR_materials_volume's thicknessFactor > 0), not glTF's thin-walled default.
+        thickness: 1.0,
         ..Material::default_white()
     }
 }

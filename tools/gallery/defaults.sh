@@ -1,0 +1,31 @@
+#!/bin/sh
+# Renders what a new user sees with no flag at all, into tools/gallery/:
+#
+#     sh tools/gallery/defaults.sh                    # GPU (lavapipe or a real one), builds wavetrace
+#     WAVETRACE=target/release/wavetrace DEVICE=cpu sh tools/gallery/defaults.sh
+#
+# DamagedHelmet (theblueturtle_, CC BY 4.0) has no lights of its own: `wavetrace render` lights
+# it with the built-in studio environment (src/lights/studio.rs). TransmissionTest (Adobe, CC0)
+# likewise, and its panes are thin-walled, as the glTF specification makes a transmissive
+# material without KHR_materials_volume. The models are read from ../shared/gltf-samples/ (never
+# copied here); docs/materials.md credits them.
+set -eu
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
+SAMPLES=${SAMPLES:-$ROOT/../shared/gltf-samples/valid}
+DEVICE=${DEVICE:-gpu}
+OUT=$ROOT/tools/gallery
+if [ -z "${WAVETRACE:-}" ]; then
+    (cd "$ROOT" && cargo build --release --quiet)
+    WAVETRACE=$ROOT/target/release/wavetrace
+fi
+render() {
+    name=$1; shift
+    echo "$WAVETRACE render $* --device $DEVICE -o $OUT/$name.png"
+    "$WAVETRACE" render "$@" --device "$DEVICE" -o "$OUT/$name.png"
+}
+# Without a flag but the size (and the samples, for a clean picture).
+render default-damaged-helmet "$SAMPLES/DamagedHelmet.glb" --width 360 --height 360 --spp 128
+render default-transmission-test "$SAMPLES/TransmissionTest.glb" --width 480 --spp 128
+# The same helmet turned by hand: --orbit 40,20.
+render default-damaged-helmet-orbit "$SAMPLES/DamagedHelmet.glb" --width 360 --height 360 \
+    --spp 128 --orbit 40,20
