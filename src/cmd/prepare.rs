@@ -126,10 +126,15 @@ pub(crate) fn prepare(
         Some(EnvArg::Studio) => Some(wavetrace::lights::studio()),
         // A file with no light of its own, and no word on the environment: the studio
         // (DESIGN.md, "Lighting by default").
-        None if opts.environment.is_none() && prepared.lights.is_empty() => {
+        None if opts.environment.is_none() && !prepared.has_own_lights() => {
+            let why = if prepared.lights.is_empty() {
+                "the file has no lights"
+            } else {
+                "the file has no lights (only textured emission, which glows but is not a lamp)"
+            };
             eprintln!(
-                "note: {}: the file has no lights: lit by the built-in studio environment \
-                 (--env none for black, --env FILE for a map of your own)",
+                "note: {}: {why}: lit by the built-in studio environment (--env none for \
+                 black, --env FILE for a map of your own)",
                 path.display()
             );
             Some(wavetrace::lights::studio())

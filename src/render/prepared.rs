@@ -751,6 +751,23 @@ impl PreparedScene {
             | slots(if top_level { bvh.tlas_deferred } else { 0 }) << FEATURE_TLAS_STACK_SHIFT
     }
 
+    /// Whether the file lights itself: a `KHR_lights_punctual` lamp, or an emitting surface
+    /// whose emission is not textured (a lamp: an area light is written as emissiveFactor on a
+    /// surface). Textured emission alone (screens, dials, the glowing parts of a model such as
+    /// DamagedHelmet's visor) is a surface's look, not the scene's lighting: such a file, like
+    /// one without emission, is lit by the built-in studio unless told otherwise
+    /// (`lights::studio`, DESIGN.md "Lighting by default").
+    pub fn has_own_lights(&self) -> bool {
+        self.lights.iter().any(|entry| {
+            entry.triangle & LIGHT_ENTRY_PUNCTUAL != 0
+                || self
+                    .triangles
+                    .get(entry.triangle as usize)
+                    .and_then(|t| self.materials.get(t.material_index() as usize))
+                    .is_some_and(|m| m.emissive_texture == NO_TEXTURE)
+        })
+    }
+
     pub fn frame_params(&self, settings: &RenderSettings) -> FrameParams {
         let mut frame = FrameParams {
             aspect: settings.width as f32 / settings.height as f32,

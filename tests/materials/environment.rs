@@ -502,4 +502,18 @@ fn a_file_without_lights_is_lit_by_the_studio_unless_told_otherwise() {
     // A file with a light keeps it alone.
     let (stderr, _) = render("scenes/cornell-box.gltf", &[]);
     assert!(!stderr.contains("studio"), "{stderr}");
+    // Textured emission alone is no lamp: DamagedHelmet's glowing visor.
+    let lit = |path: &std::path::Path| {
+        PreparedScene::new(&Scene::load(path).unwrap_or_else(|e| panic!("{e:#}"))).has_own_lights()
+    };
+    assert!(lit(&common::scene_path("cornell-box.gltf")));
+    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/gltf-samples/valid/DamagedHelmet.glb");
+    if helmet.exists() {
+        let scene = Scene::load(&helmet).unwrap();
+        assert!(!PreparedScene::new(&scene).lights.is_empty(), "the visor emits");
+        assert!(!lit(&helmet));
+    } else {
+        eprintln!("skipping DamagedHelmet: ../shared/gltf-samples not found");
+    }
 }
