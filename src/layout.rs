@@ -96,6 +96,11 @@ pub const MATERIAL_UNLIT: u32 = 16;
 /// bytes 80 to 256). Other materials are read as five texels, the rest being the defaults
 /// (`scene_arrays.glsl`, `material_image_at`).
 pub const MATERIAL_EXTENDED: u32 = 32;
+/// Energy compensation of the GGX lobes (`bsdf::energy`): multiple scattering and the albedo
+/// coupling of the layers below the specular one. Set on every scene material unless
+/// `--energy-compensation off` (`PreparedScene::set_energy_compensation`); a bare
+/// `GpuMaterial` leaves it clear, the specification's single-scattering model.
+pub const MATERIAL_ENERGY_COMPENSATION: u32 = 64;
 /// Bytes of a `GpuMaterial` every read of the material image fetches.
 pub const MATERIAL_CORE_BYTES: usize = 80;
 
@@ -553,6 +558,10 @@ pub struct FrameParams {
     /// four entries per vec4): a uniform the shaders index, where a constant array of that size
     /// costs lavapipe minutes of shader compilation. Every `FrameParams::default()` holds it.
     pub sheen_albedo: [[f32; 4]; 256], // 4096 bytes
+    /// The GGX albedo split (A, B) of energy compensation (`bsdf::energy_table::GGX_ALBEDO`, two
+    /// entries per vec4, 512 vec4s) and its averages over μ (`GGX_ALBEDO_AVG`, 16 more):
+    /// uniform like the sheen's. Every `FrameParams::default()` holds it.
+    pub ggx_albedo: [[f32; 4]; 528], // 8448 bytes
 }
 
 impl Default for FrameParams {
@@ -562,6 +571,7 @@ impl Default for FrameParams {
         FrameParams {
             tlas_wide_root: NO_WIDE_ROOT,
             sheen_albedo: sheen_albedo_vec4s(),
+            ggx_albedo: ggx_albedo_vec4s(),
             ..Zeroable::zeroed()
         }
     }
@@ -964,7 +974,8 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         spectral,
         count_fetches,
         tlas_wide_root,
-        sheen_albedo
+        sheen_albedo,
+        ggx_albedo
     }),
     struct_layout!(DispatchParams {
         first_sample,
@@ -1137,6 +1148,19 @@ pub fn sheen_albedo_vec4s() -> [[f32; 4]; 256] {
     let mut out = [[0.0; 4]; 256];
     for (k, v) in crate::bsdf::sheen_table::SHEEN_ALBEDO.iter().enumerate() {
         out[k / 4][k % 4] = *v;
+    }
+    out
+}
+
+/// [`GGX_ALBEDO`](crate::bsdf::energy_table::GGX_ALBEDO) two (A, B) pairs to a vec4, then
+/// [`GGX_ALBEDO_AVG`](crate::bsdf::energy_table::GGX_ALBEDO_AVG) likewise, as
+/// `FrameParams::ggx_albedo` carries them to the shaders (`energy.glsl`).
+pub fn ggx_albedo_vec4s() -> [[f32; 4]; 528] {
+    use crate::bsdf::energy_table::{GGX_ALBEDO, GGX_ALBEDO_AVG};
+    let mut out = [[0.0; 4]; 528];
+    for (k, [a, b]) in GGX_ALBEDO.iter().chain(GGX_ALBEDO_AVG.iter()).enumerate() {
+        out[k / 2][(k % 2) * 2] = *a;
+        out[k / 2][(k % 2) * 2 + 1] = *b;
     }
     out
 }

@@ -12,6 +12,7 @@
 #include "microfacet.glsl"
 #include "sheen.glsl"
 #include "iridescence.glsl"
+#include "energy.glsl"
 
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
@@ -61,6 +62,14 @@ struct BsdfFrame {
     float sheen_roughness;
     float sheen_scale_o;
     bool plain;        // Lambert's lobe alone (BsdfFrame::plain): eval, pdf and sample take its terms
+    bool compensated;  // energy compensation (energy.glsl): table roughness, white E(mu_o) and
+    float table_r;     // E_avg, F_ms of the dielectric and metal lobes, the dielectric layer's
+    float e_o;         // albedo E^(mu_o) and E^_avg (largest channel) for the coupling
+    float e_avg;
+    vec3 fms_d;
+    vec3 fms_m;
+    float spec_o;
+    float spec_avg;
 };
 
 #include "fresnel.glsl"
@@ -115,6 +124,8 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.ng_world = vec3(0.0); f.clearcoat = 0.0; f.cc_alpha = vec2(0.0);
     f.cc_t = vec3(0.0); f.cc_b = vec3(0.0); f.cc_n = vec3(0.0); f.cc_wo = vec3(0.0);
     f.plain = false;
+    f.compensated = false; f.table_r = 0.0; f.e_o = 1.0; f.e_avg = 1.0;
+    f.fms_d = vec3(0.0); f.fms_m = vec3(0.0); f.spec_o = 0.0; f.spec_avg = 0.0;
     if (cos_g == 0.0 || isnan(cos_g) || isinf(cos_g)) return false;
     bool front = cos_g > 0.0;
     vec3 ng_wo = front ? ng : -ng;
@@ -197,6 +208,21 @@ bool bsdf_frame_new_shading(GpuMaterial m, vec3 ng, vec3 ns, vec3 wo, out BsdfFr
     f.albedo_estimate = total;
     f.plain = specular_free && f.transmission == 0.0 && f.dt == 0.0 && f.sheen_max <= 0.0
            && f.clearcoat <= 0.0;
+    f.compensated = !BSDF_PLAIN_SCENE && (m.flags & MATERIAL_ENERGY_COMPENSATION) != 0u && !unlit
+                 && !specular_free && f.film <= 0.0 && f.etap >= 1.0;
+    if (f.compensated) {
+        f.table_r = table_roughness(f.alpha);
+        vec2 ab = ggx_albedo(f.wo.z, f.table_r);
+        vec2 avg = ggx_albedo_avg(f.table_r);
+        f.e_o = ab.x + ab.y;
+        f.e_avg = avg.x + avg.y;
+        f.fms_d = fresnel_multiple(f.f0, f.f90, f.e_avg);
+        f.fms_m = fresnel_multiple(f.base, 1.0, f.e_avg);
+        vec3 o, a;
+        specular_albedo(f.f0, f.f90, f.wo.z, f.table_r, o, a);
+        f.spec_o = max3(o);
+        f.spec_avg = max3(a);
+    }
     return true;
 }
 
@@ -277,14 +303,23 @@ vec3 bsdf_eval_thin_transmission(BsdfFrame f, vec3 wi) {
     return (1.0 - f.metallic) * f.transmission * (1.0 - max3(fd)) * ft * bsdf_sheen_scale(f, wi.z) * f.base;
 }
 
+// What the dielectric specular layer leaves to the layers below towards a direction of cosine
+// cos_i: 1 - max(fd), or with energy compensation the albedo coupling (BsdfFrame::layers_below).
+float bsdf_layers_below(BsdfFrame f, vec3 fd, float cos_i) {
+    if (!f.compensated) return 1.0 - max3(fd);
+    vec3 spec_i, spec_avg;
+    specular_albedo(f.f0, f.f90, cos_i, f.table_r, spec_i, spec_avg);
+    return albedo_coupling(f.spec_o, max3(spec_i), f.spec_avg);
+}
+
 // KHR_materials_diffuse_transmission's Lambertian lobe on the far side at local wi (wi.z < 0), F on
 // the half vector of wo and wi mirrored to wo's side (BsdfFrame::eval_diffuse_transmission).
 vec3 bsdf_eval_diffuse_transmission(BsdfFrame f, vec3 wi) {
     if (f.dt <= 0.0) return vec3(0.0);
     vec3 h = normalize(f.wo + vec3(wi.xy, -wi.z));
-    vec3 fd, fm;
-    bsdf_fresnel(f, dot(f.wo, h), fd, fm);
-    return (1.0 - f.metallic) * (1.0 - f.transmission) * f.dt * (1.0 - max3(fd)) * INV_PI
+    vec3 fd = vec3(0.0), fm;
+    if (!f.compensated) bsdf_fresnel(f, dot(f.wo, h), fd, fm);
+    return (1.0 - f.metallic) * (1.0 - f.transmission) * f.dt * bsdf_layers_below(f, fd, wi.z) * INV_PI
          * bsdf_sheen_scale(f, wi.z) * f.dt_color;
 }
 
@@ -299,10 +334,16 @@ vec3 bsdf_eval_local(BsdfFrame f, vec3 wi, uint mode) {
         bool specular = !bsdf_specular_free(f);
         vec3 fd = vec3(0.0), fm = vec3(0.0);
         if (specular) bsdf_fresnel(f, dot(wo, h), fd, fm);
-        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * (1.0 - max3(fd)) * INV_PI * f.base;
+        vec3 value = dielectric * (1.0 - f.transmission) * (1.0 - f.dt) * bsdf_layers_below(f, fd, wi.z)
+                   * INV_PI * f.base;
         if (specular && !bsdf_is_delta(f)) {
             float spec = ggx_d(h, f.alpha) * ggx_visibility(wo, wi, f.alpha);
             value += (dielectric * fd + f.metallic * fm) * spec;
+            if (f.compensated) {
+                vec2 e_i = ggx_albedo(wi.z, f.table_r);
+                float ms = multiple_scattering(f.e_o, e_i.x + e_i.y, f.e_avg);
+                value += (dielectric * f.fms_d + f.metallic * f.fms_m) * ms;
+            }
         }
         if (f.sheen_max > 0.0) {
             value = value * bsdf_sheen_scale(f, wi.z)

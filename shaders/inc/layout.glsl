@@ -41,6 +41,7 @@ struct GpuTriangle {
 #define MATERIAL_TEXTURED 8u
 #define MATERIAL_UNLIT 16u
 #define MATERIAL_EXTENDED 32u  // material image only (src/layout.rs)
+#define MATERIAL_ENERGY_COMPENSATION 64u  // bsdf/energy (src/layout.rs)
 #define NO_TEXTURE 0xffffffffu
 
 // A glTF metallic-roughness material (bsdf.glsl reads it) and its emitted radiance, with the
@@ -248,6 +249,7 @@ struct FrameParams {
     uint count_fetches;     // 4 bytes: 1 = count scene-image fetches (scene_arrays.glsl)
     uint tlas_wide_root;    // 4 bytes: quantised 4-wide root of the top level (tlas.glsl), or NO_WIDE_ROOT
     vec4 sheen_albedo[256];   // 4096 bytes: KHR_materials_sheen's E table, four entries a vec4
+    vec4 ggx_albedo[528];     // 8448 bytes: energy compensation's (A, B) table, two pairs a vec4, then its averages
 };
 #define INTEGRATOR_PATH 0u
 #define INTEGRATOR_LIGHT 1u

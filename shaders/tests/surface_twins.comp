@@ -19,9 +19,11 @@ layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
 #include "sampling.glsl"
-// Only bend_shading_normal of the BSDF runs here: a one-entry stand-in for the sheen table.
+// Only bend_shading_normal of the BSDF runs here: a one-entry stand-in for the sheen and GGX
+// albedo tables.
 const vec4 SHEEN_TABLE_UNUSED[1] = vec4[](vec4(0.0));
 #define SHEEN_ALBEDO_TABLE SHEEN_TABLE_UNUSED
+#define GGX_ALBEDO_TABLE SHEEN_TABLE_UNUSED
 #include "bsdf.glsl"
 #include "texture.glsl"
 #include "surface.glsl"

@@ -16,8 +16,9 @@ layout(push_constant) uniform Push { uint case_count; };
 
 #include "rng.glsl"
 #include "sampling.glsl"
-// The BSDF reads the sheen albedo table from the first camera set-up (FrameParams).
+// The BSDF reads the sheen and GGX albedo tables from the first camera set-up (FrameParams).
 #define SHEEN_ALBEDO_TABLE frames[0].sheen_albedo
+#define GGX_ALBEDO_TABLE frames[0].ggx_albedo
 #include "bsdf.glsl"
 #include "mis.glsl"
 #include "bvh.glsl"
@@ -36,7 +37,8 @@ layout(local_size_x = WORKGROUP_SIZE) in;
 GpuMaterial twin_material(uint i) {
     GpuMaterial m;
     m.base_color = vec3(0.2, 0.5, 0.9);
-    m.flags = i / 512u == 7u ? MATERIAL_UNLIT : 0u;
+    m.flags = (i / 512u == 7u ? MATERIAL_UNLIT : 0u)
+            | ((i / 5u) % 2u == 0u ? MATERIAL_ENERGY_COMPENSATION : 0u);
     m.emission = vec3(0.0);
     uint r = i % 4u;
     m.roughness = r == 0u ? 0.0 : (r == 1u ? 0.05 : (r == 2u ? 0.3 : 0.8));

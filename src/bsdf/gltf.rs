@@ -2,6 +2,10 @@
 //! specular, metal, transmission, diffuse-transmission and sheen lobes, their evaluation, pdf and
 //! sampling, and the clear coat layered on top (`clearcoat.rs`). Twin of `shaders/inc/bsdf.glsl`.
 
+use super::energy::{
+    albedo_coupling, fresnel_multiple, ggx_albedo, ggx_albedo_avg, multiple_scattering,
+    specular_albedo, table_roughness,
+};
 use super::fresnel::{fresnel_coat, fresnel_layers, ThinFilm};
 use super::lambert::LambertFrame;
 use super::lobes::{
@@ -11,7 +15,7 @@ use super::lobes::{
 use super::microfacet::*;
 use super::shading::{anisotropic_alpha, bend_shading_normal, Shading};
 use super::sheen::{charlie_d, sheen_albedo, sheen_alpha, sheen_visibility};
-use crate::layout::GpuMaterial;
+use crate::layout::{GpuMaterial, MATERIAL_ENERGY_COMPENSATION};
 use crate::sampling::{
     build_frame, cosine_hemisphere_pdf, sample_cosine_hemisphere, sample_uniform_cone,
     uniform_cone_pdf,
@@ -82,6 +86,18 @@ pub struct BsdfFrame {
     /// `plain_diffuse_frames_equal_the_general_path`). A Lambertian scene (the Cornell box
     /// Mitsuba renders with its `diffuse` BSDF) spends much of a vertex in the BSDF otherwise.
     pub(super) plain: bool,
+    /// Energy compensation (`energy.rs`): on where the material asks for it and the base has a
+    /// specular layer with Schlick's Fresnel outside a volume; the table roughness, the white
+    /// lobe's E(μo) and E_avg, F_ms of the dielectric and the metal lobes, and the dielectric
+    /// specular layer's albedo Ê(μo) and Ê_avg (its largest channel) for the coupling.
+    pub(super) compensated: bool,
+    pub(super) table_r: f32,
+    pub(super) e_o: f32,
+    pub(super) e_avg: f32,
+    pub(super) fms_d: Vec3,
+    pub(super) fms_m: Vec3,
+    pub(super) spec_o: f32,
+    pub(super) spec_avg: f32,
 }
 
 impl BsdfFrame {
@@ -206,6 +222,25 @@ impl BsdfFrame {
             && dt == 0.0
             && sheen_max <= 0.0
             && clearcoat <= 0.0;
+        let alpha = anisotropic_alpha(m.roughness * m.roughness, anisotropy);
+        let compensated = m.flags & MATERIAL_ENERGY_COMPENSATION != 0
+            && !unlit
+            && !specular_free
+            && film.factor <= 0.0
+            && etap >= 1.0;
+        let (mut table_r, mut e_o, mut e_avg) = (0.0, 1.0, 1.0);
+        let (mut fms_d, mut fms_m) = (Vec3::ZERO, Vec3::ZERO);
+        let (mut spec_o, mut spec_avg) = (0.0, 0.0);
+        if compensated {
+            table_r = table_roughness(alpha);
+            let ab = ggx_albedo(wo_local.z, table_r);
+            let avg = ggx_albedo_avg(table_r);
+            (e_o, e_avg) = (ab.x + ab.y, avg.x + avg.y);
+            fms_d = fresnel_multiple(f0, f90, e_avg);
+            fms_m = fresnel_multiple(base, 1.0, e_avg);
+            let (o, a) = specular_albedo(f0, f90, wo_local.z, table_r);
+            (spec_o, spec_avg) = (o.max_element(), a.max_element());
+        }
         Some(BsdfFrame {
             t,
             b,
@@ -214,7 +249,7 @@ impl BsdfFrame {
             base,
             metallic,
             transmission,
-            alpha: anisotropic_alpha(m.roughness * m.roughness, anisotropy),
+            alpha,
             etap,
             thin,
             f0,
@@ -238,6 +273,14 @@ impl BsdfFrame {
             sheen_roughness: m.sheen_roughness,
             sheen_scale_o,
             plain,
+            compensated,
+            table_r,
+            e_o,
+            e_avg,
+            fms_d,
+            fms_m,
+            spec_o,
+            spec_avg,
         })
     }
 
@@ -340,12 +383,17 @@ impl BsdfFrame {
             let mut f = dielectric
                 * (1.0 - self.transmission)
                 * (1.0 - self.dt)
-                * (1.0 - fd.max_element())
+                * self.layers_below(fd, wi.z)
                 * FRAC_1_PI
                 * self.base;
             if specular && !self.is_delta() {
                 let spec = ggx_d(h, self.alpha) * ggx_visibility(wo, wi, self.alpha);
                 f += (dielectric * fd + self.metallic * fm) * spec;
+                if self.compensated {
+                    let e_i = ggx_albedo(wi.z, self.table_r);
+                    let ms = multiple_scattering(self.e_o, e_i.x + e_i.y, self.e_avg);
+                    f += (dielectric * self.fms_d + self.metallic * self.fms_m) * ms;
+                }
             }
             if self.sheen_max > 0.0 {
                 f = f * self.sheen_scale(wi.z)
@@ -415,11 +463,15 @@ impl BsdfFrame {
             return Vec3::ZERO;
         }
         let h = (self.wo + Vec3::new(wi.x, wi.y, -wi.z)).normalize();
-        let fd = self.fresnel(self.wo.dot(h)).0.max_element();
+        let fd = if self.compensated {
+            Vec3::ZERO
+        } else {
+            self.fresnel(self.wo.dot(h)).0
+        };
         (1.0 - self.metallic)
             * (1.0 - self.transmission)
             * self.dt
-            * (1.0 - fd)
+            * self.layers_below(fd, wi.z)
             * FRAC_1_PI
             * self.sheen_scale(wi.z)
             * self.dt_color
@@ -498,6 +550,18 @@ impl BsdfFrame {
             }
             Some((wi, value))
         }
+    }
+
+    /// What the dielectric specular layer leaves to the layers below it (diffuse, diffuse
+    /// transmission) towards a direction of cosine `cos_i`: the specification's 1 − max(F),
+    /// `fd` on the half vector, or with energy compensation the albedo coupling
+    /// (1 − Ê(μo))(1 − Ê(μi)) / (1 − Ê_avg) (`energy.rs`).
+    pub(super) fn layers_below(&self, fd: Vec3, cos_i: f32) -> f32 {
+        if !self.compensated {
+            return 1.0 - fd.max_element();
+        }
+        let (spec_i, _) = specular_albedo(self.f0, self.f90, cos_i, self.table_r);
+        albedo_coupling(self.spec_o, spec_i.max_element(), self.spec_avg)
     }
 
     /// The sheen's albedo scaling of the layers below for a direction of cosine `cos_i`:

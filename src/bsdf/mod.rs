@@ -80,6 +80,8 @@
 //! unlit surface lights nothing only because rasterisers have no indirect light).
 
 mod clearcoat;
+pub mod energy;
+pub(crate) mod energy_table;
 mod fresnel;
 mod gltf;
 pub mod iridescence;

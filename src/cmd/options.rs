@@ -475,6 +475,12 @@ pub struct RenderOptions {
     /// where coarse mip levels of a texture atlas bleed across its islands.
     #[arg(long, value_enum, default_value_t = TextureLodArg::Cones)]
     pub texture_lod: TextureLodArg,
+    /// Energy compensation of the GGX lobes (multiple scattering, and the albedo coupling of
+    /// the layers below the specular one), as Cycles, Filament and three.js do: on, the
+    /// default, or off for glTF's single-scattering model exactly (what the reference scenes
+    /// and the specification's formulas are checked with).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub energy_compensation: OnOff,
     /// Radiance of rays that leave the scene: one value (grey) or R,G,B (0: black).
     #[arg(long, value_parser = parse_radiance)]
     pub environment: Option<glam::Vec3>,
@@ -576,6 +582,13 @@ fn parse_scale(text: &str) -> Result<f32, String> {
 }
 
 /// "v" or "r,g,b": finite, non-negative radiance.
+/// A switch given as on or off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
 /// `--env`: a map file, the built-in studio or none (a file named `studio` or `none` is reached
 /// as `./studio`).
 #[derive(Clone, Debug, PartialEq)]

@@ -1,7 +1,7 @@
 //! From the command line to a render: the scene loaded under the options' limits, the image
 //! size, the memory a render reserves, the settings, and which device `--device auto` picks.
 
-use super::options::{DeviceKind, EnvArg, RenderOptions, TextureLodArg};
+use super::options::{DeviceKind, EnvArg, OnOff, RenderOptions, TextureLodArg};
 use anyhow::{bail, Context as _, Result};
 use std::mem::size_of;
 use std::path::{Path, PathBuf};
@@ -97,7 +97,8 @@ pub(crate) fn prepare(
         scene.select_camera(which)?;
     }
     place_camera(&mut scene, opts).with_context(|| format!("{}", path.display()))?;
-    let prepared = PreparedScene::new(&scene);
+    let mut prepared = PreparedScene::new(&scene);
+    prepared.set_energy_compensation(opts.energy_compensation == OnOff::On);
     let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio());
     if width > MAX_SIDE || height > MAX_SIDE || width as u64 * height as u64 > MAX_PIXELS {
         bail!(

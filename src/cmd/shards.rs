@@ -118,6 +118,14 @@ pub fn record(
         ("environment", environment),
         ("aov", lower(&o.aov_property()?)),
         ("texture_lod", lower(&o.texture_lod)),
+        ("energy_compensation", lower(&o.energy_compensation)),
+        (
+            "camera_placed",
+            format!(
+                "from {:?} look-at {:?} up {:?} orbit {:?} fov {:?}",
+                o.from, o.look_at, o.up, o.orbit, o.fov
+            ),
+        ),
         ("instancing", (!o.no_instancing).to_string()),
         ("debug_flags", o.debug_flags.to_string()),
     ];

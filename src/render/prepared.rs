@@ -9,8 +9,9 @@ use crate::layout::BvhNode;
 use crate::layout::{
     FrameParams, GpuInstance, GpuMaterial, GpuPunctualLight, GpuTexture, GpuTextureRef,
     GpuTriangle, GpuVertex, LightEntry, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK,
-    MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT, NO_TEXTURE, TRIANGLE_ALPHA,
-    TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA, TRIANGLE_TEST_CULL,
+    MATERIAL_DOUBLE_SIDED, MATERIAL_ENERGY_COMPENSATION, MATERIAL_TEXTURED, MATERIAL_UNLIT,
+    NO_TEXTURE, TRIANGLE_ALPHA, TRIANGLE_FLAT, TRIANGLE_PLAIN, TRIANGLE_TEST_ALPHA,
+    TRIANGLE_TEST_CULL,
 };
 use crate::layout::{LIGHT_DIRECTIONAL, LIGHT_ENTRY_PUNCTUAL, LIGHT_SAMPLER_POWER, LIGHT_SPOT};
 use crate::lights::light_bvh::{GpuLightNode, LightBounds, LightBvh, NO_LIGHT_TRAIL};
@@ -110,6 +111,8 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         AlphaMode::Mask => flags |= MATERIAL_ALPHA_MASK,
         AlphaMode::Blend => flags |= MATERIAL_ALPHA_BLEND,
     }
+    // Energy compensation on by default (DESIGN.md, Materials); `set_energy_compensation`.
+    flags |= MATERIAL_ENERGY_COMPENSATION;
     if m.unlit {
         flags |= MATERIAL_UNLIT;
     }
@@ -749,6 +752,19 @@ impl PreparedScene {
         .fold(0, |features, (_, f)| features | f)
             | slots(bvh.deferred_max) << FEATURE_STACK_SHIFT
             | slots(if top_level { bvh.tlas_deferred } else { 0 }) << FEATURE_TLAS_STACK_SHIFT
+    }
+
+    /// Energy compensation of the GGX lobes on every material (`bsdf::energy`; on when a scene
+    /// is prepared), or off: the specification's single-scattering model exactly
+    /// (`--energy-compensation off`, the reference scenes and the tests of its formulas).
+    pub fn set_energy_compensation(&mut self, on: bool) {
+        for m in &mut self.materials {
+            if on {
+                m.flags |= MATERIAL_ENERGY_COMPENSATION;
+            } else {
+                m.flags &= !MATERIAL_ENERGY_COMPENSATION;
+            }
+        }
     }
 
     /// Whether the file lights itself: a `KHR_lights_punctual` lamp, or an emitting surface

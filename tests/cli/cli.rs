@@ -115,6 +115,40 @@ fn a_camera_placed_by_hand_sees_another_view() {
 }
 
 #[test]
+fn energy_compensation_is_on_unless_turned_off() {
+    // cornell-materials' rough copper box: brighter with compensation (the default) than with
+    // --energy-compensation off, and `on` is the default's image bit for bit.
+    let render = |name: &str, extra: &[&str]| {
+        let out = temp(name);
+        let mut args = vec![
+            "render",
+            "scenes/cornell-materials.gltf",
+            "--device",
+            "cpu",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "4",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = wavetrace(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        wavetrace::image_io::read_exr(&out).unwrap().mean
+    };
+    let default = render("ec-default.exr", &[]);
+    let on = render("ec-on.exr", &["--energy-compensation", "on"]);
+    let off = render("ec-off.exr", &["--energy-compensation", "off"]);
+    assert_eq!(default, on);
+    assert_ne!(on, off);
+    let o = wavetrace(&["render", "--energy-compensation", "maybe"]);
+    assert!(!o.status.success() && stderr(&o).contains("--energy-compensation"));
+}
+
+#[test]
 fn bad_input_fails_with_a_message_naming_it() {
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["render", "no/such/scene.gltf"], "no/such/scene.gltf"),

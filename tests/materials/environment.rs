@@ -511,7 +511,10 @@ fn a_file_without_lights_is_lit_by_the_studio_unless_told_otherwise() {
         .join("../shared/gltf-samples/valid/DamagedHelmet.glb");
     if helmet.exists() {
         let scene = Scene::load(&helmet).unwrap();
-        assert!(!PreparedScene::new(&scene).lights.is_empty(), "the visor emits");
+        assert!(
+            !PreparedScene::new(&scene).lights.is_empty(),
+            "the visor emits"
+        );
         assert!(!lit(&helmet));
     } else {
         eprintln!("skipping DamagedHelmet: ../shared/gltf-samples not found");

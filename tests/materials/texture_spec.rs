@@ -1837,9 +1837,14 @@ fn synthetic_texture_lookups_through_the_command_line() {
     let texels = synthetic_texels();
     let path = temp("texture_spec", "synthetic-cli.gltf");
     write_synthetic(&path, &cases, (w, h), &texels);
-    for (k, extra) in [&["--aov", "emission"][..], &["--max-depth", "0"][..]]
-        .iter()
-        .enumerate()
+    // The emissive textures are the file's only emission, so without --env none the studio
+    // would light it (`PreparedScene::has_own_lights`) and fill the gaps between the quads.
+    for (k, extra) in [
+        &["--aov", "emission"][..],
+        &["--max-depth", "0", "--env", "none"][..],
+    ]
+    .iter()
+    .enumerate()
     {
         let out = temp("texture_spec", &format!("cli-{k}.exr"));
         let (ws, hs) = (w.to_string(), h.to_string());

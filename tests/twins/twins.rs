@@ -15,7 +15,7 @@ use wavetrace::bsdf::{
     bsdf_albedo_estimate, bsdf_eval, bsdf_pdf, bsdf_sample, BsdfFrame, TransportMode,
 };
 use wavetrace::bvh::{any_triangle, closest_triangle, Ray, WideBvh};
-use wavetrace::layout::{FrameParams, GpuMaterial, MATERIAL_UNLIT};
+use wavetrace::layout::{FrameParams, GpuMaterial, MATERIAL_ENERGY_COMPENSATION, MATERIAL_UNLIT};
 use wavetrace::mis::mis_weight2;
 use wavetrace::sampling::*;
 use wavetrace::scene::{camera_ray, Camera, Projection, ThinLens};
@@ -84,7 +84,12 @@ fn twin_material(i: u32) -> GpuMaterial {
         ior: if i % 7 == 3 { 1.0 } else { 1.5 },
         specular: if (i / 16).is_multiple_of(2) { 1.0 } else { 0.5 },
         specular_color: [[1.0; 3], [0.3, 1.8, 0.9], [40.0, 0.0, 1.0]][((i / 128) % 3) as usize],
-        flags: if i / 512 == 7 { MATERIAL_UNLIT } else { 0 },
+        flags: if i / 512 == 7 { MATERIAL_UNLIT } else { 0 }
+            | if (i / 5).is_multiple_of(2) {
+                MATERIAL_ENERGY_COMPENSATION
+            } else {
+                0
+            },
         clearcoat: if (i / 1024) % 2 == 1 { 0.7 } else { 0.0 },
         clearcoat_roughness: if (i / 256).is_multiple_of(2) {
             0.0
