@@ -469,8 +469,8 @@ pub struct RenderOptions {
     /// the path expression EXPR (see --paths), from the same paths as the image.
     #[arg(long, value_name = "PROPERTY|NAME=EXPR", value_parser = parse_aov)]
     pub aov: Vec<AovSpec>,
-    /// Texture level of detail: the mip level each camera path's ray cone selects (cones,
-    /// the default), or the finest level everywhere (finest), as light tracing and BDPT read
+    /// Texture level of detail: the mip level each camera path's ray cone selects, a footprint
+    /// per sample (cones, the default), or the finest level everywhere (finest), as light tracing and BDPT read
     /// textures: use it to compare those integrators with the path tracer on textured scenes,
     /// where coarse mip levels of a texture atlas bleed across its islands.
     #[arg(long, value_enum, default_value_t = TextureLodArg::Cones)]

@@ -495,3 +495,39 @@ fn kernels_specialised_for_a_scene_render_the_same_bits() {
         }
     }
 }
+
+#[test]
+fn textures_converge_to_the_supersampled_picture() {
+    // At 512 spp the default texture level of detail (a ray cone per sample: the pixel's
+    // footprint over √spp) must give the picture the finest level gives (every sample reading
+    // level 0, the supersampled texture), tile by tile (Welch tests at family-wise α = 0.01).
+    // A cone of the whole pixel (what the renderer did before issue 57) filters the footprint
+    // once in the texture and again in the pixel filter, and fails here.
+    let Some(dir) = samples() else { return };
+    let path = dir.join("DamagedHelmet.glb");
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e:#}"));
+    let prepared = PreparedScene::new(&scene);
+    let settings = |seed, finest_textures| RenderSettings {
+        width: 64,
+        height: 64,
+        spp: 512,
+        max_depth: 2,
+        seed,
+        environment: Vec3::ONE,
+        finest_textures,
+        ..RenderSettings::default()
+    };
+    let render = |s: &RenderSettings| match render_gpu(&prepared, s, None) {
+        Some(out) => out.film,
+        None => render_cpu(&prepared, s).film,
+    };
+    let cones = render(&settings(1, false));
+    let finest = render(&settings(2, true));
+    assert_eq!(cones.dropped + finest.dropped, 0);
+    assert_agree_at(
+        &cones,
+        &finest,
+        0.01,
+        "DamagedHelmet at 512 spp, cones vs finest",
+    );
+}
