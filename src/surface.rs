@@ -148,6 +148,19 @@ pub fn surface_to_world(sp: &mut SurfacePoint, tri: &GpuTriangle, inst: &GpuInst
         .length();
 }
 
+/// How many mip levels finer than its pixel's footprint sample `sample` of a pixel reads: ½·k
+/// with k the bit length of `sample` (0 for the first sample, 1 for the second, 2 for the
+/// third and fourth, …). The first 2ᵏ samples of a pixel stratify it into 2ᵏ cells (the
+/// samplers' (0, 2)-sequence property), so from sample 2ᵏ⁻¹ on each stands for a cell of side
+/// 2^(−k/2) of the pixel, and its ray cone is that cell's: the box pixel filter then averages
+/// the cells, and the texture is filtered once over the pixel rather than in the mip level and
+/// again in the pixel filter (which stayed blurrier than the supersampled picture at any sample
+/// count, issue 57). A function of the sample index alone, so passes, shards and resumed
+/// renders read the same levels as one render of all their samples.
+pub fn sample_footprint_levels(sample: u32) -> f32 {
+    0.5 * (u32::BITS - sample.leading_zeros()) as f32
+}
+
 /// The texture-independent part of the level of detail for each coordinate set:
 /// log2(W / |cos θ|) + ½·log2(uv area / world area), W the cone's width at the hit and θ the
 /// angle between the ray and the geometric normal (Akenine-Möller et al. 2021, eq. 34).

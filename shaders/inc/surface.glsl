@@ -99,6 +99,12 @@ SurfacePoint hit_surface(HitRecord hit, out GpuTriangle tri) {
 #endif
 
 // log2(W / |cos|) + the uv density, per set (Akenine-Moller et al. 2021, eq. 34).
+// How many mip levels finer than its pixel's footprint sample `sample` reads: half the bit
+// length of the sample index (surface::sample_footprint_levels).
+float sample_footprint_levels(uint sample_index) {
+    return 0.5 * float(findMSB(sample_index) + 1);
+}
+
 vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
     float footprint = log2(max(cone_width / max(abs(cos_view), 1e-6), 1e-30));
     vec2 density = 0.5 * log2(max(sp.uv_area, vec2(1e-30)) / max(sp.world_area, 1e-30));

@@ -165,7 +165,9 @@ void kernel_main() {
     GpuMaterial raw = material_at(triangle_material(tri));
     // KHR_materials_volume: the segment's attenuation, its medium read from either end.
     state.throughput *= transmittance(max(state.medium, volume_sigma(raw, ng, wo)), hit.t);
-    vec2 lod = SCENE_HAS(FEATURE_TEXTURES) && (raw.flags & MATERIAL_TEXTURED) != 0u ? surface_lod_base(sp, cone_width, cos_out) : vec2(0.0);
+    // The footprint of this sample's stratum of the pixel, not the whole pixel's.
+    vec2 lod = SCENE_HAS(FEATURE_TEXTURES) && (raw.flags & MATERIAL_TEXTURED) != 0u
+             ? surface_lod_base(sp, cone_width, cos_out) - sample_footprint_levels(sample_index) : vec2(0.0);
     vec3 ns;
     GpuMaterial mat = surface_material_normal(raw, sp, lod, ns);
     // --aov: a property of the first hit instead of radiance.

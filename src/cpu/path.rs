@@ -26,7 +26,8 @@ use crate::spectrum::{
     is_dispersive, material_at_wavelength, sample_wavelength_of, wavelength_weight,
 };
 use crate::surface::{
-    alpha_key, material_is_constant, surface_lod_base, surface_material, surface_normal,
+    alpha_key, material_is_constant, sample_footprint_levels, surface_lod_base, surface_material,
+    surface_normal,
 };
 use glam::{Vec2, Vec3};
 
@@ -287,7 +288,9 @@ fn shade(
     }
     state.throughput = throughput.to_array();
     let lod = if raw.flags & MATERIAL_TEXTURED != 0 {
-        surface_lod_base(&sp, cone_width, cos_out)
+        // The footprint of this sample's stratum of the pixel, not the whole pixel's.
+        let finer = sample_footprint_levels(sample);
+        surface_lod_base(&sp, cone_width, cos_out).map(|l| l - finer)
     } else {
         [0.0; 2]
     };

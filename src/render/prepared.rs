@@ -823,15 +823,6 @@ impl PreparedScene {
         };
         let lens = self.thin_lens(settings).unwrap_or_default();
         self.camera.write_frame_params(lens, &mut frame);
-        // A footprint per sample, not per pixel: the spp samples of a pixel each stand for a
-        // cell of side 1/√spp of it (the samplers stratify them), which the box pixel filter
-        // then averages, so each reads its textures over its own cell. A cone of the whole
-        // pixel's width would filter the pixel's footprint once in the texture and again in the
-        // pixel filter: blurrier than the picture at any sample count (issue 57, measured on
-        // DamagedHelmet). At 1 spp this is the pixel's cone (Akenine-Möller et al. 2019).
-        let per_sample = 1.0 / (settings.spp.max(1) as f32).sqrt();
-        frame.cone_width *= per_sample;
-        frame.cone_spread *= per_sample;
         if settings.finest_textures {
             // A cone of no width reads every texture at level 0 (`surface_lod_base`).
             frame.cone_width = 0.0;
