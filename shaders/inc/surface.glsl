@@ -102,7 +102,7 @@ SurfacePoint hit_surface(HitRecord hit, out GpuTriangle tri) {
 // How many mip levels finer than its pixel's footprint sample `sample` reads: half the bit
 // length of the sample index (surface::sample_footprint_levels).
 float sample_footprint_levels(uint sample_index) {
-    return 0.5 * float(findMSB(sample_index) + 1);
+    return sample_index == 0u ? 0.0 : 0.5 * (float(findMSB(sample_index)) + 1.0);
 }
 
 vec2 surface_lod_base(SurfacePoint sp, float cone_width, float cos_view) {
