@@ -29,3 +29,9 @@ render default-transmission-test "$SAMPLES/TransmissionTest.glb" --width 480 --s
 # The same helmet turned by hand: --orbit 40,20.
 render default-damaged-helmet-orbit "$SAMPLES/DamagedHelmet.glb" --width 360 --height 360 \
     --spp 128 --orbit 40,20
+# The "before" pictures docs/materials.md sets beside these (before-damaged-helmet.png,
+# before-transmission-test.png) were rendered once by the build before issue 57 (a902ac5), the
+# helmet with no flag and TransmissionTest as models.sh renders it:
+#     git worktree add /tmp/old a902ac5 && (cd /tmp/old && cargo build --release)
+#     /tmp/old/target/release/wavetrace render DamagedHelmet.glb --width 360 --height 360 --spp 128 -o before-damaged-helmet.png
+#     /tmp/old/target/release/wavetrace render TransmissionTest.glb --width 480 --spp 128 --environment 1 --max-depth 10 -o before-transmission-test.png
