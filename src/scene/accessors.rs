@@ -1,6 +1,7 @@
 //! glTF accessors: positions and indices decoded with every offset, stride, count and index
-//! checked (sparse substitutions included), and triangle lists, strips and fans turned into
-//! vertex triples.
+//! checked (sparse substitutions included), quantized attributes (KHR_mesh_quantization) widened
+//! to floats, elements a compression extension decoded (Draco) read in place of a buffer view,
+//! and triangle lists, strips and fans turned into vertex triples.
 
 use super::json::label;
 use super::limits::Budget;
@@ -13,18 +14,34 @@ use gltf::mesh::Mode;
 /// The most elements an accessor without a buffer view (all zeros) may claim.
 const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 26;
 
-/// Decoded elements of an accessor: dense data (zeros without a buffer view), then sparse
-/// substitutions. `size` is the element size in bytes, `decode` reads one element.
+/// Elements a compression extension decoded for an accessor without a buffer view
+/// (KHR_draco_mesh_compression): tightly packed, in the accessor's component type.
+pub(super) type Decoded<'a> = Option<&'a [u8]>;
+
+/// Decoded elements of an accessor: dense data (the `decoded` elements, else its buffer view,
+/// else zeros), then sparse substitutions. `size` is the element size in bytes, `decode` reads
+/// one element.
 fn read_accessor<T: Copy + Default>(
     accessor: &Accessor,
     buffers: &[Vec<u8>],
+    decoded: Decoded,
     budget: &Budget,
     size: usize,
     decode: impl Fn(&[u8]) -> T,
 ) -> Result<Vec<T>> {
     let count = accessor.count();
-    let mut out = match accessor.view() {
-        Some(view) => read_view(
+    let mut out = match (decoded, accessor.view()) {
+        (Some(bytes), _) => {
+            if count.checked_mul(size) != Some(bytes.len()) {
+                bail!(
+                    "count: {count}, but the compressed stream decodes {} elements",
+                    bytes.len() / size
+                );
+            }
+            reserve::<T>(budget, "decompressed elements", count)?;
+            bytes.chunks_exact(size).map(&decode).collect()
+        }
+        (None, Some(view)) => read_view(
             &view,
             accessor.offset(),
             count,
@@ -33,11 +50,11 @@ fn read_accessor<T: Copy + Default>(
             budget,
             &decode,
         )?,
-        None if count <= MAX_ZERO_ACCESSOR_COUNT => {
+        (None, None) if count <= MAX_ZERO_ACCESSOR_COUNT => {
             reserve::<T>(budget, "an accessor without a bufferView", count)?;
             vec![T::default(); count]
         }
-        None => {
+        (None, None) => {
             bail!("count: {count} without a bufferView, expected at most {MAX_ZERO_ACCESSOR_COUNT}")
         }
     };
@@ -146,39 +163,67 @@ pub(super) fn element_bytes<T>(elements: &[T]) -> u64 {
 pub(super) fn read_positions(
     accessor: &Accessor,
     buffers: &[Vec<u8>],
+    decoded: Decoded,
     budget: &Budget,
 ) -> Result<Vec<Vec3>> {
+    // FLOAT, or (KHR_mesh_quantization) 8- and 16-bit integers, normalized or not.
+    let ty = accessor.data_type();
     if accessor.dimensions() != Dimensions::Vec3
-        || accessor.data_type() != DataType::F32
-        || accessor.normalized()
+        || matches!(ty, DataType::U32)
+        || (ty == DataType::F32 && accessor.normalized())
     {
         bail!(
-            "positions must be VEC3 of FLOAT, found {:?} of {:?} (quantized positions, \
-             KHR_mesh_quantization, are not supported)",
+            "positions must be VEC3 of FLOAT, or of (normalized) BYTE, UNSIGNED_BYTE, SHORT or \
+             UNSIGNED_SHORT (KHR_mesh_quantization), found {:?} of {:?}{}",
             accessor.dimensions(),
-            accessor.data_type()
+            ty,
+            if accessor.normalized() {
+                " (normalized)"
+            } else {
+                ""
+            }
         );
     }
-    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-    read_accessor(accessor, buffers, budget, 12, |b| {
-        Vec3::new(f(&b[0..4]), f(&b[4..8]), f(&b[8..12]))
+    let component = component_decoder(ty, accessor.normalized());
+    let k = ty.size();
+    read_accessor(accessor, buffers, decoded, budget, 3 * k, |b| {
+        Vec3::new(component(b), component(&b[k..]), component(&b[2 * k..]))
     })
+}
+
+/// One component of type `ty` as a float: FLOAT as it is, normalized integers as glTF 2.0 §3.11
+/// says (c / (2ⁿ − 1) unsigned, max(c / (2ⁿ⁻¹ − 1), −1) signed), other integers as their value
+/// (KHR_mesh_quantization's unnormalized positions and texture coordinates).
+fn component_decoder(ty: DataType, normalized: bool) -> fn(&[u8]) -> f32 {
+    match (ty, normalized) {
+        (DataType::F32, _) => |c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]),
+        (DataType::U8, true) => |c| c[0] as f32 / 255.0,
+        (DataType::I8, true) => |c| (c[0] as i8 as f32 / 127.0).max(-1.0),
+        (DataType::U16, true) => |c| u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0,
+        (DataType::I16, true) => |c| (i16::from_le_bytes([c[0], c[1]]) as f32 / 32767.0).max(-1.0),
+        (DataType::U8, false) => |c| c[0] as f32,
+        (DataType::I8, false) => |c| c[0] as i8 as f32,
+        (DataType::U16, false) => |c| u16::from_le_bytes([c[0], c[1]]) as f32,
+        (DataType::I16, false) => |c| i16::from_le_bytes([c[0], c[1]]) as f32,
+        (DataType::U32, _) => |c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32,
+    }
 }
 
 pub(super) fn read_indices(
     accessor: &Accessor,
     buffers: &[Vec<u8>],
+    decoded: Decoded,
     budget: &Budget,
 ) -> Result<Vec<u32>> {
     if accessor.dimensions() != Dimensions::Scalar {
         bail!("indices must be SCALAR, found {:?}", accessor.dimensions());
     }
     match accessor.data_type() {
-        DataType::U8 => read_accessor(accessor, buffers, budget, 1, |b| b[0] as u32),
-        DataType::U16 => read_accessor(accessor, buffers, budget, 2, |b| {
+        DataType::U8 => read_accessor(accessor, buffers, decoded, budget, 1, |b| b[0] as u32),
+        DataType::U16 => read_accessor(accessor, buffers, decoded, budget, 2, |b| {
             u16::from_le_bytes([b[0], b[1]]) as u32
         }),
-        DataType::U32 => read_accessor(accessor, buffers, budget, 4, |b| {
+        DataType::U32 => read_accessor(accessor, buffers, decoded, budget, 4, |b| {
             u32::from_le_bytes([b[0], b[1], b[2], b[3]])
         }),
         other => {
@@ -187,17 +232,19 @@ pub(super) fn read_indices(
     }
 }
 
-/// A vertex attribute as up to four floats per element (missing components 0): FLOAT, or
-/// normalized integers where `normalized_types` allows them, decoded as glTF 2.0 §3.11
-/// ("Animations"/"Meshes": c / (2ⁿ − 1) for unsigned, max(c / (2ⁿ⁻¹ − 1), −1) for signed).
-/// `dimensions` lists the accepted element types. Non-finite values are reported as an error
-/// by the caller, which knows what the attribute means.
+/// A vertex attribute as up to four floats per element (missing components 0): FLOAT,
+/// normalized integers where `normalized_types` allows them and plain integers where
+/// `integer_types` does (KHR_mesh_quantization), each component as [`component_decoder`] reads
+/// it. `dimensions` lists the accepted element types. Non-finite values are reported as an
+/// error by the caller, which knows what the attribute means.
 pub(super) fn read_attribute(
     accessor: &Accessor,
     buffers: &[Vec<u8>],
+    decoded: Decoded,
     budget: &Budget,
     dimensions: &[Dimensions],
     normalized_types: &[DataType],
+    integer_types: &[DataType],
 ) -> Result<Vec<[f32; 4]>> {
     let dims = accessor.dimensions();
     if !dimensions.contains(&dims) {
@@ -205,42 +252,37 @@ pub(super) fn read_attribute(
     }
     let n = dims.multiplicity();
     let ty = accessor.data_type();
-    let float = ty == DataType::F32 && !accessor.normalized();
-    if !float && !(accessor.normalized() && normalized_types.contains(&ty)) {
+    let normalized = accessor.normalized();
+    let allowed = match (ty, normalized) {
+        (DataType::F32, false) => true,
+        (_, true) => normalized_types.contains(&ty),
+        (_, false) => integer_types.contains(&ty),
+    };
+    if !allowed {
         let allowed: Vec<String> = normalized_types
             .iter()
             .map(|t| format!("normalized {t:?}"))
+            .chain(integer_types.iter().map(|t| format!("{t:?}")))
             .collect();
         bail!(
             "component type {ty:?}{} is not allowed here (expected FLOAT{}{})",
-            if accessor.normalized() {
-                " (normalized)"
-            } else {
-                ""
-            },
+            if normalized { " (normalized)" } else { "" },
             if allowed.is_empty() { "" } else { " or " },
             allowed.join(", ")
         );
     }
     let component = ty.size();
+    let read = component_decoder(ty, normalized);
     let decode = move |b: &[u8]| {
         let mut out = [0.0f32; 4];
         for (k, value) in out.iter_mut().enumerate().take(n) {
-            let c = &b[k * component..];
-            *value = match ty {
-                DataType::F32 => f32::from_le_bytes([c[0], c[1], c[2], c[3]]),
-                DataType::U8 => c[0] as f32 / 255.0,
-                DataType::I8 => (c[0] as i8 as f32 / 127.0).max(-1.0),
-                DataType::U16 => u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0,
-                DataType::I16 => (i16::from_le_bytes([c[0], c[1]]) as f32 / 32767.0).max(-1.0),
-                DataType::U32 => u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32,
-            };
+            *value = read(&b[k * component..]);
         }
         out
     };
     // Vertex attributes are aligned to 4 bytes per element (glTF 2.0 §3.6.2.4), but the
     // element itself is n components.
-    read_accessor(accessor, buffers, budget, n * component, decode)
+    read_accessor(accessor, buffers, decoded, budget, n * component, decode)
 }
 
 /// Vertex triples of a triangle list, strip or fan (glTF 2.0 §3.7.2.1 topology rules).

@@ -33,6 +33,13 @@ pub(super) fn load_buffers(
         let what = label("buffer", buffer.index(), buffer.name());
         let length = buffer.length();
         let mut data = match buffer.source() {
+            // EXT_meshopt_compression: the compressed views are decoded into it later.
+            _ if super::meshopt::is_fallback(&buffer) => {
+                options
+                    .budget
+                    .reserve(&format!("{what} ({length} bytes)"), length as u64)?;
+                vec![0; length]
+            }
             buffer::Source::Bin if buffer.index() > 0 => bail!(
                 "{what}: has no \"uri\", expected one (only buffers[0] of a GLB may refer to the \
                  binary chunk)"
@@ -91,7 +98,7 @@ pub(super) fn check_image_uris(
                 bail!("images[{i}]: has both \"uri\" and \"bufferView\", expected one")
             }
             (None, Some(_), None) => bail!(
-                "images[{i}].mimeType: missing, expected \"image/png\" or \"image/jpeg\" (required with \"bufferView\")"
+                "images[{i}].mimeType: missing, expected \"image/png\", \"image/jpeg\", \"image/webp\" or \"image/ktx2\" (required with \"bufferView\")"
             ),
             _ => {}
         }

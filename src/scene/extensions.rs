@@ -18,24 +18,19 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
+    "KHR_mesh_quantization",
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_texture_basisu",
+    "EXT_texture_webp",
 ];
 
 /// Extensions wavetrace refuses on purpose, with the reason its messages give.
-pub(super) const REFUSED_EXTENSIONS: &[(&str, &str)] = &[
-    (
-        "KHR_materials_pbrSpecularGlossiness",
-        "archived by Khronos; re-export the materials as metallic-roughness with \
+pub(super) const REFUSED_EXTENSIONS: &[(&str, &str)] = &[(
+    "KHR_materials_pbrSpecularGlossiness",
+    "archived by Khronos; re-export the materials as metallic-roughness with \
          KHR_materials_specular and KHR_materials_ior",
-    ),
-    (
-        "KHR_draco_mesh_compression",
-        "compressed geometry is not decoded; re-export without Draco",
-    ),
-    (
-        "EXT_meshopt_compression",
-        "compressed buffers are not decoded; re-export without meshopt",
-    ),
-];
+)];
 
 /// An unsupported extension's name, with the reason where wavetrace refuses it on purpose.
 pub(super) fn unsupported_extension(ext: &str) -> String {

@@ -1,7 +1,8 @@
-//! glTF textures → [`TextureSet`]: images decoded (PNG and JPEG, from a GLB buffer view, a data
-//! URI or a file inside the allowed folders), checked against a size limit and the memory
-//! budget, turned into RGBA8 mip chains, and paired with their samplers and the materials'
-//! `KHR_texture_transform`s.
+//! glTF textures → [`TextureSet`]: images decoded (PNG and JPEG; WebP for EXT_texture_webp;
+//! KTX2 with a Basis Universal payload for KHR_texture_basisu, transcoded to RGBA8 by the
+//! pure-Rust `basisu`; from a GLB buffer view, a data URI or a file inside the allowed folders),
+//! checked against a size limit and the memory budget, turned into RGBA8 mip chains, and paired
+//! with their samplers and the materials' `KHR_texture_transform`s.
 //!
 //! One `GpuTexture` per (glTF texture, colour space) a material uses; texels are shared between
 //! textures that use the same image in the same colour space. Mip levels are 2×2 box averages
@@ -47,6 +48,8 @@ pub(super) struct TextureInfo<'a> {
 }
 
 pub(super) struct TextureBuilder<'a> {
+    /// The images a texture's extensions name by index (none in unit tests).
+    document: Option<&'a gltf::Document>,
     buffers: &'a [Vec<u8>],
     base: &'a Path,
     options: &'a LoadOptions,
@@ -60,8 +63,14 @@ pub(super) struct TextureBuilder<'a> {
 }
 
 impl<'a> TextureBuilder<'a> {
-    pub fn new(buffers: &'a [Vec<u8>], base: &'a Path, options: &'a LoadOptions) -> Self {
+    pub fn new(
+        document: Option<&'a gltf::Document>,
+        buffers: &'a [Vec<u8>],
+        base: &'a Path,
+        options: &'a LoadOptions,
+    ) -> Self {
         TextureBuilder {
+            document,
             buffers,
             base,
             options,
@@ -122,7 +131,7 @@ impl<'a> TextureBuilder<'a> {
         if let Some(&index) = self.textures.get(&(texture.index(), srgb)) {
             return Ok(index);
         }
-        let image = texture.source();
+        let image = self.texture_image(texture)?;
         let ([texel_offset, width, height, levels], mean) =
             match self.images.get(&(image.index(), srgb)) {
                 Some(&found) => found,
@@ -166,6 +175,28 @@ impl<'a> TextureBuilder<'a> {
         Ok(index)
     }
 
+    /// The image a texture shows: KHR_texture_basisu's (KTX2), else EXT_texture_webp's, else
+    /// its core `source` (PNG or JPEG), the order the extensions ask of a loader that reads them.
+    fn texture_image(&self, texture: &gltf::Texture<'a>) -> Result<gltf::Image<'a>> {
+        for extension in ["KHR_texture_basisu", "EXT_texture_webp"] {
+            let Some(value) = texture.extension_value(extension) else {
+                continue;
+            };
+            let path = format!("extensions.{extension}.source");
+            let index = value
+                .get("source")
+                .and_then(|v| v.as_u64())
+                .ok_or_else(|| anyhow!("{path}: missing, expected an image index"))?;
+            return self
+                .document
+                .and_then(|d| d.images().nth(index as usize))
+                .ok_or_else(|| anyhow!("{path}: image {index} does not exist"));
+        }
+        texture.source().ok_or_else(|| {
+            anyhow!("source: missing, expected an image index (or KHR_texture_basisu / EXT_texture_webp)")
+        })
+    }
+
     /// Reads and decodes an image and appends its mip chain to the texels; errors name the
     /// image's JSON path.
     fn image(&mut self, image: &gltf::Image, srgb: bool) -> Result<([u32; 4], [f32; 4])> {
@@ -200,25 +231,60 @@ impl<'a> TextureBuilder<'a> {
             .with_context(|| format!("{path}{owner}"))
     }
 
-    /// Decodes PNG or JPEG bytes (`mime` as declared, for messages) and appends the mip chain
-    /// to the texels.
+    /// Decodes PNG, JPEG, WebP or KTX2 (Basis Universal) bytes (`mime` as declared, for
+    /// messages) and appends the mip chain to the texels.
     fn decode(
         &mut self,
         bytes: Vec<u8>,
         mime: Option<String>,
         srgb: bool,
     ) -> Result<([u32; 4], [f32; 4])> {
+        let (width, height, raw, channels) = if bytes.starts_with(&KTX2_IDENTIFIER) {
+            self.transcode_ktx2(bytes)?
+        } else {
+            self.decode_image(bytes, mime)?
+        };
+        let texels_level0 = width as u64 * height as u64;
+        let texels = std::sync::Arc::make_mut(&mut self.set.texels);
+        let first = texels.len();
+        if first as u64 + texels_level0 * 2 > u32::MAX as u64 {
+            bail!("the scene's textures exceed 2³² texels");
+        }
+        // Level 0 straight from the decoded bytes into its place, on every core.
+        let levels = push_mip_chain_with(texels, width, height, srgb, |level0| {
+            level0
+                .par_chunks_mut(ROWS_TEXELS)
+                .zip(raw.par_chunks(ROWS_TEXELS * channels))
+                .for_each(|(dst, src)| copy_texels(dst, src, channels));
+        });
+        drop(raw);
+        self.options
+            .budget
+            .release(texels_level0 * DECODE_BYTES_PER_TEXEL);
+        let mean = mean_texel(&texels[first..first + texels_level0 as usize], srgb);
+        Ok(([first as u32, width, height, levels], mean))
+    }
+
+    /// A PNG, JPEG or WebP image's level 0 as 8-bit RGB or RGBA bytes, with the texels'
+    /// `DECODE_BYTES_PER_TEXEL` reserved in the budget (released by [`decode`](Self::decode)).
+    fn decode_image(
+        &mut self,
+        bytes: Vec<u8>,
+        mime: Option<String>,
+    ) -> Result<(u32, u32, Vec<u8>, usize)> {
         let format = image::guess_format(&bytes).ok();
         let format = match format {
-            Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg)) => f,
+            Some(
+                f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::WebP),
+            ) => f,
             other => {
                 let seen = match other {
                     Some(f) => format!("{f:?}"),
                     None => "unrecognised".to_owned(),
                 };
                 bail!(
-                    "the image's data is {seen}{}, not PNG or JPEG (wavetrace reads PNG and JPEG; \
-                     KTX2/Basis and WebP need extensions it does not support)",
+                    "the image's data is {seen}{}, not PNG, JPEG, WebP or KTX2 (the image \
+                     formats wavetrace reads)",
                     mime.map_or_else(String::new, |m| format!(" (declared {m:?})"))
                 );
             }
@@ -236,18 +302,8 @@ impl<'a> TextureBuilder<'a> {
         let (width, height) = reader
             .into_dimensions()
             .map_err(|e| anyhow!("cannot read the {format:?} header: {e}"))?;
-        if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
-            bail!(
-                "{width} × {height} texels: wavetrace reads images of 1 to {MAX_IMAGE_SIDE} texels a side"
-            );
-        }
-        let texels_level0 = width as u64 * height as u64;
-        // Decoding (up to 16 bytes per texel for 16-bit RGBA) and the mip chain (4/3 · 4 bytes).
-        let reserve = texels_level0 * (16 + 6);
-        self.options.budget.reserve(
-            &format!("decoding a {width} × {height} {format:?} image"),
-            reserve,
-        )?;
+        check_side(width, height)?;
+        self.reserve_decoding(width, height, &format!("{format:?}"))?;
         let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_IMAGE_SIDE);
@@ -259,27 +315,72 @@ impl<'a> TextureBuilder<'a> {
         drop(bytes);
         // RGB8 and RGBA8 (nearly every glTF image) are read as they are; other layouts are
         // converted to RGBA8 first. An RGB8 texel gets alpha 255, as `into_rgba8` gives it.
-        let (raw, channels) = match decoded {
-            image::DynamicImage::ImageRgb8(rgb) => (rgb.into_raw(), 3),
-            other => (other.into_rgba8().into_raw(), 4),
-        };
-        let texels = std::sync::Arc::make_mut(&mut self.set.texels);
-        let first = texels.len();
-        if first as u64 + texels_level0 * 2 > u32::MAX as u64 {
-            bail!("the scene's textures exceed 2³² texels");
-        }
-        // Level 0 straight from the decoded bytes into its place, on every core.
-        let levels = push_mip_chain_with(texels, width, height, srgb, |level0| {
-            level0
-                .par_chunks_mut(ROWS_TEXELS)
-                .zip(raw.par_chunks(ROWS_TEXELS * channels))
-                .for_each(|(dst, src)| copy_texels(dst, src, channels));
-        });
-        drop(raw);
-        self.options.budget.release(texels_level0 * 16);
-        let mean = mean_texel(&texels[first..first + texels_level0 as usize], srgb);
-        Ok(([first as u32, width, height, levels], mean))
+        Ok(match decoded {
+            image::DynamicImage::ImageRgb8(rgb) => (width, height, rgb.into_raw(), 3),
+            other => (width, height, other.into_rgba8().into_raw(), 4),
+        })
     }
+
+    /// A KTX2 texture's level 0 (KHR_texture_basisu: ETC1S or UASTC Basis Universal, with or
+    /// without Zstandard supercompression) transcoded to RGBA8, as [`decode_image`] gives it.
+    /// The file's own mip levels are not read: the chain is built from level 0 like any image's.
+    fn transcode_ktx2(&mut self, bytes: Vec<u8>) -> Result<(u32, u32, Vec<u8>, usize)> {
+        let transcoder = basisu::Transcoder::new(&bytes).map_err(|e| {
+            anyhow!("cannot read the KTX2 file: {e:?} (wavetrace reads KTX2 with a Basis Universal payload)")
+        })?;
+        if transcoder.is_video() || transcoder.face_count() != 1 || transcoder.layer_count() > 1 {
+            bail!(
+                "the KTX2 file is a {} texture, but a glTF texture is a single 2D image",
+                if transcoder.face_count() != 1 {
+                    "cube map"
+                } else if transcoder.is_video() {
+                    "video"
+                } else {
+                    "array"
+                }
+            );
+        }
+        let (width, height) = transcoder.base_dimensions();
+        check_side(width, height)?;
+        self.reserve_decoding(width, height, "KTX2")?;
+        let raw = transcoder
+            .transcode(0, basisu::TargetFormat::Rgba32, basisu::DecodeFlags::NONE)
+            .map_err(|e| anyhow!("cannot transcode the KTX2 file's level 0: {e:?}"))?;
+        if raw.len() as u64 != width as u64 * height as u64 * 4 {
+            bail!(
+                "the KTX2 file's level 0 transcodes to {} bytes, not the {width} × {height} × 4 \
+                 its header declares",
+                raw.len()
+            );
+        }
+        Ok((width, height, raw, 4))
+    }
+
+    /// Reserves what decoding an image of `width` × `height` texels takes.
+    fn reserve_decoding(&self, width: u32, height: u32, format: &str) -> Result<()> {
+        // Decoding (up to 16 bytes per texel for 16-bit RGBA) and the mip chain (4/3 · 4 bytes).
+        let texels = width as u64 * height as u64;
+        self.options.budget.reserve(
+            &format!("decoding a {width} × {height} {format} image"),
+            texels * (DECODE_BYTES_PER_TEXEL + 6),
+        )
+    }
+}
+
+/// The 12 bytes a KTX2 file begins with (KTX 2.0 specification, §3.1 "identifier").
+const KTX2_IDENTIFIER: [u8; 12] = [
+    0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A,
+];
+
+/// The most bytes a texel takes while its image is decoded (16-bit RGBA).
+const DECODE_BYTES_PER_TEXEL: u64 = 16;
+
+/// Refuses images with a side of 0 or over [`MAX_IMAGE_SIDE`].
+fn check_side(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+        bail!("{width} × {height} texels: wavetrace reads images of 1 to {MAX_IMAGE_SIDE} texels a side");
+    }
+    Ok(())
 }
 
 /// Texels from 8-bit RGBA (`channels` 4) or RGB (3, alpha 255) bytes, each layout in a loop of
@@ -661,7 +762,7 @@ mod tests {
                 (grey.clone().into(), grey_rgba.clone().into()),
             ] {
                 let decode = |img: image::DynamicImage| {
-                    let mut builder = TextureBuilder::new(&[], Path::new("."), &options);
+                    let mut builder = TextureBuilder::new(None, &[], Path::new("."), &options);
                     let info = builder.decode(png(img), None, srgb).unwrap();
                     (info, builder.set.texels.as_slice().to_vec())
                 };

@@ -16,12 +16,14 @@
 mod accessors;
 mod buffers;
 mod camera;
+mod draco;
 mod extensions;
 mod images;
 mod json;
 mod limits;
 mod load;
 mod material;
+mod meshopt;
 mod model;
 mod nodes;
 mod tangents;

@@ -6,6 +6,7 @@ use super::accessors::{
     element_bytes, read_attribute, read_indices, read_positions, triangle_corners,
 };
 use super::camera::{Camera, Projection};
+use super::draco::{self, DracoPrimitive};
 use super::json::{json_path, label};
 use super::limits::Budget;
 use super::material::MaterialNeeds;
@@ -72,6 +73,7 @@ impl Repairs {
 }
 
 pub(super) struct Builder<'a> {
+    pub(super) document: &'a Document,
     pub(super) buffers: &'a [Vec<u8>],
     pub(super) budget: &'a Budget,
     pub(super) triangles: Vec<Triangle>,
@@ -383,13 +385,21 @@ impl Builder<'_> {
                 .accessors()
                 .nth(index as usize)
                 .ok_or_else(|| anyhow!("{path}: accessor {index} does not exist"))?;
-            let values = read_attribute(&accessor, self.buffers, self.budget, &[dims], normalized)
-                .with_context(|| {
-                    format!(
-                        "{path} = {}",
-                        label("accessor", accessor.index(), accessor.name())
-                    )
-                })?;
+            let values = read_attribute(
+                &accessor,
+                self.buffers,
+                None,
+                self.budget,
+                &[dims],
+                normalized,
+                &[],
+            )
+            .with_context(|| {
+                format!(
+                    "{path} = {}",
+                    label("accessor", accessor.index(), accessor.name())
+                )
+            })?;
             if values.iter().flatten().any(|v| !v.is_finite()) {
                 bail!("{path}: non-finite values");
             }
@@ -504,16 +514,28 @@ impl Builder<'_> {
             "attributes.POSITION = {}",
             label("accessor", accessor.index(), accessor.name())
         );
-        let positions =
-            read_positions(&accessor, self.buffers, self.budget).context(position_what.clone())?;
+        // KHR_draco_mesh_compression: the accessors' elements come from the stream.
+        let draco = draco::decode(self.document, primitive, self.buffers, self.budget)?;
+        let positions = read_positions(
+            &accessor,
+            self.buffers,
+            draco.elements(&accessor),
+            self.budget,
+        )
+        .context(position_what.clone())?;
         let vertices: Vec<u32> = match primitive.indices() {
             Some(accessor) => {
                 let what = format!(
                     "indices = {}",
                     label("accessor", accessor.index(), accessor.name())
                 );
-                let indices =
-                    read_indices(&accessor, self.buffers, self.budget).context(what.clone())?;
+                let indices = read_indices(
+                    &accessor,
+                    self.buffers,
+                    draco.elements(&accessor),
+                    self.budget,
+                )
+                .context(what.clone())?;
                 if let Some((k, v)) = indices
                     .iter()
                     .enumerate()
@@ -552,7 +574,8 @@ impl Builder<'_> {
             .index()
             .map_or_else(MaterialNeeds::default, |i| self.needs[i]);
         let alpha_tested = self.materials[material as usize].alpha_mode != AlphaMode::Opaque;
-        let attributes = self.read_attributes(primitive, positions.len(), &needs)?;
+        let attributes = self.read_attributes(primitive, &draco, positions.len(), &needs)?;
+        draco.release(self.budget);
 
         // Shading vertices: one per glTF vertex, or one per triangle corner where MikkTSpace
         // tangents are generated (a corner keeps the tangent MikkTSpace gives it).
@@ -741,12 +764,14 @@ impl Builder<'_> {
     pub(super) fn read_attributes(
         &mut self,
         primitive: &Primitive,
+        draco: &DracoPrimitive,
         count: usize,
         needs: &MaterialNeeds,
     ) -> Result<Attributes> {
         let read = |semantic: Semantic,
                     dims: &[Dimensions],
-                    normalized: &[DataType]|
+                    normalized: &[DataType],
+                    integers: &[DataType]|
          -> Result<Option<Vec<[f32; 4]>>> {
             let Some(accessor) = primitive.get(&semantic) else {
                 return Ok(None);
@@ -756,8 +781,16 @@ impl Builder<'_> {
                 semantic.to_string(),
                 label("accessor", accessor.index(), accessor.name())
             );
-            let values = read_attribute(&accessor, self.buffers, self.budget, dims, normalized)
-                .context(what.clone())?;
+            let values = read_attribute(
+                &accessor,
+                self.buffers,
+                draco.elements(&accessor),
+                self.budget,
+                dims,
+                normalized,
+                integers,
+            )
+            .context(what.clone())?;
             if values.len() != count {
                 bail!(
                     "{what}: {} elements, but POSITION has {count}",
@@ -766,11 +799,25 @@ impl Builder<'_> {
             }
             Ok(Some(values))
         };
-        let normals = read(Semantic::Normals, &[Dimensions::Vec3], &[])?;
-        let tangents = read(Semantic::Tangents, &[Dimensions::Vec4], &[])?;
+        // Core glTF, and what KHR_mesh_quantization adds: normalized BYTE/SHORT normals and
+        // tangents, (normalized) BYTE/SHORT and plain integer texture coordinates.
+        let signed = [DataType::I8, DataType::I16];
+        let integers = [DataType::I8, DataType::U8, DataType::I16, DataType::U16];
+        let normals = read(Semantic::Normals, &[Dimensions::Vec3], &signed, &[])?;
+        let tangents = read(Semantic::Tangents, &[Dimensions::Vec4], &signed, &[])?;
         let uv_types = [DataType::U8, DataType::U16];
-        let uv0 = read(Semantic::TexCoords(0), &[Dimensions::Vec2], &uv_types)?;
-        let uv1 = read(Semantic::TexCoords(1), &[Dimensions::Vec2], &uv_types)?;
+        let uv0 = read(
+            Semantic::TexCoords(0),
+            &[Dimensions::Vec2],
+            &integers,
+            &integers,
+        )?;
+        let uv1 = read(
+            Semantic::TexCoords(1),
+            &[Dimensions::Vec2],
+            &integers,
+            &integers,
+        )?;
         let colors = primitive.get(&Semantic::Colors(0)).map(|a| a.dimensions());
         let plain = normals.is_none()
             && tangents.is_none()
@@ -781,6 +828,7 @@ impl Builder<'_> {
             Semantic::Colors(0),
             &[Dimensions::Vec3, Dimensions::Vec4],
             &uv_types,
+            &[],
         )?;
         for (set, present) in [(0, uv0.is_some()), (1, uv1.is_some())] {
             if needs.tex_coords[set] && !present {

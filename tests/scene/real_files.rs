@@ -73,8 +73,8 @@ fn every_valid_model_renders_alike_on_gpu_and_cpu() {
         let name = path.strip_prefix(&dir).unwrap().display().to_string();
         let scene = match Scene::load(path) {
             Ok(scene) => scene,
-            // The material-extension and compressed samples may require an extension of a
-            // later issue (Draco, meshopt, KTX2, quantised meshes): it must be refused by name.
+            // A material-extension or compressed sample may require an extension wavetrace
+            // does not read: it must be refused by name.
             Err(e)
                 if (name.starts_with("extensions") || name.starts_with("compressed"))
                     && format!("{e:#}").contains("extensionsRequired") =>
