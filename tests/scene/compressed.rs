@@ -391,3 +391,50 @@ fn ktx2_textures_decode_and_a_truncated_one_is_refused_by_path() {
     );
     std::fs::remove_dir_all(&work).ok();
 }
+
+/// Seeds for the coverage-guided fuzzer (docs/security.md, "Fuzzing") that reach every decoder:
+/// the meshopt sphere (TRIANGLES and INDICES), the WebP sphere and a quad with one of
+/// StainedGlassLamp's KTX2 textures, each one self-contained `.gltf`. Written by
+/// `WAVETRACE_FUZZ_SEEDS=DIR cargo test --release --test scene write_fuzz_seeds -- --ignored`
+/// (tools/fuzz/seed.sh runs it).
+#[test]
+#[ignore = "writes fuzz seeds; run by tools/fuzz/seed.sh"]
+fn write_fuzz_seeds() {
+    let dir = PathBuf::from(std::env::var("WAVETRACE_FUZZ_SEEDS").expect("WAVETRACE_FUZZ_SEEDS"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, doc: &Value| {
+        std::fs::write(dir.join(name), serde_json::to_vec(doc).unwrap()).unwrap()
+    };
+    write(
+        "meshopt-triangles.gltf",
+        &sphere_gltf(Some("TRIANGLES"), None),
+    );
+    write("meshopt-indices.gltf", &sphere_gltf(Some("INDICES"), None));
+    let webp = pattern(image::ImageFormat::WebP, 8);
+    let mut doc = sphere_gltf(
+        None,
+        Some((
+            json!([image_json(&webp, "image/webp")]),
+            json!([{"extensions": {"EXT_texture_webp": {"source": 0}}}]),
+        )),
+    );
+    doc["extensionsUsed"] = json!(["EXT_texture_webp"]);
+    doc["extensionsRequired"] = json!(["EXT_texture_webp"]);
+    write("webp.gltf", &doc);
+    if let Some(samples) = samples() {
+        let ktx2 = std::fs::read(samples.join(
+            "compressed/StainedGlassLamp-ktx2/StainedGlassLamp_bulbs_occlusion-rough-metal.ktx2",
+        ))
+        .unwrap();
+        let mut doc = sphere_gltf(
+            None,
+            Some((
+                json!([image_json(&ktx2, "image/ktx2")]),
+                json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]),
+            )),
+        );
+        doc["extensionsUsed"] = json!(["KHR_texture_basisu"]);
+        doc["extensionsRequired"] = json!(["KHR_texture_basisu"]);
+        write("ktx2.gltf", &doc);
+    }
+}

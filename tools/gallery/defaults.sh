@@ -35,3 +35,7 @@ render default-damaged-helmet-orbit "$SAMPLES/DamagedHelmet.glb" --width 360 --h
 #     git worktree add /tmp/old a902ac5 && (cd /tmp/old && cargo build --release)
 #     /tmp/old/target/release/wavetrace render DamagedHelmet.glb --width 360 --height 360 --spp 128 -o before-damaged-helmet.png
 #     /tmp/old/target/release/wavetrace render TransmissionTest.glb --width 480 --spp 128 --environment 1 --max-depth 10 -o before-transmission-test.png
+# Compressed files (issue 57, item 5), refused before: StainedGlassLamp (Wayfair, CC BY 4.0) with
+# its 17 KTX2 / Basis Universal textures, under the studio (its own light is only its bulbs).
+render compressed-stained-glass-lamp "$SAMPLES/compressed/StainedGlassLamp-ktx2/StainedGlassLamp.gltf" \
+    --width 360 --height 360 --spp 128 --env studio
