@@ -490,6 +490,21 @@ pub struct RenderOptions {
     /// --environment), a scene with no light of its own is lit by the studio.
     #[arg(long, value_name = "FILE|studio|none", conflicts_with = "environment", value_parser = parse_env)]
     pub env: Option<EnvArg>,
+    /// Light the scene with a physical daylight sky and sun (Preetham et al. 1999; the sun a
+    /// directional light): see --sun-elevation, --sun-azimuth, --turbidity. Replaces the
+    /// environment; the file's own lights stay.
+    #[arg(long, conflicts_with_all = ["env", "environment", "env_rotate", "env_scale"])]
+    pub sky: bool,
+    /// With --sky: the sun's height above the horizon, 0 to 90 degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 45.0, requires = "sky", value_parser = parse_finite)]
+    pub sun_elevation: f32,
+    /// With --sky: the sun's direction about +Y, from +Z (where a default camera stands) towards
+    /// +X (its right), in degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 30.0, requires = "sky", allow_negative_numbers = true, value_parser = parse_finite)]
+    pub sun_azimuth: f32,
+    /// With --sky: atmospheric turbidity, 2 (very clear) to 10 (hazy).
+    #[arg(long, value_name = "T", default_value_t = 3.0, requires = "sky", value_parser = parse_finite)]
+    pub turbidity: f32,
     /// Turn the environment map by DEG degrees about +Y (counter-clockwise seen from above).
     #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_finite)]
     pub env_rotate: f32,

@@ -97,6 +97,18 @@ pub(crate) fn prepare(
         scene.select_camera(which)?;
     }
     place_camera(&mut scene, opts).with_context(|| format!("{}", path.display()))?;
+    // --sky: the sun joins the file's punctual lights before the light table is built.
+    let sky_map = if opts.sky {
+        let (map, sun) = wavetrace::lights::sky(&wavetrace::lights::SkyParams {
+            sun_elevation: opts.sun_elevation,
+            sun_azimuth: opts.sun_azimuth,
+            turbidity: opts.turbidity,
+        })?;
+        scene.punctual.push(sun);
+        Some(map)
+    } else {
+        None
+    };
     let mut prepared = PreparedScene::new(&scene);
     prepared.set_energy_compensation(opts.energy_compensation == OnOff::On);
     let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio());
@@ -113,6 +125,7 @@ pub(crate) fn prepare(
         device,
     )?;
     let env_map = match &opts.env {
+        _ if sky_map.is_some() => sky_map,
         Some(EnvArg::File(file)) => {
             let left = options.budget.limit().saturating_sub(options.budget.used());
             let map = EnvironmentMap::load(file, left)?;

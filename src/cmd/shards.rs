@@ -120,6 +120,17 @@ pub fn record(
         ("texture_lod", lower(&o.texture_lod)),
         ("energy_compensation", lower(&o.energy_compensation)),
         (
+            "sky",
+            if o.sky {
+                format!(
+                    "sun elevation {:?} azimuth {:?} turbidity {:?}",
+                    o.sun_elevation, o.sun_azimuth, o.turbidity
+                )
+            } else {
+                "none".into()
+            },
+        ),
+        (
             "camera_placed",
             format!(
                 "from {:?} look-at {:?} up {:?} orbit {:?} fov {:?}",

@@ -12,7 +12,9 @@
 //! - the built-in studio (src/lights/studio.rs) lights an upward plane with ρ/π times its
 //!   irradiance, integrated here from the lookup, on CPU and GPU; a file without lights is lit
 //!   by it with a note, `--env none` and `--environment 0` keep it black, a file with lights
-//!   keeps its own.
+//!   keeps its own;
+//! - `--sky` (src/lights/sky.rs): its map and sun light an upward plane with ρ/π times their
+//!   irradiance, on CPU and GPU; its options out of range are refused by name.
 
 use crate::common;
 
@@ -20,7 +22,7 @@ use crate::common::{assert_agree_at, render_cpu, render_gpu};
 use glam::{Vec2, Vec3};
 use std::f64::consts::PI;
 use std::sync::Arc;
-use wavetrace::layout::FrameParams;
+use wavetrace::layout::{FrameParams, GpuPunctualLight};
 use wavetrace::lights::environment::{env_pdf, env_sample, EnvironmentMap};
 use wavetrace::mis::Heuristic;
 use wavetrace::render::{PreparedScene, RenderSettings};
@@ -34,6 +36,11 @@ const SIZE: u32 = 16;
 /// The plane y = 0 over [-4, 4]², front face +Y, double-sided Lambertian, seen by an
 /// orthographic camera from above (`from_below` false) or from below.
 fn plane_scene(from_below: bool) -> PreparedScene {
+    plane_scene_lit(from_below, Vec::new())
+}
+
+/// [`plane_scene`] with punctual lights.
+fn plane_scene_lit(from_below: bool, punctual: Vec<GpuPunctualLight>) -> PreparedScene {
     let s = 4.0;
     let (a, b, c, d) = (
         Vec3::new(-s, 0.0, -s),
@@ -59,7 +66,7 @@ fn plane_scene(from_below: bool) -> PreparedScene {
         textures: Default::default(),
         meshes: Vec::new(),
         instances: Vec::new(),
-        punctual: Vec::new(),
+        punctual,
         camera: Camera {
             position: Vec3::new(0.0, 5.0 * sign, 0.0),
             forward: Vec3::new(0.0, -sign, 0.0),
@@ -519,4 +526,105 @@ fn a_file_without_lights_is_lit_by_the_studio_unless_told_otherwise() {
     } else {
         eprintln!("skipping DamagedHelmet: ../shared/gltf-samples not found");
     }
+}
+
+/// `--sky` (src/lights/sky.rs): an upward white-ish Lambertian plane under the sky map and the
+/// sun (a directional light) shows ρ/π (E_sky + E_sun sin e), E_sky integrated here from the
+/// map's lookup, on the CPU and the GPU.
+#[test]
+fn the_sky_and_sun_light_a_plane_with_their_irradiance() {
+    use wavetrace::lights::environment::env_radiance;
+    use wavetrace::lights::{sky, SkyParams};
+    let params = SkyParams {
+        sun_elevation: 35.0,
+        sun_azimuth: -60.0,
+        turbidity: 4.0,
+    };
+    let (map, sun) = sky(&params).unwrap();
+    let mut frame = FrameParams::default();
+    map.write_frame_params(Vec3::ONE, 0.0, &mut frame);
+    let (nphi, ntheta) = (2048, 512);
+    let mut e = [0.0f64; 3];
+    for j in 0..ntheta {
+        let theta = (j as f64 + 0.5) / ntheta as f64 * PI / 2.0;
+        for i in 0..nphi {
+            let phi = (i as f64 + 0.5) / nphi as f64 * 2.0 * PI;
+            let d = Vec3::new(
+                (theta.sin() * phi.cos()) as f32,
+                theta.cos() as f32,
+                (theta.sin() * phi.sin()) as f32,
+            );
+            let l = env_radiance(&map, &frame, d);
+            for c in 0..3 {
+                e[c] += l[c] as f64 * theta.cos() * theta.sin();
+            }
+        }
+    }
+    let cell = (PI / 2.0 / ntheta as f64) * (2.0 * PI / nphi as f64);
+    let sin_e = (params.sun_elevation as f64).to_radians().sin();
+    let want: [f64; 3] = std::array::from_fn(|c| {
+        ALBEDO as f64 / PI * (e[c] * cell + sun.intensity[c] as f64 * sin_e)
+    });
+    println!(
+        "sky: sky irradiance {:?}, sun {:?}, plane radiance {want:?}",
+        e.map(|v| v * cell),
+        sun.intensity
+    );
+    // The sun joins the plane's lights as `--sky` adds it to a file's.
+    let plane = plane_scene_lit(false, vec![sun]);
+    let want = Vec3::new(want[0] as f32, want[1] as f32, want[2] as f32);
+    let cpu = render_cpu(&plane, &settings(&map, 7, 256));
+    assert_eq!(cpu.film.dropped, 0);
+    assert_pixels_near(&cpu.film, want, "sky plane (CPU)");
+    if let Some(gpu) = render_gpu(&plane, &settings(&map, 8, 256), None) {
+        assert_pixels_near(&gpu.film, want, "sky plane (GPU)");
+        assert_agree_at(&gpu.film, &cpu.film, 0.01, "sky plane");
+    }
+}
+
+#[test]
+fn sky_options_are_checked_by_name() {
+    for (args, needle) in [
+        (&["--sky", "--sun-elevation", "95"][..], "--sun-elevation"),
+        (&["--sky", "--turbidity", "1"], "--turbidity"),
+        (&["--sun-elevation", "30"], "--sky"),
+        (&["--sky", "--env", "studio"], "--env"),
+    ] {
+        let mut all = vec![
+            "render",
+            "scenes/cornell-box.gltf",
+            "--device",
+            "cpu",
+            "--spp",
+            "1",
+        ];
+        all.extend(args);
+        let run = common::wavetrace(&all);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{all:?} succeeded");
+        assert!(stderr.contains(needle), "{all:?}: {stderr}");
+    }
+    let out = common::temp("environment", "sky.exr");
+    let run = common::wavetrace(&[
+        "render",
+        "scenes/cornell-box.gltf",
+        "--device",
+        "cpu",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "2",
+        "--sky",
+        "--sun-elevation",
+        "20",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
 }

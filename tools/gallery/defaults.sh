@@ -39,3 +39,7 @@ render default-damaged-helmet-orbit "$SAMPLES/DamagedHelmet.glb" --width 360 --h
 # its 17 KTX2 / Basis Universal textures, under the studio (its own light is only its bulbs).
 render compressed-stained-glass-lamp "$SAMPLES/compressed/StainedGlassLamp-ktx2/StainedGlassLamp.gltf" \
     --width 360 --height 360 --spp 128 --env studio
+# --sky: the daylight sky and sun (src/lights/sky.rs), by default and low in a hazy evening.
+render sky-damaged-helmet "$SAMPLES/DamagedHelmet.glb" --width 360 --height 360 --spp 128 --sky
+render sky-damaged-helmet-evening "$SAMPLES/DamagedHelmet.glb" --width 360 --height 360 --spp 128 \
+    --sky --sun-elevation 8 --turbidity 6
