@@ -18,6 +18,18 @@ pub fn scene_path(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// `../shared/gltf-samples/valid` (the third-party sample models, never copied here), or `None`
+/// with a notice where it is absent (a user's clone): the tests that read it skip.
+pub fn gltf_samples() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipping: ../shared/gltf-samples/valid not found");
+        None
+    }
+}
+
 /// The files in `dir` whose extension is one of `extensions`, sorted by path.
 pub fn files_with_extension(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)

@@ -428,17 +428,15 @@ fn bad_environment_files_are_refused_by_name() {
     }
 }
 
-#[test]
-fn the_studio_lights_a_plane_with_its_irradiance() {
+/// E = ∫ L(ω) cos θ dω over the upper hemisphere of the lookup the renderers use, per channel,
+/// by the midpoint rule on 4096 × 1024 cells in (φ, θ) (the lookup is bilinear between texels,
+/// at most 512 × 256 of them here, so each cell sees a smooth piece of it).
+fn upward_irradiance(map: &EnvironmentMap) -> [f64; 3] {
     use wavetrace::lights::environment::env_radiance;
-    let map = wavetrace::lights::studio();
     let mut frame = FrameParams::default();
     map.write_frame_params(Vec3::ONE, 0.0, &mut frame);
-    // E = ∫ L(ω) cos θ dω over the upper hemisphere of the lookup the renderers use, by the
-    // midpoint rule on 4096 × 1024 cells in (φ, θ) (the lookup is bilinear between 512 × 256
-    // texels, so each cell sees a smooth piece of it).
     let (nphi, ntheta) = (4096, 1024);
-    let mut e = 0.0f64;
+    let mut e = [0.0f64; 3];
     for j in 0..ntheta {
         let theta = (j as f64 + 0.5) / ntheta as f64 * PI / 2.0;
         for i in 0..nphi {
@@ -448,10 +446,19 @@ fn the_studio_lights_a_plane_with_its_irradiance() {
                 theta.cos() as f32,
                 (theta.sin() * phi.sin()) as f32,
             );
-            e += env_radiance(&map, &frame, d).x as f64 * theta.cos() * theta.sin();
+            let l = env_radiance(map, &frame, d);
+            for (c, e) in e.iter_mut().enumerate() {
+                *e += l[c] as f64 * theta.cos() * theta.sin();
+            }
         }
     }
-    e *= (PI / 2.0 / ntheta as f64) * (2.0 * PI / nphi as f64);
+    e.map(|e| e * (PI / 2.0 / ntheta as f64) * (2.0 * PI / nphi as f64))
+}
+
+#[test]
+fn the_studio_lights_a_plane_with_its_irradiance() {
+    let map = wavetrace::lights::studio();
+    let e = upward_irradiance(&map)[0];
     let want = ALBEDO as f64 / PI * e;
     println!("studio: irradiance of an upward plane {e:.4}, its radiance {want:.4}");
     let above = plane_scene(false);
@@ -533,7 +540,6 @@ fn a_file_without_lights_is_lit_by_the_studio_unless_told_otherwise() {
 /// map's lookup, on the CPU and the GPU.
 #[test]
 fn the_sky_and_sun_light_a_plane_with_their_irradiance() {
-    use wavetrace::lights::environment::env_radiance;
     use wavetrace::lights::{sky, SkyParams};
     let params = SkyParams {
         sun_elevation: 35.0,
@@ -541,33 +547,12 @@ fn the_sky_and_sun_light_a_plane_with_their_irradiance() {
         turbidity: 4.0,
     };
     let (map, sun) = sky(&params).unwrap();
-    let mut frame = FrameParams::default();
-    map.write_frame_params(Vec3::ONE, 0.0, &mut frame);
-    let (nphi, ntheta) = (2048, 512);
-    let mut e = [0.0f64; 3];
-    for j in 0..ntheta {
-        let theta = (j as f64 + 0.5) / ntheta as f64 * PI / 2.0;
-        for i in 0..nphi {
-            let phi = (i as f64 + 0.5) / nphi as f64 * 2.0 * PI;
-            let d = Vec3::new(
-                (theta.sin() * phi.cos()) as f32,
-                theta.cos() as f32,
-                (theta.sin() * phi.sin()) as f32,
-            );
-            let l = env_radiance(&map, &frame, d);
-            for c in 0..3 {
-                e[c] += l[c] as f64 * theta.cos() * theta.sin();
-            }
-        }
-    }
-    let cell = (PI / 2.0 / ntheta as f64) * (2.0 * PI / nphi as f64);
+    let e = upward_irradiance(&map);
     let sin_e = (params.sun_elevation as f64).to_radians().sin();
-    let want: [f64; 3] = std::array::from_fn(|c| {
-        ALBEDO as f64 / PI * (e[c] * cell + sun.intensity[c] as f64 * sin_e)
-    });
+    let want: [f64; 3] =
+        std::array::from_fn(|c| ALBEDO as f64 / PI * (e[c] + sun.intensity[c] as f64 * sin_e));
     println!(
-        "sky: sky irradiance {:?}, sun {:?}, plane radiance {want:?}",
-        e.map(|v| v * cell),
+        "sky: sky irradiance {e:?}, sun {:?}, plane radiance {want:?}",
         sun.intensity
     );
     // The sun joins the plane's lights as `--sky` adds it to a file's.

@@ -1288,13 +1288,7 @@ fn compare(exp: &Expected, film: &Film, keep: impl Fn(u32, u32) -> bool) -> Outc
 // Rendering.
 
 fn samples_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: ../shared/gltf-samples/valid not found");
-        None
-    }
+    crate::common::gltf_samples()
 }
 
 /// Renders `path` on the CPU and (where there is one) on the GPU with independent seeds,

@@ -21,13 +21,7 @@ use wavetrace::scene::{LoadOptions, Scene};
 use wavetrace::stats::sidak;
 
 fn samples() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: ../shared/gltf-samples/valid not found");
-        None
-    }
+    crate::common::gltf_samples()
 }
 
 fn settings(seed: u32, spp: u32) -> RenderSettings {

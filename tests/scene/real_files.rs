@@ -15,13 +15,7 @@ use wavetrace::scene::Scene;
 use wavetrace::stats::sidak;
 
 fn samples() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/valid");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: ../shared/gltf-samples/valid not found");
-        None
-    }
+    crate::common::gltf_samples()
 }
 
 /// Every .gltf and .glb under `dir`, sorted.
