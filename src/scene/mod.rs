@@ -25,6 +25,7 @@ mod load;
 mod material;
 mod meshopt;
 mod model;
+mod morph;
 mod nodes;
 mod tangents;
 mod validate;

@@ -11,6 +11,7 @@ use super::json::{json_path, label};
 use super::limits::Budget;
 use super::material::MaterialNeeds;
 use super::model::{AlphaMode, Instance, Material, Mesh, SceneCamera, Triangle, NO_VERTEX};
+use super::morph;
 use super::tangents::mikktspace_tangents;
 use crate::layout::{
     GpuPunctualLight, GpuVertex, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, TRIANGLE_ALPHA,
@@ -272,7 +273,13 @@ impl Builder<'_> {
                 };
                 let saved = (placements.saturating_sub(1) as u64)
                     .saturating_mul(mesh_triangle_estimate(&mesh));
-                let shared = self.instancing && placements > 1 && saved >= INSTANCING_MIN_SAVED;
+                // A node's own morph weights give it geometry of its own: baked, not shared.
+                let own_weights = node.weights().is_some_and(|w| Some(w) != mesh.weights())
+                    && mesh.primitives().any(|p| p.morph_targets().len() > 0);
+                let shared = self.instancing
+                    && placements > 1
+                    && saved >= INSTANCING_MIN_SAVED
+                    && !own_weights;
                 let emits = mesh.primitives().any(|p| {
                     p.material()
                         .index()
@@ -300,17 +307,25 @@ impl Builder<'_> {
                     stack.extend(children.into_iter().rev().map(|c| (c, world, Some(i))));
                     continue;
                 }
+                let node_path = json_path("node", i);
+                let mesh_path = json_path("mesh", mesh.index());
+                let morph_weights = match (node.weights(), mesh.weights()) {
+                    (Some(w), _) => Some((w, node_path.as_str())),
+                    (None, Some(w)) => Some((w, mesh_path.as_str())),
+                    (None, None) => None,
+                };
                 for world in &transforms {
                     for primitive in mesh.primitives() {
-                        self.add_primitive(&primitive, world).with_context(|| {
-                            format!(
-                                "{}.primitives[{}] ({}instanced by {what})",
-                                json_path("mesh", mesh.index()),
-                                primitive.index(),
-                                mesh.name()
-                                    .map_or_else(String::new, |n| format!("mesh {n:?}, "))
-                            )
-                        })?;
+                        self.add_primitive(&primitive, world, morph_weights)
+                            .with_context(|| {
+                                format!(
+                                    "{}.primitives[{}] ({}instanced by {what})",
+                                    json_path("mesh", mesh.index()),
+                                    primitive.index(),
+                                    mesh.name()
+                                        .map_or_else(String::new, |n| format!("mesh {n:?}, "))
+                                )
+                            })?;
                     }
                 }
             }
@@ -329,8 +344,10 @@ impl Builder<'_> {
         let baked = std::mem::take(&mut self.triangles);
         let mut result = Ok(());
         for primitive in mesh.primitives() {
+            let mesh_path = json_path("mesh", mesh.index());
+            let morph_weights = mesh.weights().map(|w| (w, mesh_path.as_str()));
             result = self
-                .add_primitive(&primitive, &Mat4::IDENTITY)
+                .add_primitive(&primitive, &Mat4::IDENTITY, morph_weights)
                 .with_context(|| {
                     format!(
                         "{}.primitives[{}] ({}instanced by {what})",
@@ -499,7 +516,14 @@ impl Builder<'_> {
         Ok(())
     }
 
-    pub(super) fn add_primitive(&mut self, primitive: &Primitive, world: &Mat4) -> Result<()> {
+    /// Bakes (or, with `world` the identity, stores for instancing) one primitive, its morph
+    /// targets weighted by `morph_weights` (and the JSON path they come from).
+    pub(super) fn add_primitive(
+        &mut self,
+        primitive: &Primitive,
+        world: &Mat4,
+        morph_weights: Option<(&[f32], &str)>,
+    ) -> Result<()> {
         if !matches!(
             primitive.mode(),
             Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
@@ -516,13 +540,27 @@ impl Builder<'_> {
         );
         // KHR_draco_mesh_compression: the accessors' elements come from the stream.
         let draco = draco::decode(self.document, primitive, self.buffers, self.budget)?;
-        let positions = read_positions(
+        let mut positions = read_positions(
             &accessor,
             self.buffers,
             draco.elements(&accessor),
             self.budget,
         )
         .context(position_what.clone())?;
+        let weights = morph::weights(primitive, morph_weights)?;
+        if let Some(deltas) = morph::weighted_deltas(
+            primitive,
+            &weights,
+            Semantic::Positions,
+            positions.len(),
+            self.buffers,
+            self.budget,
+        )? {
+            for (p, d) in positions.iter_mut().zip(&deltas) {
+                *p += *d;
+            }
+            self.budget.release(morph::sum_bytes(deltas.len()));
+        }
         let vertices: Vec<u32> = match primitive.indices() {
             Some(accessor) => {
                 let what = format!(
@@ -574,7 +612,8 @@ impl Builder<'_> {
             .index()
             .map_or_else(MaterialNeeds::default, |i| self.needs[i]);
         let alpha_tested = self.materials[material as usize].alpha_mode != AlphaMode::Opaque;
-        let attributes = self.read_attributes(primitive, &draco, positions.len(), &needs)?;
+        let attributes =
+            self.read_attributes(primitive, &draco, &weights, positions.len(), &needs)?;
         draco.release(self.budget);
 
         // Shading vertices: one per glTF vertex, or one per triangle corner where MikkTSpace
@@ -765,6 +804,7 @@ impl Builder<'_> {
         &mut self,
         primitive: &Primitive,
         draco: &DracoPrimitive,
+        morph_weights: &[f32],
         count: usize,
         needs: &MaterialNeeds,
     ) -> Result<Attributes> {
@@ -803,8 +843,30 @@ impl Builder<'_> {
         // tangents, (normalized) BYTE/SHORT and plain integer texture coordinates.
         let signed = [DataType::I8, DataType::I16];
         let integers = [DataType::I8, DataType::U8, DataType::I16, DataType::U16];
-        let normals = read(Semantic::Normals, &[Dimensions::Vec3], &signed, &[])?;
-        let tangents = read(Semantic::Tangents, &[Dimensions::Vec4], &signed, &[])?;
+        let mut normals = read(Semantic::Normals, &[Dimensions::Vec3], &signed, &[])?;
+        let mut tangents = read(Semantic::Tangents, &[Dimensions::Vec4], &signed, &[])?;
+        // Morph targets move normals and the tangents' xyz before they are normalised.
+        for (semantic, values) in [
+            (Semantic::Normals, &mut normals),
+            (Semantic::Tangents, &mut tangents),
+        ] {
+            let Some(values) = values else { continue };
+            if let Some(deltas) = morph::weighted_deltas(
+                primitive,
+                morph_weights,
+                semantic,
+                count,
+                self.buffers,
+                self.budget,
+            )? {
+                for (v, d) in values.iter_mut().zip(&deltas) {
+                    v[0] += d.x;
+                    v[1] += d.y;
+                    v[2] += d.z;
+                }
+                self.budget.release(morph::sum_bytes(deltas.len()));
+            }
+        }
         let uv_types = [DataType::U8, DataType::U16];
         let uv0 = read(
             Semantic::TexCoords(0),

@@ -9,5 +9,6 @@ mod common;
 mod compressed;
 mod figure_scenes;
 mod instancing;
+mod morph;
 mod real_files;
 mod scene_loading;

@@ -1,0 +1,111 @@
+//! Morph targets at the file's static pose (glTF 2.0 §3.7.2.2 "Morph Targets"): an attribute is
+//! its base value plus Σ wᵢ·Δᵢ over the primitive's targets, the weights the node's `weights`,
+//! else the mesh's, else zeros. POSITION, NORMAL and TANGENT (its xyz) deltas are read, sparse
+//! accessors and KHR_mesh_quantization's normalized deltas included; texture-coordinate and
+//! colour deltas are not yet.
+
+use super::accessors::read_attribute;
+use super::json::label;
+use super::limits::Budget;
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Primitive;
+use gltf::Semantic;
+
+/// The morph weights of `primitive`: the node's, else the mesh's, else zeros, one per target.
+/// `from` says where `weights` came from, for messages.
+pub(super) fn weights(primitive: &Primitive, weights: Option<(&[f32], &str)>) -> Result<Vec<f32>> {
+    let targets = primitive.morph_targets().len();
+    let Some((weights, from)) = weights else {
+        return Ok(vec![0.0; targets]);
+    };
+    if targets == 0 {
+        return Ok(Vec::new());
+    }
+    if weights.len() != targets {
+        bail!(
+            "{from}.weights: {} values, but the primitive has {targets} morph targets",
+            weights.len()
+        );
+    }
+    if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
+        bail!("{from}.weights: {w} is not a finite number");
+    }
+    Ok(weights.to_vec())
+}
+
+/// Σ wᵢ·Δᵢ of one attribute (`Positions`, `Normals` or `Tangents`) over the targets with a
+/// non-zero weight, for `count` vertices; `None` where no such target moves it. The sum's bytes
+/// are reserved in the budget; the caller releases them (`sum_bytes`).
+pub(super) fn weighted_deltas(
+    primitive: &Primitive,
+    weights: &[f32],
+    semantic: Semantic,
+    count: usize,
+    buffers: &[Vec<u8>],
+    budget: &Budget,
+) -> Result<Option<Vec<Vec3>>> {
+    let mut sum: Option<Vec<Vec3>> = None;
+    for (k, (target, &w)) in primitive.morph_targets().zip(weights).enumerate() {
+        let accessor = match semantic {
+            Semantic::Positions => target.positions(),
+            Semantic::Normals => target.normals(),
+            Semantic::Tangents => target.tangents(),
+            _ => None,
+        };
+        let Some(accessor) = accessor else { continue };
+        if w == 0.0 {
+            continue;
+        }
+        let what = format!(
+            "targets[{k}].{} = {}",
+            semantic.to_string(),
+            label("accessor", accessor.index(), accessor.name())
+        );
+        // FLOAT, or KHR_mesh_quantization's normalized BYTE and SHORT (and, for positions,
+        // plain integers).
+        let normalized = [DataType::I8, DataType::I16];
+        let integers: &[DataType] = if semantic == Semantic::Positions {
+            &[DataType::I8, DataType::U8, DataType::I16, DataType::U16]
+        } else {
+            &[]
+        };
+        let deltas = read_attribute(
+            &accessor,
+            buffers,
+            None,
+            budget,
+            &[Dimensions::Vec3],
+            &normalized,
+            integers,
+        )
+        .context(what.clone())?;
+        if deltas.len() != count {
+            bail!(
+                "{what}: {} elements, but POSITION has {count}",
+                deltas.len()
+            );
+        }
+        if deltas.iter().flatten().any(|v| !v.is_finite()) {
+            bail!("{what}: non-finite deltas");
+        }
+        let sum = match &mut sum {
+            Some(sum) => sum,
+            None => {
+                budget.reserve("the morph targets' weighted sum", sum_bytes(count))?;
+                sum.insert(vec![Vec3::ZERO; count])
+            }
+        };
+        for (s, d) in sum.iter_mut().zip(&deltas) {
+            *s += w * Vec3::new(d[0], d[1], d[2]);
+        }
+        budget.release(std::mem::size_of_val(deltas.as_slice()) as u64);
+    }
+    Ok(sum)
+}
+
+/// The bytes [`weighted_deltas`] reserved for a sum over `count` vertices.
+pub(super) fn sum_bytes(count: usize) -> u64 {
+    count as u64 * std::mem::size_of::<Vec3>() as u64
+}
