@@ -285,6 +285,29 @@ pub(super) fn read_attribute(
     read_accessor(accessor, buffers, decoded, budget, n * component, decode)
 }
 
+/// MAT4 FLOAT elements (column-major, glTF 2.0 §3.6.2.4), e.g. a skin's inverse bind matrices.
+pub(super) fn read_matrices(
+    accessor: &Accessor,
+    buffers: &[Vec<u8>],
+    budget: &Budget,
+) -> Result<Vec<glam::Mat4>> {
+    if accessor.dimensions() != Dimensions::Mat4
+        || accessor.data_type() != DataType::F32
+        || accessor.normalized()
+    {
+        bail!(
+            "expected MAT4 of FLOAT, found {:?} of {:?}",
+            accessor.dimensions(),
+            accessor.data_type()
+        );
+    }
+    read_accessor(accessor, buffers, None, budget, 64, |b| {
+        glam::Mat4::from_cols_array(&std::array::from_fn(|k| {
+            f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+        }))
+    })
+}
+
 /// Vertex triples of a triangle list, strip or fan (glTF 2.0 §3.7.2.1 topology rules).
 pub(super) fn triangle_corners(mode: Mode, v: &[u32]) -> Result<Vec<[u32; 3]>> {
     let n = v.len();

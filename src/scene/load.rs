@@ -18,8 +18,8 @@
 //! Compressed files: Draco primitives (`draco.rs`), meshopt buffer views (`meshopt.rs`, decoded
 //! right after the buffers are read), quantized attributes (`accessors.rs`), KTX2 and WebP
 //! textures (`images.rs`).
-//! Morph targets take the static pose's weights (`morph.rs`). Point and line primitives are
-//! skipped (counted in `Scene::skipped_primitives`); skins and animations are not read yet.
+//! Morph targets and skins take the static pose (`morph.rs`, `skin.rs`). Point and line
+//! primitives are skipped (counted in `Scene::skipped_primitives`); animations are not read yet.
 
 use super::buffers::{check_image_uris, load_buffers, open_regular};
 use super::camera::Camera;

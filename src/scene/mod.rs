@@ -27,6 +27,7 @@ mod meshopt;
 mod model;
 mod morph;
 mod nodes;
+mod skin;
 mod tangents;
 mod validate;
 

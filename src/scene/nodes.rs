@@ -12,6 +12,7 @@ use super::limits::Budget;
 use super::material::MaterialNeeds;
 use super::model::{AlphaMode, Instance, Material, Mesh, SceneCamera, Triangle, NO_VERTEX};
 use super::morph;
+use super::skin;
 use super::tangents::mikktspace_tangents;
 use crate::layout::{
     GpuPunctualLight, GpuVertex, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, TRIANGLE_ALPHA,
@@ -46,6 +47,8 @@ pub(super) struct Repairs {
     pub(super) attributes: usize,
     /// Primitives whose MikkTSpace tangents could not be generated (normal map ignored there).
     pub(super) tangents: usize,
+    /// Skinned vertices left unskinned: their weights were not finite or all zero.
+    pub(super) skin_weights: usize,
 }
 
 impl Repairs {
@@ -61,6 +64,12 @@ impl Repairs {
             notes.push(format!(
                 "non-finite TEXCOORD, COLOR_0 or TANGENT values replaced by their defaults (vertices repaired: {})",
                 self.attributes
+            ));
+        }
+        if self.skin_weights > 0 {
+            notes.push(format!(
+                "skin weights not finite or all zero: those vertices are left unskinned (vertices: {})",
+                self.skin_weights
             ));
         }
         if self.tangents > 0 {
@@ -219,6 +228,12 @@ impl Builder<'_> {
         let mut stack: Vec<(gltf::Node, Mat4, Option<usize>)> =
             scene.nodes().map(|n| (n, Mat4::IDENTITY, None)).collect();
         stack.reverse();
+        // Skins' joints may lie anywhere in the node forest: every node's world transform.
+        let worlds = if document.skins().len() > 0 {
+            skin::world_transforms(document)
+        } else {
+            Vec::new()
+        };
 
         while let Some((node, parent_world, from)) = stack.pop() {
             let i = node.index();
@@ -257,11 +272,25 @@ impl Builder<'_> {
                 self.punctual.push(punctual_light(&light, &world, &what)?);
             }
             if let Some(mesh) = node.mesh() {
+                // A skinned mesh: its joints place it, not its node (glTF 2.0 §3.7.3).
+                let joints = match node.skin() {
+                    Some(s) if mesh.primitives().any(|p| skin::is_skinned(&p)) => Some(
+                        skin::joint_matrices(&s, &worlds, self.buffers, self.budget)
+                            .with_context(|| format!("{what}.skin"))?,
+                    ),
+                    _ => None,
+                };
+                // (The node's children keep its world transform.)
+                let mesh_world = if joints.is_some() {
+                    Mat4::IDENTITY
+                } else {
+                    world
+                };
                 let gpu_instancing = node
                     .extension_value("EXT_mesh_gpu_instancing")
-                    .map(|value| self.gpu_instances(document, value, &world, &what))
+                    .map(|value| self.gpu_instances(document, value, &mesh_world, &what))
                     .transpose()?;
-                let transforms = gpu_instancing.clone().unwrap_or_else(|| vec![world]);
+                let transforms = gpu_instancing.clone().unwrap_or_else(|| vec![mesh_world]);
                 // Meshes several placements share are stored once and instanced when that saves
                 // at least INSTANCING_MIN_SAVED triangles (smaller ones are cheaper to trace
                 // baked, in the one-level fast path), unless they emit (the emitter table
@@ -279,7 +308,8 @@ impl Builder<'_> {
                 let shared = self.instancing
                     && placements > 1
                     && saved >= INSTANCING_MIN_SAVED
-                    && !own_weights;
+                    && !own_weights
+                    && joints.is_none();
                 let emits = mesh.primitives().any(|p| {
                     p.material()
                         .index()
@@ -316,7 +346,7 @@ impl Builder<'_> {
                 };
                 for world in &transforms {
                     for primitive in mesh.primitives() {
-                        self.add_primitive(&primitive, world, morph_weights)
+                        self.add_primitive(&primitive, world, morph_weights, joints.as_deref())
                             .with_context(|| {
                                 format!(
                                     "{}.primitives[{}] ({}instanced by {what})",
@@ -347,7 +377,7 @@ impl Builder<'_> {
             let mesh_path = json_path("mesh", mesh.index());
             let morph_weights = mesh.weights().map(|w| (w, mesh_path.as_str()));
             result = self
-                .add_primitive(&primitive, &Mat4::IDENTITY, morph_weights)
+                .add_primitive(&primitive, &Mat4::IDENTITY, morph_weights, None)
                 .with_context(|| {
                     format!(
                         "{}.primitives[{}] ({}instanced by {what})",
@@ -523,6 +553,7 @@ impl Builder<'_> {
         primitive: &Primitive,
         world: &Mat4,
         morph_weights: Option<(&[f32], &str)>,
+        joints: Option<&[Mat4]>,
     ) -> Result<()> {
         if !matches!(
             primitive.mode(),
@@ -612,8 +643,30 @@ impl Builder<'_> {
             .index()
             .map_or_else(MaterialNeeds::default, |i| self.needs[i]);
         let alpha_tested = self.materials[material as usize].alpha_mode != AlphaMode::Opaque;
-        let attributes =
+        let mut attributes =
             self.read_attributes(primitive, &draco, &weights, positions.len(), &needs)?;
+        // Skinning, after the morph targets (glTF 2.0 §3.7.3), into world space.
+        if let Some(joints) = joints.filter(|_| skin::is_skinned(primitive)) {
+            let (matrices, unskinned) = skin::vertex_matrices(
+                primitive,
+                &draco,
+                joints,
+                positions.len(),
+                self.buffers,
+                self.budget,
+            )?;
+            self.repairs.skin_weights += unskinned;
+            for (v, m) in matrices.iter().enumerate() {
+                skin::skin_vertex(
+                    m,
+                    &mut positions[v],
+                    attributes.normals.as_mut().map(|n| &mut n[v]),
+                    attributes.tangents.as_mut().map(|t| &mut t[v]),
+                );
+            }
+            self.budget
+                .release(std::mem::size_of_val(matrices.as_slice()) as u64);
+        }
         draco.release(self.budget);
 
         // Shading vertices: one per glTF vertex, or one per triangle corner where MikkTSpace

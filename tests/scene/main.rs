@@ -12,3 +12,4 @@ mod instancing;
 mod morph;
 mod real_files;
 mod scene_loading;
+mod skin;
