@@ -1,6 +1,6 @@
 //! The commands of the `wavetrace` binary, one per file, each a thin layer over the library:
 //! `render`, `devices`, `bench` (with `bench_bvh` and `bench_kernels`), `compare`, `verify`,
-//! `merge` and `estimators`; below them what several share (`options`, `prepare`, `report`,
+//! `merge` and `estimators` (and `sequence`, render's frames of an animation); below them what several share (`options`, `prepare`, `report`,
 //! `shards`, `bench_args`).
 
 pub(crate) mod bench;
@@ -15,5 +15,6 @@ pub(crate) mod options;
 pub(crate) mod prepare;
 pub(crate) mod render;
 pub(crate) mod report;
+pub(crate) mod sequence;
 pub(crate) mod shards;
 pub(crate) mod verify;

@@ -197,6 +197,24 @@ fn parse_aov(s: &str) -> Result<AovSpec, String> {
 }
 
 impl RenderOptions {
+    /// The moment `--animation` and `--time` ask for (the static pose without either).
+    pub fn moment(&self) -> wavetrace::scene::Moment {
+        if self.animation.is_none() && self.time.is_none() {
+            return wavetrace::scene::Moment::rest();
+        }
+        self.moment_at(self.time.unwrap_or(0.0))
+    }
+
+    /// `--animation` (every animation without it) at `time`, for `--time` and sequences.
+    pub fn moment_at(&self, time: f32) -> wavetrace::scene::Moment {
+        use wavetrace::scene::{Animations, Moment};
+        let animations = match self.animation.as_deref() {
+            None | Some("all") => Animations::All,
+            Some(a) => Animations::One(a.to_owned()),
+        };
+        Moment { animations, time }
+    }
+
     /// The image's quantity: radiance unless one `--aov PROPERTY` says otherwise.
     pub fn aov_property(&self) -> anyhow::Result<AovArg> {
         let mut found = None;
@@ -328,6 +346,16 @@ pub struct RenderArgs {
     /// `--shard $SLURM_ARRAY_TASK_ID/8` (.exr only).
     #[arg(long, value_name = "I/N", value_parser = wavetrace::shard::parse_shard)]
     pub shard: Option<(u32, u32)>,
+    /// Render frames A to B (both included) of the animation at --fps, one image each, frame F
+    /// at F / fps seconds: the `#`s of -o become the frame number (out_####.png →
+    /// out_0012.png; without `#`s, _#### is added before the extension). The file is read and
+    /// the device's kernels built once; each frame poses the scene and rebuilds its BVH. With
+    /// --shard I/N, shard I renders its share of the frames (every frame whole).
+    #[arg(long, value_name = "A..B", value_parser = parse_frames, conflicts_with_all = ["sample_range", "resume", "target_error", "time_limit", "time", "bdpt_strategies"])]
+    pub frames: Option<(u32, u32)>,
+    /// With --frames: frames per second.
+    #[arg(long, value_name = "F", default_value_t = 24.0, requires = "frames", value_parser = parse_fps)]
+    pub fps: f64,
     /// Continue the render that wrote PARTIAL.exr (stopped by a signal): give the same scene
     /// and options; renders the samples it lacks and writes the whole (to -o, default
     /// PARTIAL.exr itself).
@@ -342,6 +370,37 @@ pub struct RenderArgs {
     pub band_pixels: Option<u64>,
     #[command(flatten)]
     pub opts: RenderOptions,
+}
+
+/// "A..B", both included, A ≤ B.
+fn parse_frames(text: &str) -> Result<(u32, u32), String> {
+    let (a, b) = text
+        .trim()
+        .split_once("..")
+        .ok_or_else(|| format!("'{text}': expected FIRST..LAST, e.g. 1..48"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("'{text}': '{v}': {e}"))
+    };
+    let (a, b) = (parse(a)?, parse(b)?);
+    if b < a {
+        return Err(format!("'{text}': the last frame comes before the first"));
+    }
+    if b - a >= 1_000_000 {
+        return Err(format!("'{text}': at most a million frames at a time"));
+    }
+    Ok((a, b))
+}
+
+/// Frames per second: finite and above 0.
+fn parse_fps(text: &str) -> Result<f64, String> {
+    let f: f64 = text.trim().parse().map_err(|e| format!("'{text}': {e}"))?;
+    if f.is_finite() && f > 0.0 && f <= 1e6 {
+        Ok(f)
+    } else {
+        Err("frames per second must be a finite number above 0".into())
+    }
 }
 
 /// "START..END".
@@ -392,6 +451,16 @@ pub struct RenderOptions {
     /// camera's or node's name (default: the first camera met in the scene's node tree).
     #[arg(long, value_name = "N|NAME")]
     pub camera: Option<String>,
+    /// Pose the file by one of its animations: N is `animations[N]`, anything else its name,
+    /// `all` plays every animation at once. An unknown one is an error that lists them.
+    #[arg(long, value_name = "N|NAME|all")]
+    pub animation: Option<String>,
+    /// The moment of the animation to render, in seconds (default 0 with --animation; without
+    /// --animation, every animation plays). Before its first keyframe an animation holds its
+    /// first value, after its last its last. Without --time or --animation: the file's static
+    /// pose.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_finite, allow_negative_numbers = true)]
+    pub time: Option<f32>,
     /// Place a perspective camera by hand at X,Y,Z looking at --look-at (instead of the file's
     /// camera or the default framing).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_negative_numbers = true,

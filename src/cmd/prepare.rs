@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use wavetrace::layout::{BvhNode, GpuTriangle, LightEntry};
 use wavetrace::lights::environment::EnvironmentMap;
 use wavetrace::render::{PreparedScene, RenderSettings};
-use wavetrace::scene::{Budget, LoadOptions, Scene};
+use wavetrace::scene::{Budget, LoadOptions, Scene, SceneFile};
 
 /// Largest image the film may hold (pixels), far above any real render.
 pub(crate) const MAX_PIXELS: u64 = 1 << 26;
@@ -77,13 +77,23 @@ pub(crate) fn reserve_render_memory(
     Ok(())
 }
 
-/// Loads `path` under the options' limits and reserves what rendering it on `device` will take;
-/// returns the scene and the settings the options ask for, and prints the scene's notes.
-pub(crate) fn prepare(
-    path: &Path,
-    opts: &RenderOptions,
-    device: DeviceKind,
-) -> Result<(Scene, PreparedScene, RenderSettings)> {
+/// A scene file opened under the options' limits (`--max-memory`, `--allow-path`), and what
+/// lights it beyond its own lights, worked out with its first pose and kept for every later one.
+pub(crate) struct Opened {
+    pub(crate) options: LoadOptions,
+    pub(crate) file: SceneFile,
+    lighting: std::cell::OnceCell<Lighting>,
+}
+
+/// The environment map and the sun of `--sky`, `--env` or the default studio.
+#[derive(Clone)]
+struct Lighting {
+    env_map: Option<std::sync::Arc<EnvironmentMap>>,
+    sun: Option<wavetrace::layout::GpuPunctualLight>,
+}
+
+/// Opens `path` under the options' limits.
+pub(crate) fn open(path: &Path, opts: &RenderOptions) -> Result<Opened> {
     let options = LoadOptions {
         allow_paths: opts.allow_paths.clone(),
         budget: Budget::new(
@@ -92,23 +102,61 @@ pub(crate) fn prepare(
         ),
         instancing: !opts.no_instancing,
     };
-    let mut scene = Scene::load_with(path, &options)?;
+    let file = SceneFile::open(path, &options)?;
+    Ok(Opened {
+        options,
+        file,
+        lighting: std::cell::OnceCell::new(),
+    })
+}
+
+/// Loads `path` under the options' limits at the moment `--animation` and `--time` ask for and
+/// reserves what rendering it on `device` will take; returns the scene and the settings the
+/// options ask for, and prints the scene's notes.
+pub(crate) fn prepare(
+    path: &Path,
+    opts: &RenderOptions,
+    device: DeviceKind,
+) -> Result<(Scene, PreparedScene, RenderSettings)> {
+    let opened = open(path, opts)?;
+    prepare_at(path, &opened, &opts.moment(), opts, device, true)
+}
+
+/// [`prepare`] of an opened file at `moment`; `notes` prints the scene's notes.
+pub(crate) fn prepare_at(
+    path: &Path,
+    opened: &Opened,
+    moment: &wavetrace::scene::Moment,
+    opts: &RenderOptions,
+    device: DeviceKind,
+    notes: bool,
+) -> Result<(Scene, PreparedScene, RenderSettings)> {
+    let options = &opened.options;
+    let mut scene = opened.file.scene(moment, options)?;
     if let Some(which) = &opts.camera {
         scene.select_camera(which)?;
     }
     place_camera(&mut scene, opts).with_context(|| format!("{}", path.display()))?;
     // --sky: the sun joins the file's punctual lights before the light table is built.
-    let sky_map = if opts.sky {
-        let (map, sun) = wavetrace::lights::sky(&wavetrace::lights::SkyParams {
-            sun_elevation: opts.sun_elevation,
-            sun_azimuth: opts.sun_azimuth,
-            turbidity: opts.turbidity,
-        })?;
-        scene.punctual.push(sun);
-        Some(map)
-    } else {
-        None
+    let sky = match (opened.lighting.get(), opts.sky) {
+        (Some(lighting), _) => lighting.clone(),
+        (None, true) => {
+            let (map, sun) = wavetrace::lights::sky(&wavetrace::lights::SkyParams {
+                sun_elevation: opts.sun_elevation,
+                sun_azimuth: opts.sun_azimuth,
+                turbidity: opts.turbidity,
+            })?;
+            Lighting {
+                env_map: Some(map),
+                sun: Some(sun),
+            }
+        }
+        (None, false) => Lighting {
+            env_map: None,
+            sun: None,
+        },
     };
+    scene.punctual.extend(sky.sun);
     let mut prepared = PreparedScene::new(&scene);
     prepared.set_energy_compensation(opts.energy_compensation == OnOff::On);
     let (width, height) = image_size(opts.width, opts.height, scene.camera.aspect_ratio());
@@ -125,7 +173,7 @@ pub(crate) fn prepare(
         device,
     )?;
     let env_map = match &opts.env {
-        _ if sky_map.is_some() => sky_map,
+        _ if opened.lighting.get().is_some() || opts.sky => sky.env_map.clone(),
         Some(EnvArg::File(file)) => {
             let left = options.budget.limit().saturating_sub(options.budget.used());
             let map = EnvironmentMap::load(file, left)?;
@@ -146,15 +194,21 @@ pub(crate) fn prepare(
             } else {
                 "the file has no lights (only textured emission, which glows but is not a lamp)"
             };
-            eprintln!(
-                "note: {}: {why}: lit by the built-in studio environment (--env none for \
+            if notes {
+                eprintln!(
+                    "note: {}: {why}: lit by the built-in studio environment (--env none for \
                  black, --env FILE for a map of your own)",
-                path.display()
-            );
+                    path.display()
+                );
+            }
             Some(wavetrace::lights::studio())
         }
         Some(EnvArg::None) | None => None,
     };
+    let _ = opened.lighting.set(Lighting {
+        env_map: env_map.clone(),
+        sun: sky.sun,
+    });
     let settings = RenderSettings {
         width,
         height,
@@ -183,10 +237,11 @@ pub(crate) fn prepare(
         .with_context(|| format!("{}", path.display()))?;
     wavetrace::render::check(&prepared, &settings)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    for note in &scene.notes {
+    for note in scene.notes.iter().filter(|_| notes) {
         eprintln!("note: {}: {note}", path.display());
     }
-    if prepared.lights.is_empty()
+    if notes
+        && prepared.lights.is_empty()
         && settings.environment_map().is_none()
         && settings.aov == wavetrace::layout::AOV_RADIANCE
     {

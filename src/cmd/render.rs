@@ -33,6 +33,9 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     } else {
         resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
     };
+    if args.frames.is_some() {
+        return super::sequence::render_sequence(args, &path, device);
+    }
     let (_scene, prepared, settings) = prepare(&path, &args.opts, device)?;
     let (width, height) = (settings.width, settings.height);
     let default_output = PathBuf::from(format!(
@@ -41,7 +44,14 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
             .and_then(|s| s.to_str())
             .unwrap_or("render")
     ));
-    let mut record = record(args, &path, &prepared, &settings, device)?;
+    let mut record = record(
+        args,
+        &path,
+        &prepared,
+        &settings,
+        device,
+        &args.opts.moment(),
+    )?;
     let progressive = progressive_options(args, &settings)?;
     if settings.integrator != wavetrace::render::Integrator::Path && progressive.is_some() {
         bail!("--target-error and --time-limit render in passes with --integrator path only");
@@ -453,7 +463,11 @@ const PASSES_ON_ONE_DEVICE: &str = "renders in passes run on one device: give --
 
 /// What renders: the CPU reference, one Vulkan device (`--gpu-index N` or the default), or
 /// several side by side (`--gpu-index LIST|all`, renders of a fixed sample count only).
-fn backend(args: &RenderArgs, device: DeviceKind, in_passes: bool) -> Result<Box<dyn Backend>> {
+pub(crate) fn backend(
+    args: &RenderArgs,
+    device: DeviceKind,
+    in_passes: bool,
+) -> Result<Box<dyn Backend>> {
     if device != DeviceKind::Gpu {
         // (resolve_device never answers Auto.)
         return Ok(Box::new(CpuBackend));

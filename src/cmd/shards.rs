@@ -55,6 +55,7 @@ pub fn record(
     prepared: &PreparedScene,
     settings: &RenderSettings,
     device: DeviceKind,
+    moment: &wavetrace::scene::Moment,
 ) -> Result<Record> {
     let o = &args.opts;
     let file =
@@ -138,6 +139,13 @@ pub fn record(
             ),
         ),
         ("instancing", (!o.no_instancing).to_string()),
+        (
+            "moment",
+            match &moment.animations {
+                wavetrace::scene::Animations::Static => "static pose".into(),
+                a => format!("{a:?} at {:?} s", moment.time).to_lowercase(),
+            },
+        ),
         ("debug_flags", o.debug_flags.to_string()),
     ];
     let mut settings: Vec<(String, String)> = settings

@@ -21,6 +21,7 @@
 //! Morph targets and skins take the static pose (`morph.rs`, `skin.rs`). Point and line
 //! primitives are skipped (counted in `Scene::skipped_primitives`); animations are not read yet.
 
+use super::animation::{self, infos, read_clips, AnimationInfo, Animations, Clip, Moment};
 use super::buffers::{check_image_uris, load_buffers, open_regular};
 use super::camera::Camera;
 use super::extensions::{unsupported_extension, SUPPORTED_EXTENSIONS};
@@ -47,9 +48,15 @@ use std::path::Path;
 pub(super) const JSON_BYTES_PER_TOKEN: u64 = 96;
 
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    open(path, options)?.scene(&Moment::rest(), options)
+}
+
+/// Reads, parses and checks a scene file, its buffers, materials, textures and animations,
+/// ready to be posed at any moment ([`SceneFile::scene`]).
+pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<SceneFile> {
     guarded(path, options, || {
         let bytes = read_scene_file(path, &options.budget)?;
-        load_bytes(path, bytes, options)
+        open_bytes(path, bytes, options)
     })
 }
 
@@ -65,17 +72,18 @@ pub(super) fn load_from_bytes(
         options
             .budget
             .reserve(&format!("the file ({})", format_bytes(size)), size)?;
-        load_bytes(source, bytes, options)
-    })
+        open_bytes(source, bytes, options)
+    })?
+    .scene(&Moment::rest(), options)
 }
 
 /// Runs a load, turning a panic into an error, giving back what a failed load reserved, and
 /// naming the file in the error.
-pub(super) fn guarded(
+pub(super) fn guarded<T>(
     path: &Path,
     options: &LoadOptions,
-    load: impl FnOnce() -> Result<Scene>,
-) -> Result<Scene> {
+    load: impl FnOnce() -> Result<T>,
+) -> Result<T> {
     // The last guard: a panic inside the `gltf` crate that the checks below did not foresee
     // becomes an error (the release profile keeps panic = "unwind" for this).
     let reserved_before = options.budget.used();
@@ -106,8 +114,9 @@ pub(super) fn read_scene_file(path: &Path, budget: &Budget) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Loads the scene held in `bytes` (the file `path`, already read and reserved in the budget).
-pub(super) fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<Scene> {
+/// Opens the scene file held in `bytes` (the file `path`, already read and reserved in the
+/// budget).
+pub(super) fn open_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> Result<SceneFile> {
     if bytes.is_empty() {
         bail!("the top level: the file is empty, expected glTF JSON or binary glTF");
     }
@@ -162,96 +171,178 @@ pub(super) fn load_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> 
         .collect::<Result<Vec<_>>>()?
         .into_iter()
         .unzip();
-    let scene = document
-        .default_scene()
-        .or_else(|| document.scenes().next())
-        .ok_or_else(|| {
-            anyhow!("scenes: the file contains no scene, so there is nothing to render")
-        })?;
-
-    let mut builder = Builder {
-        document: &document,
-        buffers: &buffers,
-        budget: &options.budget,
-        triangles: Vec::new(),
-        vertices: Vec::new(),
+    if document.scenes().len() == 0 {
+        bail!("scenes: the file contains no scene, so there is nothing to render");
+    }
+    let clips = read_clips(&document, &buffers, &options.budget)?;
+    let textures = textures.set;
+    Ok(SceneFile {
+        source: path.to_path_buf(),
+        document,
+        buffers,
         materials,
         needs,
-        repairs: Repairs::default(),
-        default_material: None,
-        cameras: Vec::new(),
-        dropped_degenerate: 0,
-        skipped_primitives: 0,
-        mesh_uses: mesh_uses(&document),
-        instancing: options.instancing,
-        meshes: Vec::new(),
-        mesh_ids: std::collections::HashMap::new(),
-        instances: Vec::new(),
-        punctual: Vec::new(),
-    };
-    builder.walk(&document, &scene)?;
-    let instanced_triangles: usize = builder.meshes.iter().map(|m| m.triangles.len()).sum();
-    if builder.triangles.is_empty() && builder.instances.is_empty() {
-        bail!(
-            "{} has no triangles to render ({} zero-area triangles dropped, {} point/line \
-             primitives skipped)",
-            label("scene", scene.index(), scene.name()),
-            builder.dropped_degenerate,
-            builder.skipped_primitives
-        );
+        textures,
+        clips,
+    })
+}
+
+/// Moments of an animation whose bounds the default camera of a file without cameras frames.
+pub const FRAMING_MOMENTS: usize = 9;
+
+/// A scene file read, parsed and checked, its materials and textures decoded and its
+/// animations' keyframes read: what stays the same at every moment, from which
+/// [`scene`](SceneFile::scene) builds the geometry, cameras and lights of any one.
+pub struct SceneFile {
+    source: std::path::PathBuf,
+    document: Document,
+    buffers: Vec<Vec<u8>>,
+    materials: Vec<Material>,
+    needs: Vec<MaterialNeeds>,
+    textures: super::model::TextureSet,
+    clips: Vec<Clip>,
+}
+
+impl SceneFile {
+    /// Opens a `.gltf` or `.glb` file under `options`' limits (errors as for [`Scene::load`]).
+    pub fn open(path: &Path, options: &LoadOptions) -> anyhow::Result<SceneFile> {
+        open(path, options)
     }
-    // Reserved here rather than by the renderer so that every caller of the loader is bounded.
-    options.budget.reserve(
-        &format!(
-            "{}: the BVH and render data of {} triangles",
-            label("scene", scene.index(), scene.name()),
-            builder.triangles.len() + instanced_triangles
-        ),
-        (builder.triangles.len() + instanced_triangles) as u64 * PREPARE_BYTES_PER_TRIANGLE
-            + builder.instances.len() as u64 * PREPARE_BYTES_PER_INSTANCE,
-    )?;
-    // The light BVH over the emitting triangles (emitting meshes are always baked: the
-    // triangles above) and the punctual lights, which a scene whose every triangle emits makes
-    // as large as its BVH.
-    let emitters = builder
-        .triangles
-        .iter()
-        .filter(|t| builder.materials[t.material as usize].is_emissive())
-        .count()
-        + builder.punctual.len();
-    if emitters > 0 {
+
+    /// The file's animations, in file order.
+    pub fn animations(&self) -> Vec<AnimationInfo> {
+        infos(&self.clips)
+    }
+
+    /// The scene at `moment`: nodes posed by the chosen animations at its time (the static
+    /// pose for [`Moment::rest`]), meshes morphed and skinned, cameras and lights placed.
+    /// Its memory is reserved in `options`' budget, as for [`Scene::load_with`].
+    ///
+    /// A file without cameras is framed the same at every moment of an animation: the default
+    /// camera frames the union of the scene's bounds at [`FRAMING_MOMENTS`] moments evenly
+    /// spread over the animations playing, so a sequence's camera holds still and a frame is
+    /// the same image as its `--time` rendered alone.
+    pub fn scene(&self, moment: &Moment, options: &LoadOptions) -> anyhow::Result<Scene> {
+        guarded(&self.source, options, || {
+            let mut scene = self.build(moment, options)?;
+            if scene.cameras.is_empty() && moment.animations != Animations::Static {
+                let (start, end) = animation::span(&self.clips, &moment.animations)?;
+                let mut bounds = None::<(glam::Vec3, glam::Vec3)>;
+                for k in 0..FRAMING_MOMENTS {
+                    let time = start + (end - start) * k as f32 / (FRAMING_MOMENTS - 1) as f32;
+                    let before = options.budget.used();
+                    let at = self.build(
+                        &Moment {
+                            time,
+                            ..moment.clone()
+                        },
+                        options,
+                    )?;
+                    options
+                        .budget
+                        .release(options.budget.used().saturating_sub(before));
+                    let (lo, hi) = at.bounds();
+                    bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+                }
+                scene.camera = Camera::framing(bounds.expect("FRAMING_MOMENTS > 0"));
+            }
+            Ok(scene)
+        })
+    }
+
+    fn build(&self, moment: &Moment, options: &LoadOptions) -> Result<Scene> {
+        let path = &self.source;
+        let document = &self.document;
+        let pose = animation::pose(document, &self.clips, moment)?;
+        let scene = document
+            .default_scene()
+            .or_else(|| document.scenes().next())
+            .expect("a file with a scene");
+        let mut builder = Builder {
+            document,
+            buffers: &self.buffers,
+            budget: &options.budget,
+            triangles: Vec::new(),
+            vertices: Vec::new(),
+            materials: self.materials.clone(),
+            needs: self.needs.clone(),
+            pose: &pose,
+            repairs: Repairs::default(),
+            default_material: None,
+            cameras: Vec::new(),
+            dropped_degenerate: 0,
+            skipped_primitives: 0,
+            mesh_uses: mesh_uses(document),
+            instancing: options.instancing,
+            meshes: Vec::new(),
+            mesh_ids: std::collections::HashMap::new(),
+            instances: Vec::new(),
+            punctual: Vec::new(),
+        };
+        builder.walk(document, &scene)?;
+        let instanced_triangles: usize = builder.meshes.iter().map(|m| m.triangles.len()).sum();
+        if builder.triangles.is_empty() && builder.instances.is_empty() {
+            bail!(
+                "{} has no triangles to render ({} zero-area triangles dropped, {} point/line \
+                 primitives skipped)",
+                label("scene", scene.index(), scene.name()),
+                builder.dropped_degenerate,
+                builder.skipped_primitives
+            );
+        }
+        // Reserved here rather than by the renderer so that every caller of the loader is bounded.
         options.budget.reserve(
             &format!(
-                "{}: the light BVH of {emitters} emitters",
-                label("scene", scene.index(), scene.name())
+                "{}: the BVH and render data of {} triangles",
+                label("scene", scene.index(), scene.name()),
+                builder.triangles.len() + instanced_triangles
             ),
-            emitters as u64 * PREPARE_BYTES_PER_EMITTER
-                + (builder.triangles.len() + instanced_triangles) as u64
-                    * PREPARE_BYTES_PER_TRIANGLE_WITH_EMITTERS,
+            (builder.triangles.len() + instanced_triangles) as u64 * PREPARE_BYTES_PER_TRIANGLE
+                + builder.instances.len() as u64 * PREPARE_BYTES_PER_INSTANCE,
         )?;
+        // The light BVH over the emitting triangles (emitting meshes are always baked: the
+        // triangles above) and the punctual lights, which a scene whose every triangle emits makes
+        // as large as its BVH.
+        let emitters = builder
+            .triangles
+            .iter()
+            .filter(|t| builder.materials[t.material as usize].is_emissive())
+            .count()
+            + builder.punctual.len();
+        if emitters > 0 {
+            options.budget.reserve(
+                &format!(
+                    "{}: the light BVH of {emitters} emitters",
+                    label("scene", scene.index(), scene.name())
+                ),
+                emitters as u64 * PREPARE_BYTES_PER_EMITTER
+                    + (builder.triangles.len() + instanced_triangles) as u64
+                        * PREPARE_BYTES_PER_TRIANGLE_WITH_EMITTERS,
+            )?;
+        }
+        let notes = notes(document, &builder);
+        let bounds =
+            super::model::scene_bounds(&builder.triangles, &builder.meshes, &builder.instances);
+        let camera = builder
+            .cameras
+            .first()
+            .map_or_else(|| Camera::framing(bounds), |c| c.camera);
+        Ok(Scene {
+            source: path.to_path_buf(),
+            triangles: builder.triangles,
+            materials: builder.materials,
+            vertices: builder.vertices,
+            textures: self.textures.clone(),
+            meshes: builder.meshes,
+            instances: builder.instances,
+            punctual: builder.punctual,
+            camera,
+            cameras: builder.cameras,
+            dropped_degenerate: builder.dropped_degenerate,
+            skipped_primitives: builder.skipped_primitives,
+            notes,
+        })
     }
-    let notes = notes(&document, &builder);
-    let bounds =
-        super::model::scene_bounds(&builder.triangles, &builder.meshes, &builder.instances);
-    let camera = builder
-        .cameras
-        .first()
-        .map_or_else(|| Camera::framing(bounds), |c| c.camera);
-    Ok(Scene {
-        source: path.to_path_buf(),
-        triangles: builder.triangles,
-        materials: builder.materials,
-        vertices: builder.vertices,
-        textures: textures.set,
-        meshes: builder.meshes,
-        instances: builder.instances,
-        punctual: builder.punctual,
-        camera,
-        cameras: builder.cameras,
-        dropped_degenerate: builder.dropped_degenerate,
-        skipped_primitives: builder.skipped_primitives,
-        notes,
-    })
 }
 
 /// The `gltf` crate's validation of the typed model, less its refusal of required extensions

@@ -14,6 +14,7 @@
 //! - [`build_light_table`] (`lights.rs`): the emitter table sampled by next event estimation.
 
 mod accessors;
+mod animation;
 mod buffers;
 mod camera;
 mod draco;
@@ -31,8 +32,10 @@ mod skin;
 mod tangents;
 mod validate;
 
+pub use animation::{AnimationInfo, Animations, Moment};
 pub use camera::{camera_ray, Camera, Projection, ThinLens};
 pub use limits::{default_memory_budget, format_bytes, parse_size, Budget, LoadOptions};
+pub use load::SceneFile;
 pub use model::{
     AlphaMode, Instance, Material, MaterialTextures, Mesh, Scene, SceneCamera, TextureSet,
     Triangle, NO_VERTEX,

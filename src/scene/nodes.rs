@@ -104,6 +104,9 @@ pub(super) struct Builder<'a> {
     pub(super) mesh_ids: std::collections::HashMap<usize, u32>,
     pub(super) instances: Vec<Instance>,
     pub(super) punctual: Vec<GpuPunctualLight>,
+    /// Every node's local transform and morph weights at the moment being loaded
+    /// (`animation.rs`; the file's own values at the static pose).
+    pub(super) pose: &'a super::animation::Pose,
 }
 
 /// Triangles a mesh must save by being instanced rather than baked (placements − 1 times
@@ -230,7 +233,7 @@ impl Builder<'_> {
         stack.reverse();
         // Skins' joints may lie anywhere in the node forest: every node's world transform.
         let worlds = if document.skins().len() > 0 {
-            skin::world_transforms(document)
+            skin::world_transforms(document, &self.pose.locals)
         } else {
             Vec::new()
         };
@@ -257,7 +260,7 @@ impl Builder<'_> {
             visited[i] = true;
             parent[i] = from;
 
-            let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+            let local = self.pose.locals[i];
             if !local.is_finite() {
                 bail!("{what} has a non-finite transform: {local}");
             }
@@ -303,7 +306,8 @@ impl Builder<'_> {
                 let saved = (placements.saturating_sub(1) as u64)
                     .saturating_mul(mesh_triangle_estimate(&mesh));
                 // A node's own morph weights give it geometry of its own: baked, not shared.
-                let own_weights = node.weights().is_some_and(|w| Some(w) != mesh.weights())
+                let node_weights = self.pose.weights[i].as_deref();
+                let own_weights = node_weights.is_some_and(|w| Some(w) != mesh.weights())
                     && mesh.primitives().any(|p| p.morph_targets().len() > 0);
                 let shared = self.instancing
                     && placements > 1
@@ -339,7 +343,7 @@ impl Builder<'_> {
                 }
                 let node_path = json_path("node", i);
                 let mesh_path = json_path("mesh", mesh.index());
-                let morph_weights = match (node.weights(), mesh.weights()) {
+                let morph_weights = match (node_weights, mesh.weights()) {
                     (Some(w), _) => Some((w, node_path.as_str())),
                     (None, Some(w)) => Some((w, mesh_path.as_str())),
                     (None, None) => None,

@@ -15,22 +15,18 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Primitive;
 use gltf::{Document, Semantic};
 
-/// The world transform of every node of the document (each under its parents', from the nodes
-/// no node lists as a child); a node no root reaches (only in a loop, which the walk refuses
-/// for the scene) keeps its local transform.
-pub(super) fn world_transforms(document: &Document) -> Vec<Mat4> {
+/// The world transform of every node of the document from the nodes' `local` transforms (each
+/// under its parents', from the nodes no node lists as a child); a node no root reaches (only
+/// in a loop, which the walk refuses for the scene) keeps its local transform.
+pub(super) fn world_transforms(document: &Document, local: &[Mat4]) -> Vec<Mat4> {
     let n = document.nodes().len();
-    let local: Vec<Mat4> = document
-        .nodes()
-        .map(|node| Mat4::from_cols_array_2d(&node.transform().matrix()))
-        .collect();
     let mut is_child = vec![false; n];
     for node in document.nodes() {
         for c in node.children() {
             is_child[c.index()] = true;
         }
     }
-    let mut world = local.clone();
+    let mut world = local.to_vec();
     let mut done = vec![false; n];
     let mut stack: Vec<(usize, Mat4)> = (0..n)
         .filter(|&i| !is_child[i])
@@ -69,6 +65,17 @@ pub(super) fn joint_matrices(
             }
             if let Some(k) = m.iter().position(|m| !m.is_finite()) {
                 bail!("{what}: matrix {k} is not finite");
+            }
+            if let Some(k) = m.iter().position(|m| m.determinant().abs() < 1e-30) {
+                bail!(
+                    "{what}: matrix {k} (of {}) is singular: an inverse bind matrix must be \
+                     invertible",
+                    label(
+                        "node",
+                        joints[k],
+                        skin.joints().nth(k).and_then(|j| j.name())
+                    )
+                );
             }
             m
         }

@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod animation;
 mod compressed;
 mod figure_scenes;
 mod instancing;
