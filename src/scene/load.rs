@@ -132,6 +132,7 @@ pub(super) fn open_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> 
     )?;
     let value = parse_value(text, container.json.start)?;
     check_document(&value)?;
+    let extra_targets = super::morph::extra_targets(&value)?;
     let root = typed_root(value)?;
     // Checked before validation, which would reject them with a less helpful message.
     for ext in &root.extensions_required {
@@ -184,6 +185,7 @@ pub(super) fn open_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> 
         needs,
         textures,
         clips,
+        extra_targets,
     })
 }
 
@@ -201,6 +203,7 @@ pub struct SceneFile {
     needs: Vec<MaterialNeeds>,
     textures: super::model::TextureSet,
     clips: Vec<Clip>,
+    extra_targets: super::morph::ExtraTargets,
 }
 
 impl SceneFile {
@@ -267,6 +270,7 @@ impl SceneFile {
             materials: self.materials.clone(),
             needs: self.needs.clone(),
             pose: &pose,
+            extra_targets: &self.extra_targets,
             repairs: Repairs::default(),
             default_material: None,
             cameras: Vec::new(),

@@ -107,6 +107,8 @@ pub(super) struct Builder<'a> {
     /// Every node's local transform and morph weights at the moment being loaded
     /// (`animation.rs`; the file's own values at the static pose).
     pub(super) pose: &'a super::animation::Pose,
+    /// Morph targets' TEXCOORD_n and COLOR_0 accessors (`morph.rs`).
+    pub(super) extra_targets: &'a morph::ExtraTargets,
 }
 
 /// Triangles a mesh must save by being instanced rather than baked (placements − 1 times
@@ -350,16 +352,22 @@ impl Builder<'_> {
                 };
                 for world in &transforms {
                     for primitive in mesh.primitives() {
-                        self.add_primitive(&primitive, world, morph_weights, joints.as_deref())
-                            .with_context(|| {
-                                format!(
-                                    "{}.primitives[{}] ({}instanced by {what})",
-                                    json_path("mesh", mesh.index()),
-                                    primitive.index(),
-                                    mesh.name()
-                                        .map_or_else(String::new, |n| format!("mesh {n:?}, "))
-                                )
-                            })?;
+                        self.add_primitive(
+                            mesh.index(),
+                            &primitive,
+                            world,
+                            morph_weights,
+                            joints.as_deref(),
+                        )
+                        .with_context(|| {
+                            format!(
+                                "{}.primitives[{}] ({}instanced by {what})",
+                                json_path("mesh", mesh.index()),
+                                primitive.index(),
+                                mesh.name()
+                                    .map_or_else(String::new, |n| format!("mesh {n:?}, "))
+                            )
+                        })?;
                     }
                 }
             }
@@ -381,7 +389,13 @@ impl Builder<'_> {
             let mesh_path = json_path("mesh", mesh.index());
             let morph_weights = mesh.weights().map(|w| (w, mesh_path.as_str()));
             result = self
-                .add_primitive(&primitive, &Mat4::IDENTITY, morph_weights, None)
+                .add_primitive(
+                    mesh.index(),
+                    &primitive,
+                    &Mat4::IDENTITY,
+                    morph_weights,
+                    None,
+                )
                 .with_context(|| {
                     format!(
                         "{}.primitives[{}] ({}instanced by {what})",
@@ -554,6 +568,7 @@ impl Builder<'_> {
     /// targets weighted by `morph_weights` (and the JSON path they come from).
     pub(super) fn add_primitive(
         &mut self,
+        mesh: usize,
         primitive: &Primitive,
         world: &Mat4,
         morph_weights: Option<(&[f32], &str)>,
@@ -648,7 +663,7 @@ impl Builder<'_> {
             .map_or_else(MaterialNeeds::default, |i| self.needs[i]);
         let alpha_tested = self.materials[material as usize].alpha_mode != AlphaMode::Opaque;
         let mut attributes =
-            self.read_attributes(primitive, &draco, &weights, positions.len(), &needs)?;
+            self.read_attributes((mesh, primitive), &draco, &weights, positions.len(), &needs)?;
         // Skinning, after the morph targets (glTF 2.0 §3.7.3), into world space.
         if let Some(joints) = joints.filter(|_| skin::is_skinned(primitive)) {
             let (matrices, unskinned) = skin::vertex_matrices(
@@ -859,7 +874,7 @@ impl Builder<'_> {
     /// against what its material needs; non-finite values repaired and counted.
     pub(super) fn read_attributes(
         &mut self,
-        primitive: &Primitive,
+        (mesh, primitive): (usize, &Primitive),
         draco: &DracoPrimitive,
         morph_weights: &[f32],
         count: usize,
@@ -937,6 +952,8 @@ impl Builder<'_> {
             &integers,
             &integers,
         )?;
+        let mut uv0 = uv0;
+        let mut uv1 = uv1;
         let colors = primitive.get(&Semantic::Colors(0)).map(|a| a.dimensions());
         let plain = normals.is_none()
             && tangents.is_none()
@@ -949,6 +966,32 @@ impl Builder<'_> {
             &uv_types,
             &[],
         )?;
+        let mut color = color;
+        // Morph targets move texture coordinates and colours too (before they are checked).
+        for (name, values) in [
+            ("TEXCOORD_0", &mut uv0),
+            ("TEXCOORD_1", &mut uv1),
+            ("COLOR_0", &mut color),
+        ] {
+            let Some(values) = values else { continue };
+            if let Some(deltas) = morph::weighted_extra_deltas(
+                self.document,
+                self.extra_targets,
+                (mesh, primitive.index()),
+                morph_weights,
+                name,
+                count,
+                self.buffers,
+                self.budget,
+            )? {
+                for (v, d) in values.iter_mut().zip(&deltas) {
+                    for c in 0..4 {
+                        v[c] += d[c];
+                    }
+                }
+                self.budget.release(morph::extra_sum_bytes(count));
+            }
+        }
         for (set, present) in [(0, uv0.is_some()), (1, uv1.is_some())] {
             if needs.tex_coords[set] && !present {
                 bail!(

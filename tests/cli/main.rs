@@ -7,4 +7,5 @@
 mod common;
 
 mod cli;
+mod sequence;
 mod verify;

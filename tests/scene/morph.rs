@@ -141,3 +141,73 @@ fn morph_targets_take_the_static_pose_weights() {
         "{e}"
     );
 }
+
+/// TEXCOORD_0 and COLOR_0 deltas (glTF 2.0 §3.7.2.2), which the `gltf` crate's typed model
+/// drops: a triangle whose one target moves its texture coordinates by (1, 2) and its colour
+/// by (0.5, 0, 0, 0), at mesh weight 0.5 — and a target naming an accessor that does not exist
+/// refused by JSON path.
+#[test]
+fn texture_coordinate_and_colour_deltas_move_the_vertices() {
+    use base64::Engine;
+    let floats: Vec<f32> = [
+        // POSITION
+        [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].as_slice(),
+        // TEXCOORD_0
+        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+        // COLOR_0 (VEC4)
+        &[0.2, 0.2, 0.2, 1.0, 0.2, 0.2, 0.2, 1.0, 0.2, 0.2, 0.2, 1.0],
+        // target TEXCOORD_0 deltas
+        &[1.0, 2.0, 1.0, 2.0, 1.0, 2.0],
+        // target COLOR_0 deltas
+        &[0.5, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0],
+    ]
+    .concat();
+    let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+    let view = |offset: usize, length: usize| json!({"buffer": 0, "byteOffset": offset, "byteLength": length});
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"weights": [0.5], "primitives": [{
+            "attributes": {"POSITION": 0, "TEXCOORD_0": 1, "COLOR_0": 2},
+            "targets": [{"TEXCOORD_0": 3, "COLOR_0": 4}]
+        }]}],
+        "buffers": [{"byteLength": bytes.len(), "uri": format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bytes))}],
+        "bufferViews": [view(0, 36), view(36, 24), view(60, 48), view(108, 24), view(132, 48)],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC4"},
+            {"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC2"},
+            {"bufferView": 4, "componentType": 5126, "count": 3, "type": "VEC4"}
+        ]
+    });
+    let load = |doc: &serde_json::Value| {
+        Scene::load_from_bytes(
+            Path::new("morph-attributes.gltf"),
+            serde_json::to_vec(doc).unwrap(),
+            &LoadOptions::default(),
+        )
+    };
+    let scene = load(&doc).unwrap();
+    let t = &scene.triangles[0];
+    for (k, &v) in t.vertices.iter().enumerate() {
+        let vertex = &scene.vertices[v as usize];
+        let base_uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]][k];
+        assert_eq!(
+            [vertex.uv[0], vertex.uv[1]],
+            [base_uv[0] + 0.5, base_uv[1] + 1.0],
+            "corner {k}"
+        );
+        assert_eq!(vertex.color, [0.45, 0.2, 0.2, 1.0], "corner {k}");
+    }
+    let mut bad = doc.clone();
+    bad["meshes"][0]["primitives"][0]["targets"][0]["COLOR_0"] = json!(9);
+    let e = format!("{:#}", load(&bad).unwrap_err());
+    assert!(
+        e.contains("meshes[0].primitives[0].targets[0].COLOR_0: index 9 is out of range"),
+        "{e}"
+    );
+}

@@ -1,0 +1,161 @@
+//! Sequences (issue 58, item 4; src/cmd/sequence.rs): the frames of `--frames A..B --fps F`
+//! equal the same `--time` rendered alone bit for bit (on the CPU and on the GPU), `--shard
+//! I/N` splits the frames so that each is rendered once, and the options that ask for a moment
+//! are checked by name.
+
+use crate::common::{self, assert_bitwise_equal, wavetrace};
+use std::path::PathBuf;
+
+fn box_animated() -> Option<PathBuf> {
+    Some(common::gltf_samples()?.join("animation/BoxAnimated.glb"))
+}
+
+fn run(args: &[&str]) -> String {
+    let o = wavetrace(args);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "wavetrace {args:?}:\n{text}");
+    text
+}
+
+fn small<'a>(device: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut v = vec![
+        "--device", device, "--width", "24", "--height", "16", "--spp", "4",
+    ];
+    v.extend_from_slice(extra);
+    v
+}
+
+#[test]
+fn frames_equal_their_moment_rendered_alone_bit_for_bit() {
+    let Some(scene) = box_animated() else { return };
+    let scene = scene.to_str().unwrap();
+    for device in ["cpu", "gpu"] {
+        if device == "gpu" && common::skip_gpu() {
+            continue;
+        }
+        let pattern = common::temp("cli", &format!("box-{device}-##.exr"));
+        let mut args = vec!["render", scene, "--frames", "3..5", "--fps", "4", "-o"];
+        args.push(pattern.to_str().unwrap());
+        let text = run(&[args, small(device, &[])].concat());
+        assert!(text.contains("frame 4 (t = 1 s)"), "{text}");
+        for (frame, time) in [(3, "0.75"), (4, "1"), (5, "1.25")] {
+            let alone = common::temp("cli", &format!("box-{device}-t{time}.exr"));
+            run(&[
+                vec![
+                    "render",
+                    scene,
+                    "--time",
+                    time,
+                    "-o",
+                    alone.to_str().unwrap(),
+                ],
+                small(device, &[]),
+            ]
+            .concat());
+            let framed = common::temp("cli", &format!("box-{device}-{frame:02}.exr"));
+            assert_bitwise_equal(&framed, &alone);
+        }
+        // A moment differs from the static pose (the box moves).
+        let rest = common::temp("cli", &format!("box-{device}-rest.exr"));
+        run(&[
+            vec!["render", scene, "-o", rest.to_str().unwrap()],
+            small(device, &[]),
+        ]
+        .concat());
+        let a = common::read_exr_file(&rest);
+        let b = common::read_exr_file(&common::temp("cli", &format!("box-{device}-04.exr")));
+        assert_ne!(a.record.settings, b.record.settings);
+        assert!(
+            a.film
+                .pixels
+                .iter()
+                .zip(&b.film.pixels)
+                .any(|(p, q)| p.sum != q.sum),
+            "{device}: the moment at 1 s looks like the static pose"
+        );
+    }
+}
+
+#[test]
+fn shards_render_each_frame_once() {
+    let Some(scene) = box_animated() else { return };
+    let scene = scene.to_str().unwrap();
+    let dir = common::temp("cli", "shards");
+    std::fs::create_dir_all(&dir).unwrap();
+    let pattern = dir.join("f_####.png");
+    for shard in ["0/3", "1/3", "2/3"] {
+        run(&[
+            vec![
+                "render",
+                scene,
+                "--frames",
+                "10..16",
+                "--shard",
+                shard,
+                "-o",
+                pattern.to_str().unwrap(),
+            ],
+            small("cpu", &[]),
+        ]
+        .concat());
+    }
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let want: Vec<String> = (10..=16).map(|f| format!("f_{f:04}.png")).collect();
+    assert_eq!(names, want);
+}
+
+#[test]
+fn moments_are_checked_by_name() {
+    let Some(scene) = box_animated() else { return };
+    let scene = scene.to_str().unwrap();
+    let fail = |args: &[&str]| {
+        let o = wavetrace(args);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let e = fail(
+        &[
+            vec!["render", scene, "--animation", "Walk"],
+            small("cpu", &[]),
+        ]
+        .concat(),
+    );
+    assert!(
+        e.contains("--animation Walk") && e.contains("its animations are: animations[0], 0 to"),
+        "{e}"
+    );
+    let e = fail(
+        &[
+            vec!["render", "scenes/cornell-box.gltf", "--time", "1"],
+            small("cpu", &[]),
+        ]
+        .concat(),
+    );
+    assert!(e.contains("the file has no animations"), "{e}");
+    let e = fail(
+        &[
+            vec!["render", "scenes/cornell-box.gltf", "--frames", "1..3"],
+            small("cpu", &[]),
+        ]
+        .concat(),
+    );
+    assert!(e.contains("has no animations"), "{e}");
+    let e = fail(&[vec!["render", scene, "--frames", "5..2"], small("cpu", &[])].concat());
+    assert!(e.contains("the last frame comes before the first"), "{e}");
+    let e = fail(
+        &[
+            vec!["render", scene, "--frames", "1..2", "--time", "1"],
+            small("cpu", &[]),
+        ]
+        .concat(),
+    );
+    assert!(e.contains("cannot be used with"), "{e}");
+}
