@@ -67,14 +67,22 @@ pub(super) fn load_from_bytes(
     bytes: Vec<u8>,
     options: &LoadOptions,
 ) -> Result<Scene> {
+    open_from_bytes(source, bytes, options)?.scene(&Moment::rest(), options)
+}
+
+/// [`open`] of a file's bytes already in memory.
+pub(super) fn open_from_bytes(
+    source: &Path,
+    bytes: Vec<u8>,
+    options: &LoadOptions,
+) -> Result<SceneFile> {
     guarded(source, options, || {
         let size = bytes.len() as u64;
         options
             .budget
             .reserve(&format!("the file ({})", format_bytes(size)), size)?;
         open_bytes(source, bytes, options)
-    })?
-    .scene(&Moment::rest(), options)
+    })
 }
 
 /// Runs a load, turning a panic into an error, giving back what a failed load reserved, and
@@ -210,6 +218,16 @@ impl SceneFile {
     /// Opens a `.gltf` or `.glb` file under `options`' limits (errors as for [`Scene::load`]).
     pub fn open(path: &Path, options: &LoadOptions) -> anyhow::Result<SceneFile> {
         open(path, options)
+    }
+
+    /// [`open`](SceneFile::open) of a file's bytes already in memory (as
+    /// [`Scene::load_from_bytes`]).
+    pub fn from_bytes(
+        source: &Path,
+        bytes: Vec<u8>,
+        options: &LoadOptions,
+    ) -> anyhow::Result<SceneFile> {
+        open_from_bytes(source, bytes, options)
     }
 
     /// The file's animations, in file order.

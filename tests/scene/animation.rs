@@ -469,11 +469,8 @@ fn animated_triangle(
     });
     edit(&mut doc);
     let options = LoadOptions::default();
-    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let path = crate::common::temp("scene", &format!("animated-triangle-{n}.gltf"));
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    let file = SceneFile::open(&path, &options)?;
+    let bytes = serde_json::to_vec(&doc).unwrap();
+    let file = SceneFile::from_bytes(Path::new("animated-triangle.gltf"), bytes, &options)?;
     file.scene(
         &Moment {
             animations: Animations::All,
@@ -531,4 +528,35 @@ fn bad_animations_are_refused_by_json_path() {
         d.as_object_mut().unwrap().remove("animations");
     });
     assert!(e.contains("the file has no animations"), "{e}");
+}
+
+/// A camera and a spot light on children of a node that an animation moves: both follow it.
+#[test]
+fn cameras_and_lights_move_with_their_nodes() {
+    let scene = animated_triangle(&[0.0, 2.0], &[[0.0; 3], [4.0, 0.0, -2.0]], &|d| {
+        d["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+        d["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+            {"type": "spot", "intensity": 10, "spot": {"outerConeAngle": 0.5}}
+        ]}});
+        d["cameras"] = serde_json::json!([{"type": "perspective",
+            "perspective": {"yfov": 0.8, "znear": 0.1}}]);
+        d["nodes"] = serde_json::json!([
+            {"mesh": 0},
+            {"translation": [1, 2, 3], "children": [2, 3]},
+            {"camera": 0, "translation": [0, 0, 5]},
+            {"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": [0, 1, 0]}
+        ]);
+        d["scenes"][0]["nodes"] = serde_json::json!([0, 1]);
+        d["animations"][0]["channels"][0]["target"]["node"] = serde_json::json!(1);
+    })
+    .unwrap();
+    // At 0.5 s the keyframes give node 1 the translation (1, 0, −0.5), replacing its own.
+    let moved = Vec3::new(1.0, 0.0, -0.5);
+    let camera = scene.camera.position;
+    assert!(
+        (camera - (moved + Vec3::Z * 5.0)).length() < 1e-6,
+        "{camera}"
+    );
+    let light = Vec3::from(scene.punctual[0].position);
+    assert!((light - (moved + Vec3::Y)).length() < 1e-6, "{light}");
 }
