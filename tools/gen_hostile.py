@@ -108,6 +108,46 @@ def floats(*values):
     return struct.pack("<%df" % len(values), *values)
 
 
+def animated_quad(times, values, path="translation", interpolation="LINEAR", node=None, value_type="VEC3"):
+    """The quad on a node that one animation moves: keyframe `times` and output `values` (flat
+    floats) in a second buffer; `node` replaces the node."""
+    data = floats(*times) + floats(*values)
+    width = {"VEC3": 3, "VEC4": 4, "SCALAR": 1}[value_type]
+    def change(d):
+        d["buffers"].append({"byteLength": len(data), "uri": data_uri(data)})
+        d["bufferViews"] += [{"buffer": 1, "byteOffset": 0, "byteLength": 4 * len(times)},
+                             {"buffer": 1, "byteOffset": 4 * len(times), "byteLength": 4 * len(values)}]
+        d["accessors"] += [{"bufferView": 2, "componentType": FLOAT, "count": len(times), "type": "SCALAR"},
+                           {"bufferView": 3, "componentType": FLOAT, "count": len(values) // width, "type": value_type}]
+        if node is not None:
+            d["nodes"][0] = node
+        d["animations"] = [{"name": "Move", "channels": [{"sampler": 0, "target": {"node": 0, "path": path}}],
+                            "samplers": [{"input": 2, "output": 3, "interpolation": interpolation}]}]
+    return edit(quad(), change)
+
+
+def skinned_quad(inverse_bind, weights):
+    """The quad skinned to one joint (node 1) with `inverse_bind` (16 floats, column-major) and
+    WEIGHTS_0 `weights` (4 per vertex)."""
+    data = floats(*inverse_bind) + struct.pack("<16B", *[0] * 16) + floats(*weights)
+    def change(d):
+        d["buffers"].append({"byteLength": len(data), "uri": data_uri(data)})
+        d["bufferViews"] += [{"buffer": 1, "byteOffset": 0, "byteLength": 64},
+                             {"buffer": 1, "byteOffset": 64, "byteLength": 16},
+                             {"buffer": 1, "byteOffset": 80, "byteLength": 64}]
+        d["accessors"] += [{"bufferView": 2, "componentType": FLOAT, "count": 1, "type": "MAT4"},
+                           {"bufferView": 3, "componentType": UNSIGNED_BYTE, "count": 4, "type": "VEC4"},
+                           {"bufferView": 4, "componentType": FLOAT, "count": 4, "type": "VEC4"}]
+        d["meshes"][0]["primitives"][0]["attributes"].update(JOINTS_0=3, WEIGHTS_0=4)
+        d["nodes"] = [{"mesh": 0, "skin": 0}, {"translation": [0, 0, 1]}]
+        d["scenes"][0]["nodes"] = [0, 1]
+        d["skins"] = [{"joints": [1], "inverseBindMatrices": 2}]
+    return edit(quad(), change)
+
+
+IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+
+
 NORMALS = floats(*[0, 0, 1] * 4)
 UVS = floats(0, 0, 1, 0, 1, 1, 0, 1)
 TEXTURED = {"baseColorTexture": {"index": 0}}
@@ -400,6 +440,33 @@ def cases():
     yield "ext_basisu_source_missing.gltf", required(edit(textured_quad(image={"bytes": ktx2, "mimeType": "image/ktx2"}), lambda d: d.update(
         textures=[{"extensions": {"KHR_texture_basisu": {"source": 7}}}])), "KHR_texture_basisu"), 1, \
         ["textures[0]", "extensions.KHR_texture_basisu.source", "image 7 does not exist"], []
+    # Animations and skins (issue 58): each refused by JSON path, or repaired with one note.
+    yield "anim_valid.gltf", animated_quad([0, 1], [0, 0, 0, 1, 0, 0]), 0, [], ["--time", "0.5"]
+    yield "anim_unknown_name.gltf", animated_quad([0, 1], [0, 0, 0, 1, 0, 0]), 1, \
+        ["--animation Walk", "its animations are: animations[0] (\"Move\"), 0 to 1 s"], ["--animation", "Walk"]
+    yield "anim_times_decreasing.gltf", animated_quad([0, 2, 1], [0] * 9), 1, \
+        ["animations[0].channels[0]", "sampler 0: input = accessors[2]", "keyframe times must increase"], []
+    yield "anim_times_nan.gltf", animated_quad([0, nan], [0] * 6), 1, \
+        ["animations[0].channels[0]", "keyframe 1's time is NaN"], []
+    yield "anim_output_count.gltf", animated_quad([0, 1], [0] * 6, interpolation="CUBICSPLINE"), 1, \
+        ["animations[0].channels[0]", "output = accessors[3]", "2 keyframes of CubicSpline interpolation need 6"], []
+    yield "anim_output_nan.gltf", animated_quad([0, 1], [0, 0, 0, nan, 0, 0]), 1, \
+        ["animations[0].channels[0]", "output = accessors[3]", "element 1 is not finite"], []
+    yield "anim_matrix_node.gltf", animated_quad([0, 1], [0] * 6, node={"mesh": 0, "matrix": IDENTITY}), 1, \
+        ["animations[0].channels[0]", "target.node: nodes[0] has a matrix"], []
+    yield "anim_weights_no_targets.gltf", animated_quad([0, 1], [0, 1], path="weights", value_type="SCALAR"), 1, \
+        ["animations[0].channels[0]", "has no mesh with morph targets"], []
+    yield "anim_rotation_vec3.gltf", animated_quad([0, 1], [0] * 6, path="rotation"), 1, \
+        ["animations[0].channels[0]", "output = accessors[3]", "expected [Vec4] elements, found Vec3"], []
+    yield "anim_sampler_dangling.gltf", edit(animated_quad([0, 1], [0] * 6), lambda d: d["animations"][0]["channels"][0].update(sampler=5)), 1, \
+        ["animations[0].channels[0].sampler"], []
+    yield "skin_valid.gltf", skinned_quad(IDENTITY, [1, 0, 0, 0] * 4), 0, [], []
+    yield "skin_ibm_singular.gltf", skinned_quad([0] * 16, [1, 0, 0, 0] * 4), 1, \
+        ["nodes[0].skin", "skins[0].inverseBindMatrices = accessors[2]", "matrix 0 (of nodes[1]) is singular"], []
+    yield "skin_joint_dangling.gltf", edit(skinned_quad(IDENTITY, [1, 0, 0, 0] * 4), lambda d: d["skins"][0].update(joints=[9])), 1, \
+        ["skins[0].joints[0]", "out of range"], []
+    yield "skin_weights_nan.gltf", skinned_quad(IDENTITY, [nan, 0, 0, 0] + [1, 0, 0, 0] * 3), 0, \
+        ["note:", "skin weights not finite or all zero: those vertices are left unskinned (vertices: 1)"], []
     yield "alpha_cutoff_negative.gltf", textured_quad(material={"alphaMode": "MASK", "alphaCutoff": -0.5}), 1, \
         ["materials[0].alphaCutoff", "-0.5"], []
     yield "alpha_above_one.gltf", textured_quad(material={"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 2]}}), 1, \

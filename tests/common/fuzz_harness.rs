@@ -3,7 +3,7 @@
 //! (tests/fuzz_regressions.rs), shared by both: a scene file's bytes are loaded under a small
 //! memory budget, prepared (BVH build, light table, light BVH) and rendered 4×4 at 1 spp,
 //! depth 2, on the CPU reference integrator, with the options (instancing, camera, thin lens,
-//! sampler, light sampler, AOV) a hash of the bytes picks.
+//! sampler, light sampler, AOV, a moment of the file's animations) a hash of the bytes picks.
 //!
 //! The process's Rust heap is capped ([`CappedAllocator`], each binary installs it as its global
 //! allocator): an allocation that the loader's memory budget does not bound ends the process at
@@ -14,7 +14,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use wavetrace::render::{PreparedScene, RenderSettings};
-use wavetrace::scene::{Budget, LoadOptions, Scene};
+use wavetrace::scene::{Animations, Budget, LoadOptions, Moment, SceneFile};
 
 /// The memory budget every input is loaded under: small, so that inputs reach the budget's
 /// refusals quickly.
@@ -150,6 +150,9 @@ pub struct Variant {
     /// Mostly the path tracer; light tracing and BDPT a quarter of the time each, with no sky,
     /// no lens and radiance (what they accept).
     pub integrator: wavetrace::render::Integrator,
+    /// For a file with animations: the static pose (a quarter of the time), or every animation
+    /// at this many eighths of a second, from before its first keyframe to past its last.
+    pub moment: Option<u32>,
 }
 
 impl Variant {
@@ -182,6 +185,10 @@ impl Variant {
                 1 => wavetrace::render::Integrator::Light,
                 2 => wavetrace::render::Integrator::Bdpt,
                 _ => wavetrace::render::Integrator::Path,
+            },
+            moment: match (h >> 14) & 3 {
+                0 => None,
+                _ => Some(((h >> 16) % 41) as u32),
             },
         }
     }
@@ -220,7 +227,18 @@ pub fn run(source: &Path, bytes: &[u8]) -> Outcome {
         budget: Budget::new(BUDGET),
         instancing: variant.instancing,
     };
-    let mut scene = match Scene::load_from_bytes(source, bytes.to_vec(), &options) {
+    let file = match SceneFile::from_bytes(source, bytes.to_vec(), &options) {
+        Ok(file) => file,
+        Err(e) => return Outcome::Refused(format!("{e:#}")),
+    };
+    let moment = match variant.moment {
+        Some(eighths) if !file.animations().is_empty() => Moment {
+            animations: Animations::All,
+            time: eighths as f32 / 8.0 - 0.5,
+        },
+        _ => Moment::rest(),
+    };
+    let mut scene = match file.scene(&moment, &options) {
         Ok(scene) => scene,
         Err(e) => return Outcome::Refused(format!("{e:#}")),
     };
