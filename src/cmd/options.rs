@@ -353,6 +353,10 @@ pub struct RenderArgs {
     /// --shard I/N, shard I renders its share of the frames (every frame whole).
     #[arg(long, value_name = "A..B", value_parser = parse_frames, conflicts_with_all = ["sample_range", "resume", "target_error", "time_limit", "time", "bdpt_strategies"])]
     pub frames: Option<(u32, u32)>,
+    /// With --frames: leave out the frames whose image already exists (a requeued or retried
+    /// task continues where it stopped; frames are written whole or not at all).
+    #[arg(long, requires = "frames")]
+    pub skip_existing: bool,
     /// With --frames: frames per second.
     #[arg(long, value_name = "F", default_value_t = 24.0, requires = "frames", value_parser = parse_fps)]
     pub fps: f64,

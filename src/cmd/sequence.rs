@@ -9,7 +9,7 @@ use super::options::{DeviceKind, RenderArgs};
 use super::prepare::{open, prepare_at};
 use super::report::progress_bar;
 use super::shards::{record, stop_flag, INTERRUPTED_EXIT};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context as _, Result};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -90,33 +90,64 @@ pub(crate) fn render_sequence(args: &RenderArgs, path: &Path, device: DeviceKind
     let budget = &opened.options.budget;
     let mut baseline = None;
     let stop = stop_flag(false);
-    for (k, &frame) in frames.iter().enumerate() {
+    for &frame in &frames {
         // What one frame reserved is given back before the next (the first frame's, with the
         // environment, stays).
         if let Some(b) = baseline {
             budget.release(budget.used().saturating_sub(b));
         }
+        let output = frame_path(&pattern, frame);
+        if args.skip_existing && output.exists() {
+            println!("frame {frame}: {} exists, left out", output.display());
+            continue;
+        }
         let started = Instant::now();
         let time = (frame as f64 / args.fps) as f32;
         let moment = args.opts.moment_at(time);
-        let (_scene, prepared, settings) =
-            prepare_at(path, &opened, &moment, &args.opts, device, k == 0)?;
+        let (_scene, prepared, settings) = prepare_at(
+            path,
+            &opened,
+            &moment,
+            &args.opts,
+            device,
+            baseline.is_none(),
+        )?;
         let prepare_s = started.elapsed().as_secs_f64();
         let progress = progress_bar(settings.pixel_count() * settings.spp as u64);
         let (out, end) =
             backend.render_range(&prepared, &settings, 0..settings.spp, &progress, stop)?;
         progress.finish_and_clear();
-        let output = frame_path(&pattern, frame);
+        if let Some(fault) = out.stats.fault {
+            bail!("frame {frame}: {fault}; the frame is not written");
+        }
+        if end < settings.spp {
+            eprintln!(
+                "stopped early: frame {frame} is not written (it held samples 0..{end} of {}); \
+                 the same command with --skip-existing renders it and the frames after it",
+                settings.spp
+            );
+            std::process::exit(INTERRUPTED_EXIT);
+        }
         let mut record = record(args, path, &prepared, &settings, device, &moment)?;
         record.samples = Some(wavetrace::shard::SampleRange::new(0, end));
         record.dropped = out.film.dropped;
+        // Written beside and renamed into place, so that a frame's file is whole or absent.
+        let partial = output.with_file_name(format!(
+            ".partial-{}",
+            output
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or("frame.png")
+        ));
         wavetrace::image_io::write_image_layers(
             &out.film,
             &[],
-            &output,
+            &partial,
             args.exposure,
             &record.attributes(),
         )?;
+        std::fs::rename(&partial, &output)
+            .with_context(|| format!("moving {} to {}", partial.display(), output.display()))?;
         println!(
             "frame {frame} (t = {time} s): posed and prepared in {prepare_s:.3} s, rendered in \
              {:.3} s ({:.3} M samples/s); wrote {}",
@@ -124,21 +155,7 @@ pub(crate) fn render_sequence(args: &RenderArgs, path: &Path, device: DeviceKind
             out.stats.samples_per_second() * 1e-6,
             output.display()
         );
-        if let Some(fault) = out.stats.fault {
-            bail!(
-                "frame {frame}: {fault}: {} holds what was finished before it",
-                output.display()
-            );
-        }
-        if end < settings.spp {
-            eprintln!(
-                "stopped early: {} holds samples 0..{end} of {}; frames after {frame} are not rendered",
-                output.display(),
-                settings.spp
-            );
-            std::process::exit(INTERRUPTED_EXIT);
-        }
-        if k == 0 {
+        if baseline.is_none() {
             baseline = Some(budget.used());
         }
     }

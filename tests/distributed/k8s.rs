@@ -185,7 +185,7 @@ fn manifests_validate_against_the_kubernetes_schema() {
             .output()
             .unwrap()
     };
-    for name in ["render-job.yaml", "merge-job.yaml"] {
+    for name in ["render-job.yaml", "merge-job.yaml", "frames-job.yaml"] {
         let (path, text) = manifest(name);
         let o = validate(&path);
         assert!(
@@ -207,4 +207,63 @@ fn manifests_validate_against_the_kubernetes_schema() {
             "{name} with a misspelt field passed"
         );
     }
+}
+
+/// The frames Job (frames-job.yaml): every index's script run locally renders its share of an
+/// animation's frames; together they write each frame once, and an index that runs again (a
+/// retried pod) leaves its written frames out.
+#[test]
+fn indexed_frames_job_writes_every_frame_once() {
+    let Some(samples) = common::gltf_samples() else {
+        return;
+    };
+    let (_, text) = manifest("frames-job.yaml");
+    let job_env = env(&text);
+    let tasks: u32 = value(&job_env, "TASKS").parse().unwrap();
+    assert_eq!(field(&text, "completionMode"), "Indexed");
+    assert_eq!(
+        field(&text, "completions"),
+        tasks.to_string(),
+        "completions = TASKS"
+    );
+    assert!(text.contains("nvidia.com/gpu: 1"), "one GPU per pod");
+    let dir = common::temp("k8s", "frames");
+    let _ = std::fs::remove_dir_all(&dir);
+    let set = |i: u32| {
+        vec![
+            (
+                "SCENE",
+                samples
+                    .join("animation/BoxAnimated.glb")
+                    .display()
+                    .to_string(),
+            ),
+            ("FRAMES", "0..11".to_string()),
+            ("FPS", "6".to_string()),
+            ("SPP", "2".to_string()),
+            ("OUT_DIR", dir.display().to_string()),
+            ("DEVICE", "cpu".to_string()),
+            ("RENDER_OPTIONS", "--width 8 --height 8".to_string()),
+            ("JOB_COMPLETION_INDEX", i.to_string()),
+        ]
+    };
+    let frames_script = script(&text);
+    for i in 0..tasks {
+        run(&frames_script, &job_env, &set(i));
+    }
+    let names = |dir: &Path| -> Vec<String> {
+        let mut n: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        n.sort();
+        n
+    };
+    let want: Vec<String> = (0..=11).map(|f| format!("frame_{f:04}.png")).collect();
+    assert_eq!(names(&dir), want);
+    let modified = |f: &str| std::fs::metadata(dir.join(f)).unwrap().modified().unwrap();
+    let before: Vec<_> = want.iter().map(|f| modified(f)).collect();
+    run(&frames_script, &job_env, &set(1));
+    let after: Vec<_> = want.iter().map(|f| modified(f)).collect();
+    assert_eq!(before, after, "a retried index rendered its frames again");
 }

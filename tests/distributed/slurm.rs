@@ -249,3 +249,64 @@ fn a_requeued_shard_resumes_and_the_merge_waits_for_it() {
     );
     assert_merge_is_the_single_render(&out_dir, spp, options);
 }
+
+/// The per-frame recipe (`FRAMES=A..B tools/slurm/submit.sh`, frames.sbatch): an array whose
+/// tasks render their shares of an animation's frames; every frame is written once.
+#[test]
+fn slurm_array_renders_each_frame_once() {
+    let Some(samples) = common::gltf_samples() else {
+        return;
+    };
+    if !cluster_up() {
+        eprintln!("skipping the Slurm frames test: no Slurm cluster answers sinfo");
+        return;
+    }
+    let out_dir = fresh_dir("frames");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let o = Command::new(root.join("tools/slurm/submit.sh"))
+        .env("SCENE", samples.join("animation/BoxAnimated.glb"))
+        .env("FRAMES", "0..9")
+        .env("FPS", "5")
+        .env("TASKS", "3")
+        .env("SPP", "2")
+        .env("OUT_DIR", &out_dir)
+        .env("DEVICE", "cpu")
+        .env("WAVETRACE_GRES", "")
+        .env("RENDER_OPTIONS", "--width 8 --height 8")
+        .env("WAVETRACE", env!("CARGO_BIN_EXE_wavetrace"))
+        .output()
+        .expect("submit.sh runs");
+    assert!(
+        o.status.success(),
+        "submit.sh: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let array = String::from_utf8_lossy(&o.stdout).trim().to_owned();
+    let deadline = Instant::now() + Duration::from_secs(900);
+    loop {
+        let states = job_states(&array);
+        if states.len() == 3 && states.iter().all(|s| s == "COMPLETED") {
+            break;
+        }
+        assert!(
+            !states
+                .iter()
+                .any(|s| ["FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL"].contains(&s.as_str())),
+            "array {array}: {states:?}\n{}",
+            logs(&out_dir)
+        );
+        assert!(
+            Instant::now() < deadline,
+            "array {array}: {states:?}\n{}",
+            logs(&out_dir)
+        );
+        std::thread::sleep(Duration::from_millis(500));
+    }
+    let frames = common::files_with_extension(&out_dir, &["png"]);
+    let names: Vec<String> = frames
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    let want: Vec<String> = (0..=9).map(|f| format!("frame_{f:04}.png")).collect();
+    assert_eq!(names, want, "{}", logs(&out_dir));
+}
