@@ -136,7 +136,15 @@ pub(crate) fn prepare_at(
     if let Some(which) = &opts.camera {
         scene.select_camera(which)?;
     }
-    place_camera(&mut scene, opts).with_context(|| format!("{}", path.display()))?;
+    // --orbit circles what the animation covers, the same at every moment.
+    let bounds = match opts.orbit {
+        Some(_) => opened
+            .file
+            .framing_bounds(&moment.animations, options)?
+            .unwrap_or_else(|| scene.bounds()),
+        None => scene.bounds(),
+    };
+    place_camera(&mut scene, bounds, opts).with_context(|| format!("{}", path.display()))?;
     // --sky: the sun joins the file's punctual lights before the light table is built.
     let sky = match (opened.lighting.get(), opts.sky) {
         (Some(lighting), _) => lighting.clone(),
@@ -313,7 +321,11 @@ mod tests {
 
 /// `--from`/`--look-at`/`--up`, `--orbit` and `--fov`: a camera placed by hand, or the file's
 /// (or default) perspective camera with another field of view.
-fn place_camera(scene: &mut Scene, opts: &RenderOptions) -> Result<()> {
+fn place_camera(
+    scene: &mut Scene,
+    bounds: (glam::Vec3, glam::Vec3),
+    opts: &RenderOptions,
+) -> Result<()> {
     use wavetrace::scene::{Camera, Projection};
     let yfov = opts.fov.map_or(Camera::framing_yfov(), f32::to_radians);
     if let (Some(from), Some(at)) = (opts.from, opts.look_at) {
@@ -321,7 +333,7 @@ fn place_camera(scene: &mut Scene, opts: &RenderOptions) -> Result<()> {
         scene.camera = Camera::look_at(from, at, up, yfov)
             .map_err(|e| anyhow::anyhow!("--from {from} --look-at {at}: {e}"))?;
     } else if let Some((azimuth, elevation, distance)) = opts.orbit {
-        scene.camera = Camera::orbit(scene.bounds(), azimuth, elevation, distance, yfov);
+        scene.camera = Camera::orbit(bounds, azimuth, elevation, distance, yfov);
     } else if let Some(degrees) = opts.fov {
         match &mut scene.camera.projection {
             Projection::Perspective { yfov, .. } => *yfov = degrees.to_radians(),

@@ -194,6 +194,7 @@ pub(super) fn open_bytes(path: &Path, bytes: Vec<u8>, options: &LoadOptions) -> 
         textures,
         clips,
         extra_targets,
+        framing: std::sync::Mutex::new(Vec::new()),
     })
 }
 
@@ -212,6 +213,8 @@ pub struct SceneFile {
     textures: super::model::TextureSet,
     clips: Vec<Clip>,
     extra_targets: super::morph::ExtraTargets,
+    /// [`framing_bounds`](SceneFile::framing_bounds) worked out so far.
+    framing: std::sync::Mutex<Vec<(Animations, (glam::Vec3, glam::Vec3))>>,
 }
 
 impl SceneFile {
@@ -246,29 +249,64 @@ impl SceneFile {
     pub fn scene(&self, moment: &Moment, options: &LoadOptions) -> anyhow::Result<Scene> {
         guarded(&self.source, options, || {
             let mut scene = self.build(moment, options)?;
-            if scene.cameras.is_empty() && moment.animations != Animations::Static {
-                let (start, end) = animation::span(&self.clips, &moment.animations)?;
-                let mut bounds = None::<(glam::Vec3, glam::Vec3)>;
-                for k in 0..FRAMING_MOMENTS {
-                    let time = start + (end - start) * k as f32 / (FRAMING_MOMENTS - 1) as f32;
-                    let before = options.budget.used();
-                    let at = self.build(
-                        &Moment {
-                            time,
-                            ..moment.clone()
-                        },
-                        options,
-                    )?;
-                    options
-                        .budget
-                        .release(options.budget.used().saturating_sub(before));
-                    let (lo, hi) = at.bounds();
-                    bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            if scene.cameras.is_empty() {
+                if let Some(bounds) = self.framing_bounds_of(&moment.animations, options)? {
+                    scene.camera = Camera::framing(bounds);
                 }
-                scene.camera = Camera::framing(bounds.expect("FRAMING_MOMENTS > 0"));
             }
             Ok(scene)
         })
+    }
+
+    /// The bounds a view of the animations `animations` frames (`--orbit`, and the default
+    /// camera of a file without cameras): the union of the scene's bounds at
+    /// [`FRAMING_MOMENTS`] moments evenly spread over them, worked out once per choice of
+    /// animations; None at the static pose, where the scene's own bounds serve.
+    pub fn framing_bounds(
+        &self,
+        animations: &Animations,
+        options: &LoadOptions,
+    ) -> anyhow::Result<Option<(glam::Vec3, glam::Vec3)>> {
+        guarded(&self.source, options, || {
+            self.framing_bounds_of(animations, options)
+        })
+    }
+
+    fn framing_bounds_of(
+        &self,
+        animations: &Animations,
+        options: &LoadOptions,
+    ) -> Result<Option<(glam::Vec3, glam::Vec3)>> {
+        if *animations == Animations::Static {
+            return Ok(None);
+        }
+        let known = self.framing.lock().expect("not poisoned");
+        if let Some((_, bounds)) = known.iter().find(|(a, _)| a == animations) {
+            return Ok(Some(*bounds));
+        }
+        drop(known);
+        let (start, end) = animation::span(&self.clips, animations)?;
+        let mut bounds = None::<(glam::Vec3, glam::Vec3)>;
+        for k in 0..FRAMING_MOMENTS {
+            let time = start + (end - start) * k as f32 / (FRAMING_MOMENTS - 1) as f32;
+            let before = options.budget.used();
+            let moment = Moment {
+                animations: animations.clone(),
+                time,
+            };
+            let at = self.build(&moment, options)?;
+            options
+                .budget
+                .release(options.budget.used().saturating_sub(before));
+            let (lo, hi) = at.bounds();
+            bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+        }
+        let bounds = bounds.expect("FRAMING_MOMENTS > 0");
+        self.framing
+            .lock()
+            .expect("not poisoned")
+            .push((animations.clone(), bounds));
+        Ok(Some(bounds))
     }
 
     fn build(&self, moment: &Moment, options: &LoadOptions) -> Result<Scene> {
