@@ -53,6 +53,7 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Render(args) if args.frames.is_some() => cmd::sequence::render_sequence(&args),
         Command::Render(args) => cmd::render::render(&args),
         Command::Devices => cmd::devices::devices(),
         Command::Bench(args) => cmd::bench::bench(&args),

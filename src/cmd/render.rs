@@ -33,9 +33,6 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     } else {
         resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0))
     };
-    if args.frames.is_some() {
-        return super::sequence::render_sequence(args, &path, device);
-    }
     let (_scene, prepared, settings) = prepare(&path, &args.opts, device)?;
     let (width, height) = (settings.width, settings.height);
     let default_output = PathBuf::from(format!(

@@ -5,8 +5,8 @@
 //! renders with the same seed as every other frame — so a frame equals the same `--time`
 //! rendered alone, bit for bit, on whichever shard renders it.
 
-use super::options::{DeviceKind, RenderArgs};
-use super::prepare::{open, prepare_at};
+use super::options::RenderArgs;
+use super::prepare::{open, prepare_at, resolve_device, scenes_dir};
 use super::report::progress_bar;
 use super::shards::{record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Context as _, Result};
@@ -45,8 +45,16 @@ pub(crate) fn frame_path(pattern: &Path, frame: u32) -> PathBuf {
     pattern.with_file_name(name)
 }
 
-pub(crate) fn render_sequence(args: &RenderArgs, path: &Path, device: DeviceKind) -> Result<()> {
+/// `render --frames`: the scene (default: the Cornell box, which has no animation) on the
+/// device `--device` picks.
+pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
     let (first, last) = args.frames.expect("called for --frames");
+    let path = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+    let path = path.as_path();
+    let device = resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0));
     if !args.opts.path_layers()?.is_empty() {
         bail!("--aov NAME=EXPR renders its layers beside one image: it does not combine with --frames");
     }

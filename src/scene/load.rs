@@ -18,8 +18,11 @@
 //! Compressed files: Draco primitives (`draco.rs`), meshopt buffer views (`meshopt.rs`, decoded
 //! right after the buffers are read), quantized attributes (`accessors.rs`), KTX2 and WebP
 //! textures (`images.rs`).
-//! Morph targets and skins take the static pose (`morph.rs`, `skin.rs`). Point and line
-//! primitives are skipped (counted in `Scene::skipped_primitives`); animations are not read yet.
+//! Morph targets and skins (`morph.rs`, `skin.rs`) take the pose of a moment of the file's
+//! animations (`animation.rs`), the static pose unless one is asked for: [`SceneFile`] holds
+//! what every moment shares (the parsed file, buffers, materials, textures, keyframes) and
+//! builds the scene of any one. Point and line primitives are skipped (counted in
+//! `Scene::skipped_primitives`).
 
 use super::animation::{self, infos, read_clips, AnimationInfo, Animations, Clip, Moment};
 use super::buffers::{check_image_uris, load_buffers, open_regular};
