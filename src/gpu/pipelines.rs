@@ -164,6 +164,44 @@ impl Pipelines {
         })
     }
 
+    /// The features to make kernels `names` for where a scene needs `features`: kernels already
+    /// made for the same feature flags with deferred arrays at least as long serve as they are
+    /// (a longer array holds the same entries in the same order; results do not depend on it,
+    /// as they do not on specialising at all), the shortest such; else `features`. A sequence's
+    /// frames, whose BVHs differ in depth, so compile their kernels once rather than per depth
+    /// (lavapipe: about a second each time).
+    pub fn reusable(&self, names: &[&'static str], features: u32) -> u32 {
+        use crate::layout::{qbvh_stack_size, tlas_stack_size, FEATURE_FLAGS};
+        let created = self.created();
+        if names.iter().all(|&n| created.contains_key(&(n, features))) {
+            return features;
+        }
+        let mut candidates: Vec<u32> = created
+            .keys()
+            .map(|&(_, f)| f)
+            .filter(|&f| {
+                f & FEATURE_FLAGS == features & FEATURE_FLAGS
+                    && qbvh_stack_size(f) >= qbvh_stack_size(features)
+                    && tlas_stack_size(f) >= tlas_stack_size(features)
+                    && names.iter().all(|&n| created.contains_key(&(n, f)))
+            })
+            .collect();
+        candidates.sort_by_key(|&f| (qbvh_stack_size(f), tlas_stack_size(f)));
+        if let Some(&f) = candidates.first() {
+            return f;
+        }
+        // Kernels of the same flags made for shallower trees: the scene changes from render to
+        // render (a sequence), so the next kernels get the longest arrays and serve from now on.
+        let flags = features & FEATURE_FLAGS;
+        if created.keys().any(|&(_, f)| f & FEATURE_FLAGS == flags) {
+            use crate::layout::{FEATURE_STACK_SHIFT, FEATURE_TLAS_STACK_SHIFT, QBVH_STACK_MAX};
+            return flags
+                | QBVH_STACK_MAX << FEATURE_TLAS_STACK_SHIFT
+                | QBVH_STACK_MAX << FEATURE_STACK_SHIFT;
+        }
+        features
+    }
+
     /// Creates the pipelines of kernels `names` specialised for scenes of `features`
     /// (`PreparedScene::gpu_features`) that are not created yet, side by side on as many
     /// threads as the machine has cores: a CPU Vulkan device compiles a kernel with LLVM, part

@@ -258,15 +258,19 @@ impl GpuRenderer {
             true => None,
             false => Some(Pipelines::with_kernels(ctx, &split, self.one_binding)?),
         };
+        let kernels = super::wavefront::kernels(settings.integrator);
         let features = match self.specialise {
-            true => scene.gpu_features(settings),
+            true => pipelines
+                .as_ref()
+                .unwrap_or(&self.pipelines)
+                .reusable(kernels, scene.gpu_features(settings)),
             false => crate::layout::FEATURES_ALL,
         };
         let making = Instant::now();
         let made = pipelines
             .as_ref()
             .unwrap_or(&self.pipelines)
-            .prepare(super::wavefront::kernels(settings.integrator), features)?;
+            .prepare(kernels, features)?;
         let kernels_made = (made, making.elapsed().as_secs_f64());
         let buffers = RenderBuffers::new(
             ctx,

@@ -80,6 +80,47 @@ fn frames_equal_their_moment_rendered_alone_bit_for_bit() {
     }
 }
 
+/// On the GPU a sequence whose trees deepen from frame to frame makes its kernels again with the
+/// longest deferred arrays (`Pipelines::reusable`) and keeps them for later frames: those frames
+/// are still bit for bit their moments rendered alone with kernels made for their own trees.
+#[test]
+fn frames_rendered_with_reused_kernels_equal_their_moment_alone() {
+    let Some(dir) = common::gltf_samples() else {
+        return;
+    };
+    if common::skip_gpu() {
+        return;
+    }
+    let scene = dir.join("animation/RecursiveSkeletons.glb");
+    let scene = scene.to_str().unwrap();
+    let pattern = common::temp("cli", "skeletons-##.exr");
+    run(&[
+        vec!["render", scene, "--frames", "0..8", "--fps", "4", "-o"],
+        vec![pattern.to_str().unwrap()],
+        small("gpu", &[]),
+    ]
+    .concat());
+    for (frame, time) in [(5, "1.25"), (8, "2")] {
+        let alone = common::temp("cli", &format!("skeletons-t{time}.exr"));
+        run(&[
+            vec![
+                "render",
+                scene,
+                "--time",
+                time,
+                "-o",
+                alone.to_str().unwrap(),
+            ],
+            small("gpu", &[]),
+        ]
+        .concat());
+        assert_bitwise_equal(
+            &common::temp("cli", &format!("skeletons-{frame:02}.exr")),
+            &alone,
+        );
+    }
+}
+
 #[test]
 fn shards_render_each_frame_once() {
     let Some(scene) = box_animated() else { return };
