@@ -8,7 +8,6 @@ use super::accessors::read_attribute;
 use super::json::label;
 use super::limits::Budget;
 use anyhow::{bail, Context, Result};
-use glam::Vec3;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Primitive;
 use gltf::Semantic;
@@ -69,7 +68,8 @@ pub(super) fn extra_targets(value: &serde_json::Value) -> Result<ExtraTargets> {
 }
 
 /// Σ wᵢ·Δᵢ of the TEXCOORD_n or COLOR_0 attribute `name` of primitive `index` of mesh `mesh`,
-/// for `count` vertices; `None` where no target with a non-zero weight moves it.
+/// for `count` vertices; `None` where no target with a non-zero weight moves it. The sum's bytes
+/// are reserved in the budget; the caller releases them (`sum_bytes`).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn weighted_extra_deltas(
     document: &gltf::Document,
@@ -84,30 +84,51 @@ pub(super) fn weighted_extra_deltas(
     let Some(targets) = extra.0.get(&(mesh, index)) else {
         return Ok(None);
     };
+    let dims: &[Dimensions] = if name == "COLOR_0" {
+        &[Dimensions::Vec3, Dimensions::Vec4]
+    } else {
+        &[Dimensions::Vec2]
+    };
+    let accessors = targets.iter().enumerate().filter_map(|(k, target)| {
+        let a = *target.get(name)?;
+        Some((k, document.accessors().nth(a).expect("checked index")))
+    });
+    weighted_sum(accessors, name, weights, dims, &[], count, buffers, budget)
+}
+
+/// Σ wᵢ·Δᵢ over the targets' `accessors` (target index, accessor) of attribute `name` with a
+/// non-zero weight: FLOAT, KHR_mesh_quantization's normalized BYTE and SHORT, and the plain
+/// `integers` types.
+#[allow(clippy::too_many_arguments)]
+fn weighted_sum<'a>(
+    accessors: impl Iterator<Item = (usize, gltf::Accessor<'a>)>,
+    name: &str,
+    weights: &[f32],
+    dims: &[Dimensions],
+    integers: &[DataType],
+    count: usize,
+    buffers: &[Vec<u8>],
+    budget: &Budget,
+) -> Result<Option<Vec<[f32; 4]>>> {
     let mut sum: Option<Vec<[f32; 4]>> = None;
-    for (k, (target, &w)) in targets.iter().zip(weights).enumerate() {
-        let Some(&a) = target.get(name) else { continue };
+    for (k, accessor) in accessors {
+        let w = weights.get(k).copied().unwrap_or(0.0);
         if w == 0.0 {
             continue;
         }
-        let accessor = document.accessors().nth(a).expect("checked index");
         let what = format!(
             "targets[{k}].{name} = {}",
             label("accessor", accessor.index(), accessor.name())
         );
-        let dims: &[Dimensions] = if name == "COLOR_0" {
-            &[Dimensions::Vec3, Dimensions::Vec4]
-        } else {
-            &[Dimensions::Vec2]
-        };
+        let normalized = [DataType::I8, DataType::I16];
         let deltas = read_attribute(
             &accessor,
             buffers,
             None,
             budget,
             dims,
-            &[DataType::I8, DataType::I16],
-            &[],
+            &normalized,
+            integers,
         )
         .context(what.clone())?;
         if deltas.len() != count {
@@ -122,7 +143,7 @@ pub(super) fn weighted_extra_deltas(
         let sum = match &mut sum {
             Some(sum) => sum,
             None => {
-                budget.reserve("the morph targets' weighted sum", extra_sum_bytes(count))?;
+                budget.reserve("the morph targets' weighted sum", sum_bytes(count))?;
                 sum.insert(vec![[0.0; 4]; count])
             }
         };
@@ -158,9 +179,9 @@ pub(super) fn weights(primitive: &Primitive, weights: Option<(&[f32], &str)>) ->
     Ok(weights.to_vec())
 }
 
-/// Σ wᵢ·Δᵢ of one attribute (`Positions`, `Normals` or `Tangents`) over the targets with a
-/// non-zero weight, for `count` vertices; `None` where no such target moves it. The sum's bytes
-/// are reserved in the budget; the caller releases them (`sum_bytes`).
+/// Σ wᵢ·Δᵢ of one attribute (`Positions`, `Normals` or `Tangents`, xyz) over the targets with
+/// a non-zero weight, for `count` vertices; `None` where no such target moves it. The sum's
+/// bytes are reserved in the budget; the caller releases them (`sum_bytes`).
 pub(super) fn weighted_deltas(
     primitive: &Primitive,
     weights: &[f32],
@@ -168,72 +189,40 @@ pub(super) fn weighted_deltas(
     count: usize,
     buffers: &[Vec<u8>],
     budget: &Budget,
-) -> Result<Option<Vec<Vec3>>> {
-    let mut sum: Option<Vec<Vec3>> = None;
-    for (k, (target, &w)) in primitive.morph_targets().zip(weights).enumerate() {
-        let accessor = match semantic {
-            Semantic::Positions => target.positions(),
-            Semantic::Normals => target.normals(),
-            Semantic::Tangents => target.tangents(),
-            _ => None,
-        };
-        let Some(accessor) = accessor else { continue };
-        if w == 0.0 {
-            continue;
-        }
-        let what = format!(
-            "targets[{k}].{} = {}",
-            semantic.to_string(),
-            label("accessor", accessor.index(), accessor.name())
-        );
-        // FLOAT, or KHR_mesh_quantization's normalized BYTE and SHORT (and, for positions,
-        // plain integers).
-        let normalized = [DataType::I8, DataType::I16];
-        let integers: &[DataType] = if semantic == Semantic::Positions {
-            &[DataType::I8, DataType::U8, DataType::I16, DataType::U16]
-        } else {
-            &[]
-        };
-        let deltas = read_attribute(
-            &accessor,
-            buffers,
-            None,
-            budget,
-            &[Dimensions::Vec3],
-            &normalized,
-            integers,
-        )
-        .context(what.clone())?;
-        if deltas.len() != count {
-            bail!(
-                "{what}: {} elements, but POSITION has {count}",
-                deltas.len()
-            );
-        }
-        if deltas.iter().flatten().any(|v| !v.is_finite()) {
-            bail!("{what}: non-finite deltas");
-        }
-        let sum = match &mut sum {
-            Some(sum) => sum,
-            None => {
-                budget.reserve("the morph targets' weighted sum", sum_bytes(count))?;
-                sum.insert(vec![Vec3::ZERO; count])
-            }
-        };
-        for (s, d) in sum.iter_mut().zip(&deltas) {
-            *s += w * Vec3::new(d[0], d[1], d[2]);
-        }
-        budget.release(std::mem::size_of_val(deltas.as_slice()) as u64);
-    }
-    Ok(sum)
+) -> Result<Option<Vec<[f32; 4]>>> {
+    let accessors = primitive
+        .morph_targets()
+        .enumerate()
+        .filter_map(|(k, target)| {
+            let accessor = match semantic {
+                Semantic::Positions => target.positions(),
+                Semantic::Normals => target.normals(),
+                Semantic::Tangents => target.tangents(),
+                _ => None,
+            }?;
+            Some((k, accessor))
+        });
+    // Positions may also be plain integers (KHR_mesh_quantization).
+    let integers: &[DataType] = if semantic == Semantic::Positions {
+        &[DataType::I8, DataType::U8, DataType::I16, DataType::U16]
+    } else {
+        &[]
+    };
+    let name = semantic.to_string();
+    weighted_sum(
+        accessors,
+        &name,
+        weights,
+        &[Dimensions::Vec3],
+        integers,
+        count,
+        buffers,
+        budget,
+    )
 }
 
-/// The bytes [`weighted_extra_deltas`] reserved for a sum over `count` vertices.
-pub(super) fn extra_sum_bytes(count: usize) -> u64 {
-    count as u64 * std::mem::size_of::<[f32; 4]>() as u64
-}
-
-/// The bytes [`weighted_deltas`] reserved for a sum over `count` vertices.
+/// The bytes [`weighted_deltas`] and [`weighted_extra_deltas`] reserved for a sum over `count`
+/// vertices.
 pub(super) fn sum_bytes(count: usize) -> u64 {
-    count as u64 * std::mem::size_of::<Vec3>() as u64
+    count as u64 * std::mem::size_of::<[f32; 4]>() as u64
 }

@@ -209,6 +209,18 @@ pub(super) fn punctual_light(
     })
 }
 
+/// Where a primitive's error happened: "meshes[3].primitives[0] (mesh "Body", instanced by
+/// nodes[5])".
+fn primitive_label(mesh: &gltf::Mesh, primitive: &Primitive, what: &str) -> String {
+    format!(
+        "{}.primitives[{}] ({}instanced by {what})",
+        json_path("mesh", mesh.index()),
+        primitive.index(),
+        mesh.name()
+            .map_or_else(String::new, |n| format!("mesh {n:?}, "))
+    )
+}
+
 /// How many nodes use each mesh.
 pub(super) fn mesh_uses(document: &Document) -> Vec<usize> {
     let mut uses = vec![0; document.meshes().len()];
@@ -359,15 +371,7 @@ impl Builder<'_> {
                             morph_weights,
                             joints.as_deref(),
                         )
-                        .with_context(|| {
-                            format!(
-                                "{}.primitives[{}] ({}instanced by {what})",
-                                json_path("mesh", mesh.index()),
-                                primitive.index(),
-                                mesh.name()
-                                    .map_or_else(String::new, |n| format!("mesh {n:?}, "))
-                            )
-                        })?;
+                        .with_context(|| primitive_label(&mesh, &primitive, &what))?;
                     }
                 }
             }
@@ -396,15 +400,7 @@ impl Builder<'_> {
                     morph_weights,
                     None,
                 )
-                .with_context(|| {
-                    format!(
-                        "{}.primitives[{}] ({}instanced by {what})",
-                        json_path("mesh", mesh.index()),
-                        primitive.index(),
-                        mesh.name()
-                            .map_or_else(String::new, |n| format!("mesh {n:?}, "))
-                    )
-                });
+                .with_context(|| primitive_label(&mesh, &primitive, what));
             if result.is_err() {
                 break;
             }
@@ -607,7 +603,7 @@ impl Builder<'_> {
             self.budget,
         )? {
             for (p, d) in positions.iter_mut().zip(&deltas) {
-                *p += *d;
+                *p += Vec3::new(d[0], d[1], d[2]);
             }
             self.budget.release(morph::sum_bytes(deltas.len()));
         }
@@ -932,9 +928,9 @@ impl Builder<'_> {
                 self.budget,
             )? {
                 for (v, d) in values.iter_mut().zip(&deltas) {
-                    v[0] += d.x;
-                    v[1] += d.y;
-                    v[2] += d.z;
+                    for c in 0..3 {
+                        v[c] += d[c];
+                    }
                 }
                 self.budget.release(morph::sum_bytes(deltas.len()));
             }
@@ -989,7 +985,7 @@ impl Builder<'_> {
                         v[c] += d[c];
                     }
                 }
-                self.budget.release(morph::extra_sum_bytes(count));
+                self.budget.release(morph::sum_bytes(count));
             }
         }
         for (set, present) in [(0, uv0.is_some()), (1, uv1.is_some())] {

@@ -29,6 +29,38 @@ fn small<'a>(device: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     v
 }
 
+/// Renders `frames` of `scene` at `fps` as a sequence on `device`, then each `(frame, time)` of
+/// `cases` alone with `--time`, and checks each pair bit for bit; returns what the sequence
+/// printed.
+fn assert_frames_equal_moments(
+    scene: &str,
+    device: &str,
+    tag: &str,
+    frames: &str,
+    fps: &str,
+    cases: &[(u32, &str)],
+) -> String {
+    let pattern = common::temp("cli", &format!("{tag}-##.exr"));
+    let text = run(&[
+        vec!["render", scene, "--frames", frames, "--fps", fps, "-o"],
+        vec![pattern.to_str().unwrap()],
+        small(device, &[]),
+    ]
+    .concat());
+    for &(frame, time) in cases {
+        let alone = common::temp("cli", &format!("{tag}-t{time}.exr"));
+        let out = alone.to_str().unwrap();
+        run(&[
+            vec!["render", scene, "--time", time, "-o", out],
+            small(device, &[]),
+        ]
+        .concat());
+        let framed = common::temp("cli", &format!("{tag}-{frame:02}.exr"));
+        assert_bitwise_equal(&framed, &alone);
+    }
+    text
+}
+
 #[test]
 fn frames_equal_their_moment_rendered_alone_bit_for_bit() {
     let Some(scene) = box_animated() else { return };
@@ -37,28 +69,10 @@ fn frames_equal_their_moment_rendered_alone_bit_for_bit() {
         if device == "gpu" && common::skip_gpu() {
             continue;
         }
-        let pattern = common::temp("cli", &format!("box-{device}-##.exr"));
-        let mut args = vec!["render", scene, "--frames", "3..5", "--fps", "4", "-o"];
-        args.push(pattern.to_str().unwrap());
-        let text = run(&[args, small(device, &[])].concat());
+        let tag = format!("box-{device}");
+        let cases = [(3, "0.75"), (4, "1"), (5, "1.25")];
+        let text = assert_frames_equal_moments(scene, device, &tag, "3..5", "4", &cases);
         assert!(text.contains("frame 4 (t = 1 s)"), "{text}");
-        for (frame, time) in [(3, "0.75"), (4, "1"), (5, "1.25")] {
-            let alone = common::temp("cli", &format!("box-{device}-t{time}.exr"));
-            run(&[
-                vec![
-                    "render",
-                    scene,
-                    "--time",
-                    time,
-                    "-o",
-                    alone.to_str().unwrap(),
-                ],
-                small(device, &[]),
-            ]
-            .concat());
-            let framed = common::temp("cli", &format!("box-{device}-{frame:02}.exr"));
-            assert_bitwise_equal(&framed, &alone);
-        }
         // A moment differs from the static pose (the box moves).
         let rest = common::temp("cli", &format!("box-{device}-rest.exr"));
         run(&[
@@ -93,32 +107,8 @@ fn frames_rendered_with_reused_kernels_equal_their_moment_alone() {
     }
     let scene = dir.join("animation/RecursiveSkeletons.glb");
     let scene = scene.to_str().unwrap();
-    let pattern = common::temp("cli", "skeletons-##.exr");
-    run(&[
-        vec!["render", scene, "--frames", "0..8", "--fps", "4", "-o"],
-        vec![pattern.to_str().unwrap()],
-        small("gpu", &[]),
-    ]
-    .concat());
-    for (frame, time) in [(5, "1.25"), (8, "2")] {
-        let alone = common::temp("cli", &format!("skeletons-t{time}.exr"));
-        run(&[
-            vec![
-                "render",
-                scene,
-                "--time",
-                time,
-                "-o",
-                alone.to_str().unwrap(),
-            ],
-            small("gpu", &[]),
-        ]
-        .concat());
-        assert_bitwise_equal(
-            &common::temp("cli", &format!("skeletons-{frame:02}.exr")),
-            &alone,
-        );
-    }
+    let cases = [(5, "1.25"), (8, "2")];
+    assert_frames_equal_moments(scene, "gpu", "skeletons", "0..8", "4", &cases);
 }
 
 #[test]

@@ -171,6 +171,29 @@ pub fn gpu_agrees_with_cpu(
     Some(cpu.film)
 }
 
+/// A model rendered small (40 × 32 pixels, 64 spp, depth 4, under a white sky) on the CPU and
+/// on the GPU, neither dropping a sample, agreeing per tile at family-wise level `alpha`;
+/// false where there is no GPU (after the CPU render).
+pub fn small_render_agrees(scene: &PreparedScene, alpha: f64, what: &str) -> bool {
+    let settings = |seed| RenderSettings {
+        width: 40,
+        height: 32,
+        spp: 64,
+        max_depth: 4,
+        seed,
+        environment: glam::Vec3::ONE,
+        ..RenderSettings::default()
+    };
+    let cpu = render_cpu(scene, &settings(2));
+    assert_eq!(cpu.film.dropped, 0, "{what}: CPU dropped NaN/Inf samples");
+    let Some(gpu) = render_gpu(scene, &settings(1), None) else {
+        return false;
+    };
+    assert_eq!(gpu.film.dropped, 0, "{what}: GPU dropped NaN/Inf samples");
+    assert_agree_at(&gpu.film, &cpu.film, alpha, what);
+    true
+}
+
 /// Fails with the comparison's report (which tiles, which channels) unless the films agree.
 pub fn assert_agree(gpu: &Film, cpu: &Film, what: &str) {
     assert_agree_at(gpu, cpu, 0.01, what);

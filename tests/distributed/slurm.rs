@@ -38,18 +38,15 @@ fn job_states(id: &str) -> Vec<String> {
         .collect()
 }
 
-/// Submits the recipe (tools/slurm/submit.sh) for the Cornell box with `options`, CPU-only;
-/// returns the array and merge job ids.
-fn submit(out_dir: &Path, spp: u32, shards: u32, options: &str) -> (String, String) {
+/// Runs tools/slurm/submit.sh, CPU-only, writing into `out_dir`, with the variables `vars`;
+/// returns what it printed (the job ids).
+fn run_submit(out_dir: &Path, vars: &[(&str, String)]) -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let o = Command::new(root.join("tools/slurm/submit.sh"))
-        .env("SCENE", root.join("scenes/cornell-box.gltf"))
-        .env("SPP", spp.to_string())
-        .env("SHARDS", shards.to_string())
+        .envs(vars.iter().map(|(k, v)| (k, v)))
         .env("OUT_DIR", out_dir)
         .env("DEVICE", "cpu")
         .env("WAVETRACE_GRES", "")
-        .env("RENDER_OPTIONS", options)
         .env("WAVETRACE", env!("CARGO_BIN_EXE_wavetrace"))
         .output()
         .expect("submit.sh runs");
@@ -58,7 +55,25 @@ fn submit(out_dir: &Path, spp: u32, shards: u32, options: &str) -> (String, Stri
         "submit.sh: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let ids = String::from_utf8_lossy(&o.stdout).into_owned();
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Submits the recipe (tools/slurm/submit.sh) for the Cornell box with `options`, CPU-only;
+/// returns the array and merge job ids.
+fn submit(out_dir: &Path, spp: u32, shards: u32, options: &str) -> (String, String) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let ids = run_submit(
+        out_dir,
+        &[
+            (
+                "SCENE",
+                root.join("scenes/cornell-box.gltf").display().to_string(),
+            ),
+            ("SPP", spp.to_string()),
+            ("SHARDS", shards.to_string()),
+            ("RENDER_OPTIONS", options.to_owned()),
+        ],
+    );
     let ids: Vec<&str> = ids.split_whitespace().collect();
     let [array, merge] = ids[..] else {
         panic!("submit.sh printed {ids:?}, not two job ids");
@@ -262,26 +277,21 @@ fn slurm_array_renders_each_frame_once() {
         return;
     }
     let out_dir = fresh_dir("frames");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let o = Command::new(root.join("tools/slurm/submit.sh"))
-        .env("SCENE", samples.join("animation/BoxAnimated.glb"))
-        .env("FRAMES", "0..9")
-        .env("FPS", "5")
-        .env("TASKS", "3")
-        .env("SPP", "2")
-        .env("OUT_DIR", &out_dir)
-        .env("DEVICE", "cpu")
-        .env("WAVETRACE_GRES", "")
-        .env("RENDER_OPTIONS", "--width 8 --height 8")
-        .env("WAVETRACE", env!("CARGO_BIN_EXE_wavetrace"))
-        .output()
-        .expect("submit.sh runs");
-    assert!(
-        o.status.success(),
-        "submit.sh: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let array = String::from_utf8_lossy(&o.stdout).trim().to_owned();
+    let vars = [
+        (
+            "SCENE",
+            samples
+                .join("animation/BoxAnimated.glb")
+                .display()
+                .to_string(),
+        ),
+        ("FRAMES", "0..9".into()),
+        ("FPS", "5".into()),
+        ("TASKS", "3".into()),
+        ("SPP", "2".into()),
+        ("RENDER_OPTIONS", "--width 8 --height 8".into()),
+    ];
+    let array = run_submit(&out_dir, &vars).trim().to_owned();
     let deadline = Instant::now() + Duration::from_secs(900);
     loop {
         let states = job_states(&array);
