@@ -491,6 +491,7 @@ pub(crate) fn backend(
         count_fetches: args.stats,
     })?;
     renderer.set_band_pixel_limit(args.band_pixels);
+    renderer.set_reuse_deeper_kernels(args.frames.is_some());
     Ok(Box::new(GpuBackend {
         renderer,
         wavefront: args.opts.wavefront,

@@ -164,7 +164,8 @@ impl Pipelines {
         })
     }
 
-    /// The features to make kernels `names` for where a scene needs `features`: kernels already
+    /// The features to make kernels `names` for where a scene needs `features`, for a renderer
+    /// that reuses kernels across a sequence's frames (`set_reuse_deeper_kernels`): kernels already
     /// made for the same feature flags with deferred arrays at least as long serve as they are
     /// (a longer array holds the same entries in the same order; results do not depend on it,
     /// as they do not on specialising at all), the shortest such; else `features`. A sequence's

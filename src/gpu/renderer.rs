@@ -47,6 +47,10 @@ pub struct GpuRenderer {
     pub(super) scene_images: SceneImages,
     /// Whether kernels are specialised for each scene's features (else made with them all).
     pub(super) specialise: bool,
+    /// Whether kernels made for a deeper tree serve a shallower one (`Pipelines::reusable`):
+    /// for the frames of a sequence, not for unrelated scenes, whose speed is measured with
+    /// kernels of their own.
+    pub(super) reuse_deeper: bool,
     /// Whether the kernels that declare one binding per scene array render also where the
     /// device binds them all (`Pipelines::with_kernels`).
     pub(super) one_binding: bool,
@@ -66,6 +70,7 @@ impl GpuRenderer {
             binding_limits: None,
             scene_images,
             specialise: true,
+            reuse_deeper: false,
             one_binding: false,
             commands,
             pipelines,
@@ -73,6 +78,14 @@ impl GpuRenderer {
             timing,
             count_fetches: options.count_fetches,
         })
+    }
+
+    /// Lets kernels made for one scene's deeper tree serve the next scenes of the same
+    /// features (the frames of a sequence, whose trees differ in depth from pose to pose), and
+    /// makes the longest deferred arrays once a second depth comes, so that a sequence compiles
+    /// its kernels at most twice. Off by default. Results do not depend on it.
+    pub fn set_reuse_deeper_kernels(&mut self, reuse: bool) {
+        self.reuse_deeper = reuse;
     }
 
     /// Renders in bands of at most `pixels` pixels (whole rows) even where the device's storage
@@ -260,10 +273,11 @@ impl GpuRenderer {
         };
         let kernels = super::wavefront::kernels(settings.integrator);
         let features = match self.specialise {
-            true => pipelines
+            true if self.reuse_deeper => pipelines
                 .as_ref()
                 .unwrap_or(&self.pipelines)
                 .reusable(kernels, scene.gpu_features(settings)),
+            true => scene.gpu_features(settings),
             false => crate::layout::FEATURES_ALL,
         };
         let making = Instant::now();
