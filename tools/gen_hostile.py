@@ -460,6 +460,17 @@ def cases():
         ["animations[0].channels[0]", "output = accessors[3]", "expected [Vec4] elements, found Vec3"], []
     yield "anim_sampler_dangling.gltf", edit(animated_quad([0, 1], [0] * 6), lambda d: d["animations"][0]["channels"][0].update(sampler=5)), 1, \
         ["animations[0].channels[0].sampler"], []
+    # Found by the fuzz target (7 December 2026): a target path the gltf crate cannot read
+    # (reported nowhere by its validation, then unwrapped by its typed model: a panic).
+    move = lambda change: edit(animated_quad([0, 1], [0] * 6), change)
+    yield "anim_path_misspelt.gltf", move(lambda d: d["animations"][0]["channels"][0]["target"].update(path="ro[ation")), 1, \
+        ["animations[0].channels[0].target.path", "not one of"], []
+    yield "anim_path_pointer.gltf", move(lambda d: d["animations"][0]["channels"][0]["target"].update(path="pointer")), 1, \
+        ["animations[0].channels[0].target.path", "KHR_animation_pointer"], []
+    yield "anim_target_node_dangling.gltf", move(lambda d: d["animations"][0]["channels"][0]["target"].update(node=9)), 1, \
+        ["animations[0].channels[0].target.node", "index 9 is out of range"], []
+    yield "anim_interpolation_unknown.gltf", move(lambda d: d["animations"][0]["samplers"][0].update(interpolation="QUADRATIC")), 1, \
+        ["animations[0].samplers[0].interpolation"], []
     yield "skin_valid.gltf", skinned_quad(IDENTITY, [1, 0, 0, 0] * 4), 0, [], []
     yield "skin_ibm_singular.gltf", skinned_quad([0] * 16, [1, 0, 0, 0] * 4), 1, \
         ["nodes[0].skin", "skins[0].inverseBindMatrices = accessors[2]", "matrix 0 (of nodes[1]) is singular"], []

@@ -125,6 +125,7 @@ pub(super) fn read_clips(
     buffers: &[Vec<u8>],
     budget: &Budget,
 ) -> Result<Vec<Clip>> {
+    check_channels(document)?;
     document
         .animations()
         .map(|animation| {
@@ -158,6 +159,48 @@ pub(super) fn read_clips(
             })
         })
         .collect()
+}
+
+/// What the `gltf` crate's validation leaves unchecked in channels and its typed model would
+/// panic on: a target path it could not read (a misspelling, or KHR_animation_pointer's
+/// "pointer"), a target node or sampler accessor out of range, an unknown interpolation.
+fn check_channels(document: &Document) -> Result<()> {
+    use gltf::json::validation::Checked;
+    let root = document.as_json();
+    let (nodes, accessors) = (root.nodes.len(), root.accessors.len());
+    for (a, animation) in root.animations.iter().enumerate() {
+        let at = json_path("animations", a);
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let at = format!("{at}.channels[{c}].target");
+            if let Checked::Invalid = channel.target.path {
+                bail!(
+                    "{at}.path: not one of \"translation\", \"rotation\", \"scale\", \"weights\" \
+                     (KHR_animation_pointer's \"pointer\" is not read)"
+                );
+            }
+            let node = channel.target.node.value();
+            if node >= nodes {
+                bail!("{at}.node: node {node} does not exist (the file has {nodes})");
+            }
+        }
+        for (k, sampler) in animation.samplers.iter().enumerate() {
+            let at = format!("{at}.samplers[{k}]");
+            if let Checked::Invalid = sampler.interpolation {
+                bail!("{at}.interpolation: not one of \"LINEAR\", \"STEP\", \"CUBICSPLINE\"");
+            }
+            for (what, index) in [
+                ("input", sampler.input.value()),
+                ("output", sampler.output.value()),
+            ] {
+                if index >= accessors {
+                    bail!(
+                        "{at}.{what}: accessor {index} does not exist (the file has {accessors})"
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The animations a file holds.
