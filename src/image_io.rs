@@ -6,13 +6,15 @@
 //!   that shards merge exactly, `shard.rs`), ZIP compressed (lossless); text attributes carry
 //!   the render's settings (`shard::Record`). Written to a temporary file in the same folder
 //!   and renamed, so that an interrupted write never leaves a truncated image.
-//! - `.png`: 8-bit sRGB, linear mean × 2^exposure clamped to [0, 1], then the sRGB transfer
-//!   function of IEC 61966-2-1, rounded to nearest.
+//! - `.png`: 8-bit sRGB, linear mean × 2^exposure through a view transform (`view.rs`; the
+//!   standard one clamps to [0, 1]), then the sRGB transfer function of IEC 61966-2-1, rounded
+//!   to nearest.
 //!
 //! Rows run top to bottom; pixel (0, 0) is the top-left corner, as in the film.
 
 use crate::film::Film;
 use crate::layout::FilmPixel;
+use crate::view::View;
 use anyhow::{bail, Context};
 use exr::prelude::*;
 use std::path::Path;
@@ -48,6 +50,19 @@ pub fn write_image_layers(
     exposure: f32,
     attributes: &[(String, String)],
 ) -> anyhow::Result<()> {
+    write_image_viewed(film, layers, path, exposure, View::Standard, attributes)
+}
+
+/// [`write_image_layers`] with a view transform for the PNGs (`render --view`; the EXR stays
+/// scene-linear).
+pub fn write_image_viewed(
+    film: &Film,
+    layers: &[(String, Film)],
+    path: &Path,
+    exposure: f32,
+    view: View,
+    attributes: &[(String, String)],
+) -> anyhow::Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -55,14 +70,14 @@ pub fn write_image_layers(
     if ext.as_deref() == Some("png") {
         for (name, layer) in layers {
             let sibling = path.with_extension(format!("{name}.png"));
-            write_png(layer, &sibling, exposure)
+            write_png(layer, &sibling, exposure, view)
                 .with_context(|| format!("writing PNG image {}", sibling.display()))?;
         }
     }
     match ext.as_deref() {
         Some("exr") => write_exr(film, layers, path, attributes)
             .with_context(|| format!("writing OpenEXR image {}", path.display())),
-        Some("png") => write_png(film, path, exposure)
+        Some("png") => write_png(film, path, exposure, view)
             .with_context(|| format!("writing PNG image {}", path.display())),
         _ => bail!(
             "cannot write image {}: unknown extension; supported: {}",
@@ -404,12 +419,13 @@ fn read_exr_inner(path: &Path, prefix: &str) -> anyhow::Result<ImageData> {
     })
 }
 
-fn write_png(film: &Film, path: &Path, exposure: f32) -> anyhow::Result<()> {
+fn write_png(film: &Film, path: &Path, exposure: f32, view: View) -> anyhow::Result<()> {
     let scale = exposure.exp2();
     let mut bytes = Vec::with_capacity(film.len() * 3);
     for p in 0..film.len() {
         let m = film.mean(p);
-        bytes.extend(m.to_array().map(|c| srgb_encode_u8(c * scale)));
+        let shown = view.apply(m.to_array().map(|c| c * scale));
+        bytes.extend(shown.map(srgb_encode_u8));
     }
     let image = image::RgbImage::from_raw(film.width, film.height, bytes)
         .context("pixel buffer does not match the film size")?;

@@ -25,3 +25,4 @@ pub mod surface;
 pub mod texture;
 pub mod tlas;
 pub mod verify;
+pub mod view;

@@ -298,6 +298,22 @@ impl RrArg {
     }
 }
 
+/// `render --view`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ViewArg {
+    Standard,
+    KhronosPbrNeutral,
+}
+
+impl ViewArg {
+    pub fn view(self) -> wavetrace::view::View {
+        match self {
+            ViewArg::Standard => wavetrace::view::View::Standard,
+            ViewArg::KhronosPbrNeutral => wavetrace::view::View::KhronosPbrNeutral,
+        }
+    }
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Scene file; default: scenes/cornell-box.gltf.
@@ -311,6 +327,11 @@ pub struct RenderArgs {
     /// PNG exposure in stops.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
+    /// How a PNG shows the scene-linear image: `standard` clips to [0, 1]; `khronos-pbr-neutral`
+    /// is the Khronos PBR Neutral tone mapper (base colours as they are, highlights compressed
+    /// towards white). The EXR is never transformed.
+    #[arg(long, value_enum, default_value_t = ViewArg::Standard)]
+    pub view: ViewArg,
     /// Print per-kernel GPU time.
     #[arg(long)]
     pub stats: bool,

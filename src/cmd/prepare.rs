@@ -261,6 +261,30 @@ pub(crate) fn prepare_at(
     Ok((scene, prepared, settings))
 }
 
+/// Refuses, before anything renders, an output the render could not write: an extension other
+/// than `.exr` or `.png` (in any case), or a folder that does not exist.
+pub(crate) fn check_output(output: &Path) -> Result<()> {
+    let ext = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("exr") | Some("png")) {
+        bail!("{}: the output must end in .exr or .png", output.display());
+    }
+    let folder = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        bail!(
+            "{}: the folder {} does not exist (create it, or write elsewhere)",
+            output.display(),
+            folder.display()
+        );
+    }
+    Ok(())
+}
+
 /// `--device auto`: a GPU (discrete, integrated or virtual) when the Vulkan loader reports a
 /// usable one or `--gpu-index` names a device, else the CPU reference, which `wavetrace bench`
 /// measures faster than a CPU Vulkan driver (lavapipe) on most of the committed scenes (the

@@ -3,7 +3,7 @@
 //! layers (`--aov NAME=EXPR`) beside the image.
 
 use super::options::{DeviceKind, GpuIndex, RenderArgs};
-use super::prepare::{prepare, resolve_device, scenes_dir};
+use super::prepare::{check_output, prepare, resolve_device, scenes_dir};
 use super::report::{print_stats, progress_bar};
 use super::shards::{finish, plan, record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Result};
@@ -91,10 +91,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     };
     let stop = stop_flag(progressive.is_some());
     let mut end = todo.end;
-    match output.extension().and_then(|e| e.to_str()) {
-        Some("exr") | Some("png") => {}
-        _ => bail!("{}: the output must end in .exr or .png", output.display()),
-    }
+    check_output(&output)?;
     let b = &prepared.bvh.stats;
     println!(
         "{}: {} triangles stored, {} placements, {} emitting{}, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms{}",
@@ -222,11 +219,12 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         None => render_path_layers(args, &prepared, &settings, device, &path_layers, end)?,
         Some(_) => Vec::new(),
     };
-    wavetrace::image_io::write_image_layers(
+    wavetrace::image_io::write_image_viewed(
         &film,
         &layers,
         &output,
         args.exposure,
+        args.view.view(),
         &record.attributes(),
     )?;
     println!("wrote {}", output.display());

@@ -6,7 +6,7 @@
 //! rendered alone, bit for bit, on whichever shard renders it.
 
 use super::options::RenderArgs;
-use super::prepare::{open, prepare_at, resolve_device, scenes_dir};
+use super::prepare::{check_output, open, prepare_at, resolve_device, scenes_dir};
 use super::report::progress_bar;
 use super::shards::{record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Context as _, Result};
@@ -66,10 +66,7 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
                 .unwrap_or("render")
         ))
     });
-    match pattern.extension().and_then(|e| e.to_str()) {
-        Some("exr") | Some("png") => {}
-        _ => bail!("{}: the output must end in .exr or .png", pattern.display()),
-    }
+    check_output(&pattern)?;
     let frames = shard_frames(first, last, args.shard);
     let cold = Instant::now();
     let opened = open(path, &args.opts)?;
@@ -147,11 +144,12 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
                 .and_then(|n| n.to_str())
                 .unwrap_or("frame.png")
         ));
-        wavetrace::image_io::write_image_layers(
+        wavetrace::image_io::write_image_viewed(
             &out.film,
             &[],
             &partial,
             args.exposure,
+            args.view.view(),
             &record.attributes(),
         )?;
         std::fs::rename(&partial, &output)

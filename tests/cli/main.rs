@@ -7,5 +7,6 @@
 mod common;
 
 mod cli;
+mod output;
 mod sequence;
 mod verify;
