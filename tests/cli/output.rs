@@ -33,6 +33,30 @@ fn pbr_neutral(c: [f64; 3]) -> [f64; 3] {
     c.map(|v| (v - f) * pn / p * g + pn * (1.0 - g))
 }
 
+/// `wavetrace::view::pbr_neutral` against the specification on every triple of values around
+/// the offset's knee (0.08), the compression's (0.76) and far above.
+#[test]
+fn pbr_neutral_follows_its_specification() {
+    let values = [
+        0.0f32, 0.01, 0.05, 0.079, 0.08, 0.1, 0.3, 0.5, 0.76, 0.8, 1.0, 2.0, 5.0, 50.0, 1000.0,
+    ];
+    for &r in &values {
+        for &g in &values {
+            for &b in &values {
+                let got = wavetrace::view::pbr_neutral([r, g, b]);
+                let want = pbr_neutral([r, g, b].map(f64::from));
+                for i in 0..3 {
+                    assert!(
+                        (got[i] as f64 - want[i]).abs() < 2e-6,
+                        "{:?}: {got:?} vs {want:?}",
+                        [r, g, b]
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// Renders the Cornell box small to an EXR and to PNGs of each view (`-o` in upper case for
 /// one), and checks every PNG pixel against the view's formula applied to the EXR's mean, to
 /// one code value (the EXR holds f32 means, the PNG was made from the same film).
@@ -90,39 +114,31 @@ fn png_views_follow_their_formulas() {
     }
 }
 
+/// Renders the Cornell box to `output`, which must be refused: returns stdout and stderr.
+fn refused(output: &str) -> (String, String) {
+    let o = wavetrace(&[
+        "render",
+        "scenes/cornell-box.gltf",
+        "--device",
+        "cpu",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "-o",
+        output,
+    ]);
+    assert!(!o.status.success(), "-o {output} was accepted");
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (text(&o.stdout), text(&o.stderr))
+}
+
 #[test]
 fn an_output_that_cannot_be_written_is_refused_before_rendering() {
     let missing = common::temp("cli", "no-such-folder/out.png");
-    let o = wavetrace(&[
-        "render",
-        "scenes/cornell-box.gltf",
-        "--device",
-        "cpu",
-        "--spp",
-        "1",
-        "--width",
-        "8",
-        "-o",
-        missing.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success());
+    let (out, err) = refused(missing.to_str().unwrap());
     assert!(err.contains("does not exist"), "{err}");
-    assert!(
-        !String::from_utf8_lossy(&o.stdout).contains("rendering"),
-        "it rendered before refusing"
-    );
-    let o = wavetrace(&[
-        "render",
-        "scenes/cornell-box.gltf",
-        "--device",
-        "cpu",
-        "--spp",
-        "1",
-        "--width",
-        "8",
-        "-o",
-        "out.tiff",
-    ]);
-    assert!(String::from_utf8_lossy(&o.stderr).contains("must end in .exr or .png"));
+    assert!(!out.contains("rendering"), "it rendered before refusing");
+    let (_, err) = refused("out.tiff");
+    assert!(err.contains("must end in .exr or .png"), "{err}");
 }
