@@ -1,14 +1,18 @@
 //! Writing a film to disk and reading EXR images back.
 //!
-//! - `.exr`: one unnamed layer, f32 channels `R`, `G`, `B` (linear mean radiance),
-//!   `variance.R`, `variance.G`, `variance.B` (variance of the pixel mean), u32 `count`
-//!   (finite samples) and the film's own f32 accumulators `sum.R/G/B` and `sum_sq.R/G/B` (so
-//!   that shards merge exactly, `shard.rs`), ZIP compressed (lossless); text attributes carry
-//!   the render's settings (`shard::Record`). Written to a temporary file in the same folder
-//!   and renamed, so that an interrupted write never leaves a truncated image.
-//! - `.png`: 8-bit sRGB, linear mean × 2^exposure through a view transform (`view.rs`; the
-//!   standard one clamps to [0, 1]), then the sRGB transfer function of IEC 61966-2-1, rounded
-//!   to nearest.
+//! - `.exr`: one unnamed layer: `R`, `G`, `B` (linear mean radiance; `A` with
+//!   `--transparent`), `variance.R/G/B` (variance of the pixel mean), u32 `count` (finite
+//!   samples) and the film's own accumulators `sum.R/G/B` and `sum_sq.R/G/B` (so that shards
+//!   merge exactly, `shard.rs`); AOV layers beside them (`NAME.R`, `NAME.X`, `depth.Z`,
+//!   `NAME.id`, …, [`LayerKind`]). The statistics and the depth and position layers are always
+//!   f32; the beauty and the colour, normal and uv layers are f32 or f16
+//!   (`--exr-precision`). Compressed with ZIP unless `--exr-compression` says otherwise. Text
+//!   attributes carry the render's settings (`shard::Record`). Written to a temporary file in the
+//!   same folder and renamed, so that an interrupted write never leaves a truncated image.
+//! - `.png` (8 or 16 bits), `.jpg`/`.jpeg`: linear mean × 2^exposure through a view transform
+//!   (`view.rs`), then the sRGB transfer function of IEC 61966-2-1, rounded to nearest; with
+//!   alpha (straight, not premultiplied) where the render is transparent (PNG only).
+//! - `.hdr`: Radiance RGBE of the linear mean × 2^exposure, no view transform.
 //!
 //! Rows run top to bottom; pixel (0, 0) is the top-left corner, as in the film.
 
@@ -20,12 +24,78 @@ use exr::prelude::*;
 use std::path::Path;
 
 /// Extensions `write_image` understands (lower case).
-pub const SUPPORTED_EXTENSIONS: &[&str] = &["exr", "png"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &["exr", "png", "jpg", "jpeg", "hdr"];
+
+/// The sample precision of the EXR's image channels (`--exr-precision`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExrPrecision {
+    Half,
+    #[default]
+    Float,
+}
+
+/// How an output is encoded: the display transform of PNG and JPEG, their depth and quality,
+/// the EXR's precision and compression.
+#[derive(Clone, Copy, Debug)]
+pub struct WriteOptions {
+    /// Stops applied before the view transform (PNG, JPEG, HDR; not EXR).
+    pub exposure: f32,
+    pub view: View,
+    /// 8 or 16 bits per PNG channel.
+    pub png_bits: u8,
+    /// JPEG quality, 1–100.
+    pub jpeg_quality: u8,
+    pub exr_precision: ExrPrecision,
+    pub exr_compression: exr::compression::Compression,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        WriteOptions {
+            exposure: 0.0,
+            view: View::default(),
+            png_bits: 8,
+            jpeg_quality: 90,
+            exr_precision: ExrPrecision::Float,
+            exr_compression: exr::compression::Compression::ZIP16,
+        }
+    }
+}
+
+/// What an AOV layer holds, which names its EXR channels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayerKind {
+    /// Radiance of the paths an expression matches (`--aov NAME=EXPR`): `NAME.R/G/B` and
+    /// `NAME.variance.R/G/B`.
+    Paths,
+    /// A colour (albedo, emission): `NAME.R/G/B`.
+    Color,
+    /// A direction in [−1, 1] (normal): `NAME.X/Y/Z`.
+    Direction,
+    /// A point in scene units (position): `NAME.X/Y/Z`, always f32.
+    Point,
+    /// A distance in scene units: `NAME.Z`, always f32.
+    Depth,
+    /// Texture coordinates: `NAME.U/V`.
+    Uv,
+    /// An identifier, exact: u32 `NAME.id`.
+    Id,
+    /// Coverage: the beauty's `A` channel.
+    Alpha,
+}
+
+/// An image of the same size as the beauty, written beside it.
+#[derive(Clone, Debug)]
+pub struct Layer {
+    pub name: String,
+    pub kind: LayerKind,
+    pub film: Film,
+}
 
 /// Writes by extension (case-insensitive): `.exr` → linear RGB mean in channels R, G, B plus
 /// "variance.R", "variance.G", "variance.B" (variance of the pixel mean, f32) and "count" (u32);
-/// `.png` → 8-bit sRGB of the mean × 2^exposure (`exposure` is ignored for EXR).
-/// Other extensions are an error naming the path and the supported ones.
+/// `.png` → 8-bit sRGB of the mean × 2^exposure through the default view transform (`exposure`
+/// is ignored for EXR). Other extensions are an error naming the path and the supported ones.
 pub fn write_image(film: &Film, path: &Path, exposure: f32) -> anyhow::Result<()> {
     write_image_with(film, path, exposure, &[])
 }
@@ -50,7 +120,89 @@ pub fn write_image_layers(
     exposure: f32,
     attributes: &[(String, String)],
 ) -> anyhow::Result<()> {
-    write_image_viewed(film, layers, path, exposure, View::Standard, attributes)
+    let layers: Vec<Layer> = layers
+        .iter()
+        .map(|(name, film)| Layer {
+            name: name.clone(),
+            kind: LayerKind::Paths,
+            film: film.clone(),
+        })
+        .collect();
+    let options = WriteOptions {
+        exposure,
+        ..Default::default()
+    };
+    write_output(film, &layers, path, &options, attributes)
+}
+
+/// The lower-case extension of `path`, if it has one.
+pub fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+}
+
+/// Writes `film` and its `layers` to `path` by its extension (case-insensitive) as `options`
+/// say; the EXR's header carries `attributes`. Beside a display image (PNG, JPEG) each layer is
+/// a file STEM.NAME.EXT of its own (a colour through the view transform, a normal as n/2 + 1/2,
+/// uv as (u, v, 0)); depth, position and ID layers need an EXR. An `alpha` layer is the image's
+/// alpha (EXR `A`, PNG alpha), not a file.
+pub fn write_output(
+    film: &Film,
+    layers: &[Layer],
+    path: &Path,
+    options: &WriteOptions,
+    attributes: &[(String, String)],
+) -> anyhow::Result<()> {
+    let ext = extension(path);
+    let alpha = layers.iter().find(|l| l.kind == LayerKind::Alpha);
+    let display = matches!(ext.as_deref(), Some("png" | "jpg" | "jpeg"));
+    if display || ext.as_deref() == Some("hdr") {
+        for layer in layers.iter().filter(|l| l.kind != LayerKind::Alpha) {
+            if !display
+                || matches!(
+                    layer.kind,
+                    LayerKind::Point | LayerKind::Depth | LayerKind::Id
+                )
+            {
+                bail!(
+                    "cannot write layer {} beside {}: write an .exr to keep it",
+                    layer.name,
+                    path.display()
+                );
+            }
+            let sibling = path.with_extension(format!(
+                "{}.{}",
+                layer.name,
+                ext.as_deref().unwrap_or("png")
+            ));
+            let (layer_options, encode) = match layer.kind {
+                LayerKind::Paths | LayerKind::Color => (*options, Encode::View),
+                _ => (*options, Encode::Data(layer.kind)),
+            };
+            write_display(&layer.film, None, &sibling, &layer_options, encode)
+                .with_context(|| format!("writing image {}", sibling.display()))?;
+        }
+    }
+    match ext.as_deref() {
+        Some("exr") => write_exr(film, layers, path, options, attributes)
+            .with_context(|| format!("writing OpenEXR image {}", path.display())),
+        Some("png" | "jpg" | "jpeg") => {
+            write_display(film, alpha.map(|a| &a.film), path, options, Encode::View)
+                .with_context(|| format!("writing image {}", path.display()))
+        }
+        Some("hdr") => write_hdr(film, path, options.exposure)
+            .with_context(|| format!("writing Radiance HDR image {}", path.display())),
+        _ => bail!(
+            "cannot write image {}: unknown extension; supported: {}",
+            path.display(),
+            SUPPORTED_EXTENSIONS
+                .iter()
+                .map(|e| format!(".{e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
 }
 
 /// [`write_image_layers`] with a view transform for the PNGs (`render --view`; the EXR stays
@@ -63,32 +215,20 @@ pub fn write_image_viewed(
     view: View,
     attributes: &[(String, String)],
 ) -> anyhow::Result<()> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
-    if ext.as_deref() == Some("png") {
-        for (name, layer) in layers {
-            let sibling = path.with_extension(format!("{name}.png"));
-            write_png(layer, &sibling, exposure, view)
-                .with_context(|| format!("writing PNG image {}", sibling.display()))?;
-        }
-    }
-    match ext.as_deref() {
-        Some("exr") => write_exr(film, layers, path, attributes)
-            .with_context(|| format!("writing OpenEXR image {}", path.display())),
-        Some("png") => write_png(film, path, exposure, view)
-            .with_context(|| format!("writing PNG image {}", path.display())),
-        _ => bail!(
-            "cannot write image {}: unknown extension; supported: {}",
-            path.display(),
-            SUPPORTED_EXTENSIONS
-                .iter()
-                .map(|e| format!(".{e}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
-    }
+    let layers: Vec<Layer> = layers
+        .iter()
+        .map(|(name, film)| Layer {
+            name: name.clone(),
+            kind: LayerKind::Paths,
+            film: film.clone(),
+        })
+        .collect();
+    let options = WriteOptions {
+        exposure,
+        view,
+        ..Default::default()
+    };
+    write_output(film, &layers, path, &options, attributes)
 }
 
 /// An image read back from an EXR file, row-major with the top row first.
@@ -196,62 +336,107 @@ fn read_film_exact_inner(path: &Path) -> anyhow::Result<(Film, Vec<(String, Stri
     Ok((Film::from_pixels(width, height, pixels, 0), attributes))
 }
 
-/// The mean and variance-of-the-mean channels of `film`, named `{prefix}R`, …,
-/// `{prefix}variance.R`, ….
-fn mean_variance_channels(film: &Film, prefix: &str) -> Vec<AnyChannel<FlatSamples>> {
-    let n = film.len();
-    let mut mean = [
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    ];
-    let mut var = [
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    ];
-    for p in 0..n {
-        let (m, v) = (film.mean(p), film.variance_of_mean(p));
-        for c in 0..3 {
-            mean[c].push(m[c]);
-            var[c].push(v[c]);
+/// The channels of `film`'s mean, named `{prefix}{names[c]}`, as f32 or f16.
+fn mean_channels(
+    film: &Film,
+    prefix: &str,
+    names: &[&str],
+    precision: ExrPrecision,
+) -> Vec<AnyChannel<FlatSamples>> {
+    names
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let plane = (0..film.len()).map(|p| film.mean(p)[c]);
+            let samples = match precision {
+                ExrPrecision::Float => FlatSamples::F32(plane.collect()),
+                ExrPrecision::Half => FlatSamples::F16(plane.map(f16::from_f32).collect()),
+            };
+            AnyChannel::new(format!("{prefix}{name}").as_str(), samples)
+        })
+        .collect()
+}
+
+/// The variance-of-the-mean channels of `film`, named `{prefix}variance.R`, … (f32).
+fn variance_channels(film: &Film, prefix: &str) -> Vec<AnyChannel<FlatSamples>> {
+    (0..3)
+        .map(|c| {
+            let plane = (0..film.len())
+                .map(|p| film.variance_of_mean(p)[c])
+                .collect();
+            AnyChannel::new(
+                format!("{prefix}variance.{}", ["R", "G", "B"][c]).as_str(),
+                FlatSamples::F32(plane),
+            )
+        })
+        .collect()
+}
+
+/// The EXR channels of an AOV layer ([`LayerKind`] names them).
+fn layer_channels(layer: &Layer, precision: ExrPrecision) -> Vec<AnyChannel<FlatSamples>> {
+    let prefix = format!("{}.", layer.name);
+    let film = &layer.film;
+    match layer.kind {
+        LayerKind::Paths => {
+            let mut list = mean_channels(film, &prefix, &["R", "G", "B"], precision);
+            list.extend(variance_channels(film, &prefix));
+            list
         }
+        LayerKind::Color => mean_channels(film, &prefix, &["R", "G", "B"], precision),
+        LayerKind::Direction => mean_channels(film, &prefix, &["X", "Y", "Z"], precision),
+        LayerKind::Point => mean_channels(film, &prefix, &["X", "Y", "Z"], ExrPrecision::Float),
+        LayerKind::Depth => mean_channels(film, &prefix, &["Z"], ExrPrecision::Float),
+        LayerKind::Uv => mean_channels(film, &prefix, &["U", "V"], precision),
+        LayerKind::Id => {
+            let ids = (0..film.len())
+                .map(|p| film.mean(p)[0].round() as u32)
+                .collect();
+            vec![AnyChannel::new(
+                format!("{prefix}id").as_str(),
+                FlatSamples::U32(ids),
+            )]
+        }
+        LayerKind::Alpha => mean_channels(film, "", &["A"], precision),
     }
-    let mut out = Vec::with_capacity(6);
-    for (c, (m, v)) in ["R", "G", "B"].iter().zip(mean.into_iter().zip(var)) {
-        out.push(AnyChannel::new(
-            format!("{prefix}{c}").as_str(),
-            FlatSamples::F32(m),
-        ));
-        out.push(AnyChannel::new(
-            format!("{prefix}variance.{c}").as_str(),
-            FlatSamples::F32(v),
-        ));
-    }
-    out
 }
 
 fn write_exr(
     film: &Film,
-    layers: &[(String, Film)],
+    layers: &[Layer],
     path: &Path,
+    options: &WriteOptions,
     attributes: &[(String, String)],
 ) -> anyhow::Result<()> {
     let count: Vec<u32> = film.pixels.iter().map(|p| p.count).collect();
     let plane = |f: fn(&FilmPixel) -> f32| -> Vec<f32> { film.pixels.iter().map(f).collect() };
-    let mut list = mean_variance_channels(film, "");
-    for (name, layer) in layers {
-        list.extend(mean_variance_channels(layer, &format!("{name}.")));
+    let mut list = mean_channels(film, "", &["R", "G", "B"], options.exr_precision);
+    // A lossy compression (DWA) would change the statistics too: they are left out rather
+    // than written wrong, so merge and compare refuse such a file by name.
+    let lossy = matches!(
+        options.exr_compression,
+        exr::compression::Compression::DWAA(_) | exr::compression::Compression::DWAB(_)
+    );
+    if !lossy {
+        list.extend(variance_channels(film, ""));
     }
-    list.extend([
-        AnyChannel::new("count", FlatSamples::U32(count)),
-        AnyChannel::new("sum.R", FlatSamples::F32(plane(|p| p.sum[0]))),
-        AnyChannel::new("sum.G", FlatSamples::F32(plane(|p| p.sum[1]))),
-        AnyChannel::new("sum.B", FlatSamples::F32(plane(|p| p.sum[2]))),
-        AnyChannel::new("sum_sq.R", FlatSamples::F32(plane(|p| p.sum_sq[0]))),
-        AnyChannel::new("sum_sq.G", FlatSamples::F32(plane(|p| p.sum_sq[1]))),
-        AnyChannel::new("sum_sq.B", FlatSamples::F32(plane(|p| p.sum_sq[2]))),
-    ]);
+    for layer in layers {
+        let mut channels = layer_channels(layer, options.exr_precision);
+        if lossy {
+            channels.retain(|c| !c.name.to_string().contains(".variance."));
+        }
+        list.extend(channels);
+    }
+    if !lossy {
+        list.extend([
+            AnyChannel::new("count", FlatSamples::U32(count)),
+            AnyChannel::new("sum.R", FlatSamples::F32(plane(|p| p.sum[0]))),
+            AnyChannel::new("sum.G", FlatSamples::F32(plane(|p| p.sum[1]))),
+            AnyChannel::new("sum.B", FlatSamples::F32(plane(|p| p.sum[2]))),
+            AnyChannel::new("sum_sq.R", FlatSamples::F32(plane(|p| p.sum_sq[0]))),
+            AnyChannel::new("sum_sq.G", FlatSamples::F32(plane(|p| p.sum_sq[1]))),
+            AnyChannel::new("sum_sq.B", FlatSamples::F32(plane(|p| p.sum_sq[2]))),
+        ]);
+    }
     let channels = AnyChannels::sort(SmallVec::from_vec(list));
     let size = (film.width as usize, film.height as usize);
     let mut layer_attributes = LayerAttributes::default();
@@ -269,7 +454,11 @@ fn write_exr(
             .other
             .insert(name, exr::meta::attribute::AttributeValue::Text(value));
     }
-    let layer = Layer::new(size, layer_attributes, Encoding::SMALL_LOSSLESS, channels);
+    let encoding = exr::image::Encoding {
+        compression: options.exr_compression,
+        ..exr::image::Encoding::SMALL_LOSSLESS
+    };
+    let layer = exr::image::Layer::new(size, layer_attributes, encoding, channels);
     // Write beside the target and rename: a reader (or a second signal) never sees half a file.
     let mut temporary = path.as_os_str().to_owned();
     temporary.push(format!(".{}.partial", std::process::id()));
@@ -366,7 +555,7 @@ fn exr_attribute_name<'a>(bytes: &'a [u8], range: &std::ops::Range<usize>) -> &'
 
 /// The samples of channel `name` of a flat layer, if it has one.
 fn find_channel<'a>(
-    layer: &'a Layer<AnyChannels<FlatSamples>>,
+    layer: &'a exr::image::Layer<AnyChannels<FlatSamples>>,
     name: &str,
 ) -> Option<&'a FlatSamples> {
     layer
@@ -419,34 +608,133 @@ fn read_exr_inner(path: &Path, prefix: &str) -> anyhow::Result<ImageData> {
     })
 }
 
-fn write_png(film: &Film, path: &Path, exposure: f32, view: View) -> anyhow::Result<()> {
-    let scale = exposure.exp2();
-    let mut bytes = Vec::with_capacity(film.len() * 3);
+/// How a display image encodes a film: radiance through the view transform, or data as it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Encode {
+    View,
+    Data(LayerKind),
+}
+
+/// A PNG (8 or 16 bits) or a JPEG of `film`: radiance × 2^exposure through the view transform
+/// then sRGB-encoded, or data (normals as n/2 + 1/2, uv as (u, v, 0)) linear; with `alpha`,
+/// an RGBA PNG whose colour is un-premultiplied (PNG's alpha is straight).
+fn write_display(
+    film: &Film,
+    alpha: Option<&Film>,
+    path: &Path,
+    options: &WriteOptions,
+    encode: Encode,
+) -> anyhow::Result<()> {
+    let jpeg = matches!(extension(path).as_deref(), Some("jpg" | "jpeg"));
+    let scale = options.exposure.exp2();
+    let alpha = alpha.filter(|_| !jpeg);
+    let channels = if alpha.is_some() { 4 } else { 3 };
+    let mut values: Vec<f64> = Vec::with_capacity(film.len() * channels);
     for p in 0..film.len() {
-        let m = film.mean(p);
-        let shown = view.apply(m.to_array().map(|c| c * scale));
-        bytes.extend(shown.map(srgb_encode_u8));
+        let m = film.mean(p).to_array();
+        let a = alpha.map(|a| a.mean(p)[0].clamp(0.0, 1.0));
+        let shown = match encode {
+            Encode::View => {
+                // Straight alpha: the colour of the covered part of the pixel.
+                let m = match a {
+                    Some(a) if a > 0.0 => m.map(|c| c / a),
+                    _ => m,
+                };
+                options.view.apply(m.map(|c| c * scale)).map(srgb_encode)
+            }
+            Encode::Data(LayerKind::Direction) => m.map(|c| c as f64 * 0.5 + 0.5),
+            Encode::Data(_) => m.map(f64::from),
+        };
+        values.extend(shown.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) }));
+        values.extend(a.map(f64::from));
     }
-    let image = image::RgbImage::from_raw(film.width, film.height, bytes)
-        .context("pixel buffer does not match the film size")?;
-    image.save_with_format(path, image::ImageFormat::Png)?;
+    let (w, h) = (film.width, film.height);
+    let mismatch = "pixel buffer does not match the film size";
+    if jpeg {
+        let bytes: Vec<u8> = values.iter().map(|&v| (v * 255.0).round() as u8).collect();
+        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut encoder =
+            image::codecs::jpeg::JpegEncoder::new_with_quality(file, options.jpeg_quality);
+        encoder.encode(&bytes, w, h, image::ExtendedColorType::Rgb8)?;
+        return Ok(());
+    }
+    match (options.png_bits, channels) {
+        (16, 3) => {
+            let words = values
+                .iter()
+                .map(|&v| (v * 65535.0).round() as u16)
+                .collect();
+            image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_raw(w, h, words)
+                .context(mismatch)?
+                .save_with_format(path, image::ImageFormat::Png)?
+        }
+        (16, _) => {
+            let words = values
+                .iter()
+                .map(|&v| (v * 65535.0).round() as u16)
+                .collect();
+            image::ImageBuffer::<image::Rgba<u16>, Vec<u16>>::from_raw(w, h, words)
+                .context(mismatch)?
+                .save_with_format(path, image::ImageFormat::Png)?
+        }
+        (_, 3) => {
+            let bytes = values.iter().map(|&v| (v * 255.0).round() as u8).collect();
+            image::RgbImage::from_raw(w, h, bytes)
+                .context(mismatch)?
+                .save_with_format(path, image::ImageFormat::Png)?
+        }
+        _ => {
+            let bytes = values.iter().map(|&v| (v * 255.0).round() as u8).collect();
+            image::RgbaImage::from_raw(w, h, bytes)
+                .context(mismatch)?
+                .save_with_format(path, image::ImageFormat::Png)?
+        }
+    }
     Ok(())
 }
 
-/// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1], as an 8-bit
-/// code rounded to nearest. NaN maps to 0.
-pub fn srgb_encode_u8(linear: f32) -> u8 {
+/// A Radiance RGBE image of the linear mean × 2^exposure (no view transform).
+fn write_hdr(film: &Film, path: &Path, exposure: f32) -> anyhow::Result<()> {
+    let scale = exposure.exp2();
+    let pixels: Vec<image::Rgb<f32>> = (0..film.len())
+        .map(|p| {
+            image::Rgb(film.mean(p).to_array().map(|c| {
+                if c.is_finite() {
+                    (c * scale).max(0.0)
+                } else {
+                    0.0
+                }
+            }))
+        })
+        .collect();
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    image::codecs::hdr::HdrEncoder::new(file).encode(
+        &pixels,
+        film.width as usize,
+        film.height as usize,
+    )?;
+    Ok(())
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1]; NaN maps
+/// to 0.
+pub fn srgb_encode(linear: f32) -> f64 {
     let x = if linear.is_nan() {
         0.0
     } else {
         linear.clamp(0.0, 1.0) as f64
     };
-    let encoded = if x <= 0.0031308 {
+    if x <= 0.0031308 {
         12.92 * x
     } else {
         1.055 * x.powf(1.0 / 2.4) - 0.055
-    };
-    (encoded * 255.0).round() as u8
+    }
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1], as an 8-bit
+/// code rounded to nearest. NaN maps to 0.
+pub fn srgb_encode_u8(linear: f32) -> u8 {
+    (srgb_encode(linear) * 255.0).round() as u8
 }
 
 #[cfg(test)]
@@ -527,6 +815,15 @@ mod tests {
         assert!(names.windows(2).all(|w| w[0] < w[1]), "{names:?}");
     }
 
+    fn write_standard(film: &Film, path: &Path, exposure: f32) {
+        let options = WriteOptions {
+            exposure,
+            view: View::Standard,
+            ..Default::default()
+        };
+        write_output(film, &[], path, &options, &[]).unwrap();
+    }
+
     #[test]
     fn png_has_srgb_codes_of_known_values() {
         let below = 0.0031308_f32 * 0.999;
@@ -539,7 +836,7 @@ mod tests {
             film.add_sample(x + values.len(), Vec3::splat(0.25));
         }
         let path = temp_path("known.png");
-        write_image(&film, &path, 0.0).unwrap();
+        write_standard(&film, &path, 0.0);
         let decoded = image::open(&path).unwrap().to_rgb8();
         assert_eq!(decoded.dimensions(), (values.len() as u32, 2));
         for (x, &e) in expected.iter().enumerate() {
@@ -552,7 +849,7 @@ mod tests {
         }
         // 0.25 linear is sRGB 137.
         assert_eq!(decoded.get_pixel(0, 1).0, [137; 3]);
-        write_image(&film, &path, 1.0).unwrap();
+        write_standard(&film, &path, 1.0);
         let brighter = image::open(&path).unwrap().to_rgb8();
         assert_eq!(brighter.get_pixel(0, 1).0, [188; 3]);
     }

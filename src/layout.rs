@@ -594,12 +594,22 @@ pub const LIGHT_SAMPLER_BVH: u32 = 1;
 pub const AOV_RADIANCE: u32 = 0;
 /// The first hit's base colour (factor × texture × vertex colour, linear), black on a miss.
 pub const AOV_BASE_COLOR: u32 = 1;
-/// The first hit's shading normal (normal map applied), n/2 + 1/2.
+/// The first hit's shading normal (normal map applied), world space, raw in [-1, 1].
 pub const AOV_NORMAL: u32 = 2;
 /// The first hit's TEXCOORD_0 (u, v, 0).
 pub const AOV_UV: u32 = 3;
 /// The first hit's emitted radiance (emissive factor × texture), whatever the side.
 pub const AOV_EMISSION: u32 = 4;
+/// The first hit's distance along the camera ray, in scene units (0 on a miss).
+pub const AOV_DEPTH: u32 = 5;
+/// The first hit's world-space position (0 on a miss).
+pub const AOV_POSITION: u32 = 6;
+/// The first hit's material: its index in the scene's materials + 1 (0 on a miss).
+pub const AOV_MATERIAL: u32 = 7;
+/// The first hit's placement (TLAS instance) + 1 (0 on a miss).
+pub const AOV_INSTANCE: u32 = 8;
+/// Coverage: 1 where the camera ray hits a surface, 0 where it escapes.
+pub const AOV_ALPHA: u32 = 9;
 
 /// `FrameParams::cam_projection`: rays from one point (or a thin lens) through the film.
 pub const CAMERA_PERSPECTIVE: u32 = 0;
@@ -627,6 +637,12 @@ pub const RR_OFF: u32 = 2;
 /// on emitters keep their MIS weights. Biased on purpose: only for the test that proves the
 /// CPU/GPU comparison can fail.
 pub const DEBUG_NO_NEE: u32 = 1;
+/// `FrameParams::debug_flags` bit (`--transparent`): camera rays that escape see nothing (the
+/// environment still lights the scene and shows in reflections), Blender's "film transparent".
+pub const FLAG_TRANSPARENT_BACKGROUND: u32 = 2;
+/// `FrameParams::debug_flags` bit: camera rays through pixel centres and the lens centre, for
+/// the AOV layers that must not be averaged (depth, position, IDs).
+pub const FLAG_PIXEL_CENTRE: u32 = 4;
 
 /// Per-dispatch push constants. Total: 32 bytes.
 ///
@@ -714,7 +730,9 @@ pub struct GpuInstance {
     /// (`PreparedScene::gpu_bvh`), which the GPU walks, or `NO_WIDE_ROOT` where it walks the
     /// binary nodes; the CPU leaves it unset and looks the root up itself.
     pub wide_root: u32,
-    pub pad1: u32, // 4 bytes
+    /// 4 bytes: which placement this is, before the top level reorders them: 0 the baked
+    /// geometry, k + 1 the scene's instance k (`--aov instance` writes it + 1).
+    pub placement: u32,
 }
 
 /// `GpuInstance::flags`: the transform is the identity (the baked world-space geometry).
@@ -1021,7 +1039,7 @@ pub const STRUCT_LAYOUTS: &[StructLayout] = &[
         blas_root,
         flags,
         wide_root,
-        pad1
+        placement
     }),
     struct_layout!(ShadowRay {
         origin,

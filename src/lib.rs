@@ -4,6 +4,7 @@
 pub mod bsdf;
 pub mod bvh;
 pub mod cpu;
+pub mod denoise;
 pub mod film;
 pub mod flip;
 pub mod gpu;

@@ -63,7 +63,7 @@ pub fn gpu_instance(transform: &Mat4, blas_root: u32) -> GpuInstance {
         blas_root,
         flags,
         wide_root: crate::layout::NO_WIDE_ROOT,
-        pad1: 0,
+        placement: 0,
     }
 }
 

@@ -261,6 +261,11 @@ struct FrameParams {
 #define AOV_NORMAL 2u
 #define AOV_UV 3u
 #define AOV_EMISSION 4u
+#define AOV_DEPTH 5u
+#define AOV_POSITION 6u
+#define AOV_MATERIAL 7u
+#define AOV_INSTANCE 8u
+#define AOV_ALPHA 9u
 #define CAMERA_PERSPECTIVE 0u
 #define CAMERA_ORTHOGRAPHIC 1u
 #define SAMPLER_INDEPENDENT 0u
@@ -270,6 +275,8 @@ struct FrameParams {
 #define RR_ALBEDO 1u
 #define RR_OFF 2u
 #define DEBUG_NO_NEE 1u
+#define FLAG_TRANSPARENT_BACKGROUND 2u
+#define FLAG_PIXEL_CENTRE 4u
 
 // Per-dispatch push constants; see src/layout.rs for the batch indexing. Total: 32 bytes.
 struct DispatchParams {
@@ -324,7 +331,7 @@ struct GpuInstance {
     uint blas_root;           // 4 bytes
     uint flags;               // 4 bytes: INSTANCE_*
     uint wide_root;           // 4 bytes: node of the quantised 4-wide root (qbvh.glsl), or NO_WIDE_ROOT
-    uint pad1;                // 4 bytes
+    uint placement;           // 4 bytes: 0 the baked geometry, k + 1 the scene's instance k
 };
 #define INSTANCE_IDENTITY 1u
 #define INSTANCE_MIRRORED 2u

@@ -123,7 +123,7 @@ GpuInstance instance_image_read(uint i, bool forward) {
     inst.blas_root = t.x;
     inst.flags = t.y;
     inst.wide_root = t.z;
-    inst.pad1 = t.w;
+    inst.placement = t.w;
     for (uint r = 0u; r < 3u; ++r) {
         vec4 row = vec4(0.0);
         row[r] = 1.0;

@@ -37,6 +37,11 @@ void kernel_main() {
     vec2 jitter = sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK, u.xy);
     // The lens's pair only where a thin lens reads it (camera_ray); a pinhole ignores it.
     vec2 lens_u = frame.lens_radius > 0.0 ? sample_pair(pixel, sample_index, 4u * CAMERA_BLOCK + 2u, u.zw) : u.zw;
+    // AOV layers that must not be averaged: the pixel's centre, the lens's centre.
+    if ((frame.debug_flags & FLAG_PIXEL_CENTRE) != 0u) {
+        jitter = vec2(0.5);
+        lens_u = vec2(0.5);
+    }
     camera_ray(frame, pixel, jitter, lens_u, ray.origin, ray.dir);
     ray.path = i;
     ray.pad = 0u;

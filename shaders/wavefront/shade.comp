@@ -141,8 +141,10 @@ void kernel_main() {
     // previous vertex (a ray that leaves into a volume and escapes crossed an infinite medium).
     if (hit.triangle == NO_HIT) {
         state.throughput *= transmittance(state.medium, 3.402823466e38);
+        // --transparent: a camera ray that escapes sees nothing (alpha 0 there).
+        bool hidden = depth == 0u && (frame.debug_flags & FLAG_TRANSPARENT_BACKGROUND) != 0u;
         if (frame.aov == AOV_RADIANCE && SCENE_HAS(FEATURE_ENVIRONMENT) && frame.env_width > 0u
-            && path_ends_here(state.pad0, 4u)) {
+            && !hidden && path_ends_here(state.pad0, 4u)) {
             vec3 le = env_radiance(ray.dir);
             float w = 1.0;
             if (state.prev_specular == 0u) {
@@ -174,8 +176,17 @@ void kernel_main() {
     if (frame.aov != AOV_RADIANCE) {
         vec3 value = mat.emission;
         if (frame.aov == AOV_BASE_COLOR) value = mat.base_color;
-        if (frame.aov == AOV_NORMAL) value = ns * 0.5 + 0.5;
+        if (frame.aov == AOV_NORMAL) value = ns;
         if (frame.aov == AOV_UV) value = vec3(sp.uv0, 0.0);
+        // The camera ray starts on the near plane: its distance from the eye (the lens point;
+        // an orthographic camera's film plane) is added back.
+        if (frame.aov == AOV_DEPTH) value = vec3(hit.t + frame.cam_znear / dot(ray.dir, frame.cam_forward));
+        if (frame.aov == AOV_POSITION) value = p;
+        if (frame.aov == AOV_MATERIAL) value = vec3(float(triangle_material(tri) + 1u));
+        // Without a top level the one placement is the baked geometry.
+        if (frame.aov == AOV_INSTANCE)
+            value = vec3(float((SCENE_HAS(FEATURE_TOP_LEVEL) ? instance_at(hit.instance).placement : 0u) + 1u));
+        if (frame.aov == AOV_ALPHA) value = vec3(1.0);
         state.radiance = value;
         path_end(ray.path, state);
         return;

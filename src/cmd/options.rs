@@ -118,32 +118,87 @@ fn parse_paths(s: &str) -> Result<std::sync::Arc<wavetrace::paths::PathExpr>, St
     wavetrace::paths::PathExpr::parse(s).map(std::sync::Arc::new)
 }
 
-/// What a render records.
+/// An AOV layer written beside the image (`--aov`): a property of the surface each camera ray
+/// hits first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum AovArg {
-    /// Radiance: the rendering.
-    Radiance,
-    /// The first hit's base colour (factor × texture × vertex colour, linear RGB); black where
-    /// the camera ray leaves the scene.
-    BaseColor,
-    /// The first hit's shading normal with its normal map, as n/2 + 1/2.
+    /// Base colour (factor × texture × vertex colour, linear RGB), black where the camera ray
+    /// leaves the scene; averaged over the image's samples (a denoiser's albedo).
+    #[value(alias = "base-color")]
+    Albedo,
+    /// World-space shading normal with its normal map, raw in [−1, 1]; averaged over the
+    /// image's samples (a denoiser's normal).
     Normal,
-    /// The first hit's TEXCOORD_0 as (u, v, 0).
+    /// Distance from the eye along the camera ray through the pixel's centre, scene units
+    /// (0 where it escapes).
+    Depth,
+    /// World-space position of the hit through the pixel's centre (0 where it escapes).
+    Position,
+    /// TEXCOORD_0 (u, v) through the pixel's centre.
     Uv,
-    /// The first hit's emitted radiance (emissive factor × texture × strength).
+    /// The material through the pixel's centre: its index in the file + 1 (0 where nothing is
+    /// hit; the default material numbered after the file's last).
+    Material,
+    /// The placement through the pixel's centre (0 where nothing is hit): 1 for the meshes
+    /// baked into world space, k + 2 for the k-th node that places a mesh several nodes share.
+    Instance,
+    /// Emitted radiance (emissive factor × texture × strength), averaged.
     Emission,
+    /// Coverage: the fraction of the pixel's samples whose camera ray hits a surface.
+    Alpha,
 }
 
 impl AovArg {
     pub fn code(self) -> u32 {
         use wavetrace::layout::*;
         match self {
-            AovArg::Radiance => AOV_RADIANCE,
-            AovArg::BaseColor => AOV_BASE_COLOR,
+            AovArg::Albedo => AOV_BASE_COLOR,
             AovArg::Normal => AOV_NORMAL,
+            AovArg::Depth => AOV_DEPTH,
+            AovArg::Position => AOV_POSITION,
             AovArg::Uv => AOV_UV,
+            AovArg::Material => AOV_MATERIAL,
+            AovArg::Instance => AOV_INSTANCE,
             AovArg::Emission => AOV_EMISSION,
+            AovArg::Alpha => AOV_ALPHA,
         }
+    }
+
+    /// The layer's name in the EXR (and its file beside a PNG).
+    pub fn name(self) -> &'static str {
+        match self {
+            AovArg::Albedo => "albedo",
+            AovArg::Normal => "normal",
+            AovArg::Depth => "depth",
+            AovArg::Position => "position",
+            AovArg::Uv => "uv",
+            AovArg::Material => "material",
+            AovArg::Instance => "instance",
+            AovArg::Emission => "emission",
+            AovArg::Alpha => "alpha",
+        }
+    }
+
+    pub fn kind(self) -> wavetrace::image_io::LayerKind {
+        use wavetrace::image_io::LayerKind;
+        match self {
+            AovArg::Albedo | AovArg::Emission => LayerKind::Color,
+            AovArg::Normal => LayerKind::Direction,
+            AovArg::Depth => LayerKind::Depth,
+            AovArg::Position => LayerKind::Point,
+            AovArg::Uv => LayerKind::Uv,
+            AovArg::Material | AovArg::Instance => LayerKind::Id,
+            AovArg::Alpha => LayerKind::Alpha,
+        }
+    }
+
+    /// Whether the layer is one camera ray through each pixel's centre (exact, not averaged)
+    /// rather than the mean over the image's own samples.
+    pub fn through_centre(self) -> bool {
+        matches!(
+            self,
+            AovArg::Depth | AovArg::Position | AovArg::Uv | AovArg::Material | AovArg::Instance
+        )
     }
 }
 
@@ -154,26 +209,35 @@ pub enum TextureLodArg {
     Finest,
 }
 
-/// One `--aov`: the image's quantity, or an extra layer of paths matching an expression.
+/// One `--aov`: AOV layers, or an extra layer of paths matching an expression.
 #[derive(Clone, Debug)]
 pub enum AovSpec {
-    Property(AovArg),
+    Properties(Vec<AovArg>),
     Paths {
         name: String,
         expr: std::sync::Arc<wavetrace::paths::PathExpr>,
     },
 }
 
-/// Channel names of the image's own layer, which a path layer may not take.
-const RESERVED_LAYER_NAMES: &[&str] = &["R", "G", "B", "variance", "count", "sum", "sum_sq"];
+/// Channel and layer names of the image's own, which a path layer may not take.
+const RESERVED_LAYER_NAMES: &[&str] = &[
+    "R", "G", "B", "A", "variance", "count", "sum", "sum_sq", "albedo", "normal", "depth",
+    "position", "uv", "material", "instance", "emission", "alpha", "noisy",
+];
 
 fn parse_aov(s: &str) -> Result<AovSpec, String> {
     let Some((name, expr)) = s.split_once('=') else {
-        return AovArg::from_str(s, true).map(AovSpec::Property).map_err(|_| {
-            format!(
-                "'{s}' is neither a property (radiance, base-color, normal, uv, emission) nor NAME=EXPR"
-            )
-        });
+        return s
+            .split(',')
+            .map(|p| {
+                AovArg::from_str(p.trim(), true).map_err(|_| {
+                    format!(
+                        "'{p}' is neither a property (albedo, normal, depth, position, uv, material, instance, emission, alpha) nor NAME=EXPR"
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(AovSpec::Properties);
     };
     if name.is_empty()
         || !name
@@ -186,7 +250,7 @@ fn parse_aov(s: &str) -> Result<AovSpec, String> {
     }
     if RESERVED_LAYER_NAMES.contains(&name) {
         return Err(format!(
-            "'{name}' names a channel of the image itself; choose another layer name"
+            "'{name}' names a channel or layer of the image itself; choose another layer name"
         ));
     }
     let expr = parse_paths(expr)?;
@@ -215,18 +279,19 @@ impl RenderOptions {
         Moment { animations, time }
     }
 
-    /// The image's quantity: radiance unless one `--aov PROPERTY` says otherwise.
-    pub fn aov_property(&self) -> anyhow::Result<AovArg> {
-        let mut found = None;
+    /// The `--aov PROPERTY,…` layers, in the order first asked for, each once.
+    pub fn aov_layers(&self) -> Vec<AovArg> {
+        let mut out: Vec<AovArg> = Vec::new();
         for a in &self.aov {
-            if let AovSpec::Property(p) = a {
-                if found.is_some_and(|f| f != *p) {
-                    anyhow::bail!("--aov: the image records one property; give one of them");
+            if let AovSpec::Properties(list) = a {
+                for p in list {
+                    if !out.contains(p) {
+                        out.push(*p);
+                    }
                 }
-                found = Some(*p);
             }
         }
-        Ok(found.unwrap_or(AovArg::Radiance))
+        out
     }
 
     /// The `--aov NAME=EXPR` layers, in order; names are unique.
@@ -303,14 +368,171 @@ impl RrArg {
 pub enum ViewArg {
     Standard,
     KhronosPbrNeutral,
+    Agx,
+    Filmic,
 }
 
-impl ViewArg {
-    pub fn view(self) -> wavetrace::view::View {
+/// `render --look`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LookArg {
+    None,
+    Punchy,
+    Golden,
+}
+
+/// `render --exr-precision`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ExrPrecisionArg {
+    Half,
+    Float,
+}
+
+/// `render --exr-compression`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ExrCompressionArg {
+    Zip,
+    Piz,
+    Dwaa,
+    Rle,
+    None,
+}
+
+/// `render --format` (with `-o -`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    Png,
+    Jpeg,
+    Exr,
+    Hdr,
+}
+
+impl FormatArg {
+    pub fn extension(self) -> &'static str {
         match self {
-            ViewArg::Standard => wavetrace::view::View::Standard,
-            ViewArg::KhronosPbrNeutral => wavetrace::view::View::KhronosPbrNeutral,
+            FormatArg::Png => "png",
+            FormatArg::Jpeg => "jpg",
+            FormatArg::Exr => "exr",
+            FormatArg::Hdr => "hdr",
         }
+    }
+}
+
+fn parse_progress_interval(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "'{s}': the interval is a positive number of seconds"
+        )),
+    }
+}
+
+fn parse_bit_depth(s: &str) -> Result<u8, String> {
+    match s {
+        "8" => Ok(8),
+        "16" => Ok(16),
+        _ => Err(format!("'{s}': a PNG has 8 or 16 bits per channel")),
+    }
+}
+
+/// How `render` writes its image (`docs/usage.md`, "Output").
+#[derive(Args, Debug, Clone)]
+pub struct OutputArgs {
+    /// Exposure in stops, applied before the view transform (PNG, JPEG, HDR; never EXR).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// How a PNG or JPEG shows the scene-linear image: khronos-pbr-neutral (the default: base
+    /// colours as they are, highlights compressed towards white), agx (Blender 4's default
+    /// view), filmic (Hable's curve), standard (clipped to [0, 1]). EXR and HDR stay linear.
+    #[arg(long, value_enum, default_value_t = ViewArg::KhronosPbrNeutral)]
+    pub view: ViewArg,
+    /// A look of the view transform: punchy or golden (AgX's).
+    #[arg(long, value_enum)]
+    pub look: Option<LookArg>,
+    /// Bits per PNG channel: 8 or 16.
+    #[arg(long, value_name = "8|16", default_value_t = 8, value_parser = parse_bit_depth)]
+    pub bit_depth: u8,
+    /// JPEG quality, 1 to 100.
+    #[arg(long, default_value_t = 90, value_parser = clap::value_parser!(u8).range(1..=100))]
+    pub quality: u8,
+    /// EXR sample type of the image and its colour, normal and uv layers: float (the default:
+    /// the EXR also carries each pixel's statistics, which merge and compare read) or half.
+    /// Statistics, depth and position stay float.
+    #[arg(long, value_enum, default_value_t = ExrPrecisionArg::Float)]
+    pub exr_precision: ExrPrecisionArg,
+    /// EXR compression: zip (the default), piz, rle and none are lossless; dwaa is lossy and
+    /// leaves out the statistics that merge and compare read.
+    #[arg(long, value_enum, default_value_t = ExrCompressionArg::Zip)]
+    pub exr_compression: ExrCompressionArg,
+    /// Camera rays that escape see nothing: the background is alpha 0 in PNG and EXR (film
+    /// transparent, as Blender calls it); the environment still lights the scene.
+    #[arg(long)]
+    pub transparent: bool,
+    /// The format of `-o -` (standard output).
+    #[arg(long, value_enum)]
+    pub format: Option<FormatArg>,
+    /// Denoise the image with Intel Open Image Denoise (albedo and normal as its guides); the
+    /// noisy image stays in the EXR as layer `noisy`. Install the library with
+    /// `bash tools/install_oidn.sh`.
+    #[arg(long)]
+    pub denoise: bool,
+}
+
+impl RenderArgs {
+    /// How the render reports its progress.
+    pub(crate) fn progress_mode(&self) -> super::report::ProgressMode {
+        super::report::ProgressMode {
+            quiet: self.quiet,
+            interval: self.progress_interval,
+        }
+    }
+}
+
+impl OutputArgs {
+    /// The view transform with its look.
+    pub fn view(&self) -> Result<wavetrace::view::View> {
+        use wavetrace::view::{Look, View};
+        let look = match self.look {
+            None | Some(LookArg::None) => Look::None,
+            Some(LookArg::Punchy) => Look::Punchy,
+            Some(LookArg::Golden) => Look::Golden,
+        };
+        Ok(match (self.view, look) {
+            (ViewArg::Agx, look) => View::Agx(look),
+            (view, Look::None) => match view {
+                ViewArg::Standard => View::Standard,
+                ViewArg::KhronosPbrNeutral => View::KhronosPbrNeutral,
+                ViewArg::Filmic => View::Filmic,
+                ViewArg::Agx => unreachable!(),
+            },
+            (view, _) => anyhow::bail!(
+                "--look: the {} view has no looks; punchy and golden are AgX's (--view agx)",
+                view.to_possible_value()
+                    .map(|v| v.get_name().to_owned())
+                    .unwrap_or_default()
+            ),
+        })
+    }
+
+    /// How the image is encoded.
+    pub fn write_options(&self) -> Result<wavetrace::image_io::WriteOptions> {
+        use exr::compression::Compression;
+        Ok(wavetrace::image_io::WriteOptions {
+            exposure: self.exposure,
+            view: self.view()?,
+            png_bits: self.bit_depth,
+            jpeg_quality: self.quality,
+            exr_precision: match self.exr_precision {
+                ExrPrecisionArg::Half => wavetrace::image_io::ExrPrecision::Half,
+                ExrPrecisionArg::Float => wavetrace::image_io::ExrPrecision::Float,
+            },
+            exr_compression: match self.exr_compression {
+                ExrCompressionArg::Zip => Compression::ZIP16,
+                ExrCompressionArg::Piz => Compression::PIZ,
+                ExrCompressionArg::Dwaa => Compression::DWAA(None),
+                ExrCompressionArg::Rle => Compression::RLE,
+                ExrCompressionArg::None => Compression::Uncompressed,
+            },
+        })
     }
 }
 
@@ -324,14 +546,15 @@ pub struct RenderArgs {
     /// Output image: .exr (linear, with variance) or .png (tonemapped sRGB); default: SCENE.png.
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
-    /// PNG exposure in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub exposure: f32,
-    /// How a PNG shows the scene-linear image: `standard` clips to [0, 1]; `khronos-pbr-neutral`
-    /// is the Khronos PBR Neutral tone mapper (base colours as they are, highlights compressed
-    /// towards white). The EXR is never transformed.
-    #[arg(long, value_enum, default_value_t = ViewArg::Standard)]
-    pub view: ViewArg,
+    #[command(flatten)]
+    pub out: OutputArgs,
+    /// Where standard error is not a terminal (a CI log, a batch job's file), a progress line
+    /// every SECONDS instead of one per 10 % of the samples.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_progress_interval)]
+    pub progress_interval: Option<f64>,
+    /// No progress bar or progress lines.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
     /// Print per-kernel GPU time.
     #[arg(long)]
     pub stats: bool,
@@ -555,11 +778,13 @@ pub struct RenderOptions {
     /// emitter's importance to the shading point, or by emitted power alone.
     #[arg(long, value_enum, default_value_t = LightSamplerArg::Bvh)]
     pub light_sampler: LightSamplerArg,
-    /// What the image records: radiance (the default), or a property of the surface each
-    /// camera ray hits first (base-color, normal, uv, emission; averaged over the pixel's
-    /// samples) for checking textures, normal maps and texture coordinates. Or, repeatable,
-    /// NAME=EXPR: an extra EXR layer NAME (channels NAME.R, …, NAME.variance.R, …; a PNG
-    /// output gets OUTPUT.NAME.png beside it) holding the radiance of only the paths that match
+    /// AOV layers beside the image, comma-separated and repeatable: properties of the surface
+    /// each camera ray hits first — albedo, normal (world space, raw), emission and alpha
+    /// averaged over the image's samples; depth, position, uv, material and instance through
+    /// each pixel's centre, exact — as EXR layers (albedo.R, normal.X, depth.Z, uv.U,
+    /// material.id, …; beside a PNG, colours and normals as files OUTPUT.NAME.png). Or
+    /// NAME=EXPR: an extra EXR layer NAME (channels NAME.R, …, NAME.variance.R, …; a PNG output
+    /// gets OUTPUT.NAME.png beside it) holding the radiance of only the paths that match
     /// the path expression EXPR (see --paths), from the same paths as the image.
     #[arg(long, value_name = "PROPERTY|NAME=EXPR", value_parser = parse_aov)]
     pub aov: Vec<AovSpec>,

@@ -233,7 +233,7 @@ pub(crate) fn prepare_at(
         rr_mode: opts.rr.code(),
         rr_start_depth: opts.rr_depth,
         debug_flags: opts.debug_flags,
-        aov: opts.aov_property()?.code(),
+        aov: wavetrace::layout::AOV_RADIANCE,
         aperture: opts.aperture,
         focus_distance: opts.focus_distance,
         integrator: opts.integrator.integrator(),
@@ -268,8 +268,14 @@ pub(crate) fn check_output(output: &Path) -> Result<()> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("exr") | Some("png")) {
-        bail!("{}: the output must end in .exr or .png", output.display());
+    if !ext
+        .as_deref()
+        .is_some_and(|e| wavetrace::image_io::SUPPORTED_EXTENSIONS.contains(&e))
+    {
+        bail!(
+            "{}: the output must end in .exr, .png, .jpg, .jpeg or .hdr (or be - with --format)",
+            output.display()
+        );
     }
     let folder = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,

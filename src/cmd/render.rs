@@ -2,20 +2,48 @@
 //! several), in one go, in passes (`--target-error`, `--time-limit`) or as a shard, with path
 //! layers (`--aov NAME=EXPR`) beside the image.
 
-use super::options::{DeviceKind, GpuIndex, RenderArgs};
+use super::options::{AovArg, DeviceKind, GpuIndex, RenderArgs};
 use super::prepare::{check_output, prepare, resolve_device, scenes_dir};
-use super::report::{print_stats, progress_bar};
+use super::report::{print_stats, Progress};
 use super::shards::{finish, plan, record, stop_flag, INTERRUPTED_EXIT};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use wavetrace::cpu::CpuBackend;
 use wavetrace::gpu::{GpuBackend, GpuOptions, GpuRenderer};
+use wavetrace::image_io::{Layer, LayerKind};
 use wavetrace::render::progressive::{Progressive, ProgressiveReport};
 use wavetrace::render::{Backend, PreparedScene, RenderOutput, RenderSettings, RenderStats};
 
 pub(crate) fn render(args: &RenderArgs) -> Result<()> {
+    // `-o -`: the image goes to standard output, everything printed to standard error.
+    let to_stdout;
+    let with_temporary;
+    let args = if args.output.as_deref() == Some(Path::new("-")) {
+        let Some(format) = args.out.format else {
+            bail!("-o - writes the image to standard output: say its format with --format png|jpeg|exr|hdr");
+        };
+        if args.sample_range.is_some() || args.shard.is_some() || args.resume.is_some() {
+            bail!("-o - writes a whole image: it does not combine with --sample-range, --shard or --resume");
+        }
+        let temporary = std::env::temp_dir().join(format!(
+            "wavetrace-stdout-{}.{}",
+            std::process::id(),
+            format.extension()
+        ));
+        to_stdout = Some((stdout_to_stderr()?, temporary.clone()));
+        let mut a = args.clone();
+        a.output = Some(temporary);
+        with_temporary = a;
+        &with_temporary
+    } else {
+        if args.out.format.is_some() {
+            bail!("--format names the format of -o - (standard output); a file's extension names its own");
+        }
+        to_stdout = None;
+        args
+    };
     let path = args
         .scene
         .clone()
@@ -62,6 +90,34 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         }
     }
     let path_layers = args.opts.path_layers()?;
+    let write_options = args.out.write_options()?;
+    let aovs = aov_passes(args);
+    if !aovs.is_empty() {
+        let what = "--aov PROPERTY, --transparent and --denoise";
+        if settings.integrator != wavetrace::render::Integrator::Path {
+            bail!("{what} need --integrator path");
+        }
+        if progressive.is_some() {
+            bail!("{what} render beside a whole image: they do not combine with --target-error or --time-limit");
+        }
+        if args.sample_range.is_some() || args.shard.is_some() || args.resume.is_some() {
+            bail!("{what} render beside a whole image: they do not combine with --sample-range, --shard or --resume");
+        }
+        if args.bdpt_strategies.is_some() {
+            bail!("{what} do not combine with --bdpt-strategies");
+        }
+        if multi_gpu(&args.opts.gpu_index).is_some() {
+            bail!("{what} render on one device: give --gpu-index N");
+        }
+    }
+    let mut settings = settings;
+    if args.out.transparent {
+        settings.debug_flags |= wavetrace::layout::FLAG_TRANSPARENT_BACKGROUND;
+    }
+    let denoiser = match args.out.denoise {
+        true => Some(wavetrace::denoise::Denoiser::load()?),
+        false => None,
+    };
     if !path_layers.is_empty() {
         let refuse = |what: &str| -> Result<()> {
             bail!("--aov NAME=EXPR renders its layers beside a whole image: it does not combine with {what}")
@@ -74,9 +130,6 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         }
         if args.bdpt_strategies.is_some() {
             refuse("--bdpt-strategies")?;
-        }
-        if settings.aov != wavetrace::layout::AOV_RADIANCE {
-            refuse("a property --aov (path layers hold radiance)")?;
         }
         if multi_gpu(&args.opts.gpu_index).is_some() {
             refuse("several --gpu-index devices")?;
@@ -92,6 +145,21 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     let stop = stop_flag(progressive.is_some());
     let mut end = todo.end;
     check_output(&output)?;
+    // Data layers beside a display image are refused before anything renders.
+    let display = matches!(
+        wavetrace::image_io::extension(&output).as_deref(),
+        Some("png" | "jpg" | "jpeg" | "hdr")
+    );
+    if let Some(a) = aovs.iter().find(|a| {
+        use wavetrace::image_io::LayerKind::*;
+        display && matches!(a.kind(), Point | Depth | Id)
+    }) {
+        bail!(
+            "cannot write layer {} beside {}: write an .exr to keep it",
+            a.name(),
+            output.display()
+        );
+    }
     let b = &prepared.bvh.stats;
     println!(
         "{}: {} triangles stored, {} placements, {} emitting{}, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms{}",
@@ -168,13 +236,29 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         args.opts.max_depth,
         backend.describe()
     );
-    let progress = progress_bar(settings.pixel_count() * todo.len() as u64);
+    // The kernels made and run once on a few pixels first: a driver that compiles at a
+    // kernel's first dispatch (lavapipe) does it here, reported apart from the render's time.
+    if device == DeviceKind::Gpu && args.bdpt_strategies.is_none() {
+        let warming = std::time::Instant::now();
+        let never = AtomicBool::new(false);
+        let hidden = ProgressBar::hidden();
+        backend.render_range(&prepared, &settings.warm_up(), 0..1, &hidden, &never)?;
+        println!(
+            "kernels ready in {:.3} s (made and dispatched once: with a cold driver cache, the shader compiler's time)",
+            warming.elapsed().as_secs_f64()
+        );
+    }
+    let progress_guard = Progress::new(
+        settings.pixel_count() * todo.len() as u64,
+        args.progress_mode(),
+    );
+    let progress = &progress_guard.bar;
     let out = match (&progressive, &args.bdpt_strategies) {
         // The strategy images are the CPU twin's (the device is the CPU here).
         (None, Some(dir)) => {
             let (out, strategies) =
                 wavetrace::cpu::render_strategies(&prepared, &settings, &progress);
-            wavetrace::cpu::bidir::write_strategies(&strategies, dir, args.exposure)?;
+            wavetrace::cpu::bidir::write_strategies(&strategies, dir, args.out.exposure)?;
             println!(
                 "wrote {} strategy images and strategies.png to {}",
                 2 * strategies.films.len(),
@@ -195,7 +279,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
                 out
             }),
     };
-    progress.finish_and_clear();
+    drop(progress_guard);
     let RenderOutput { film, stats } = out?;
     print_stats(&stats, args.stats);
     if let Some(r) = &report {
@@ -215,19 +299,46 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         (film, end < target.end)
     };
     // (After a fault the device is gone: the layers are left out of the partial image.)
-    let layers = match fault {
-        None => render_path_layers(args, &prepared, &settings, device, &path_layers, end)?,
-        Some(_) => Vec::new(),
-    };
-    wavetrace::image_io::write_image_viewed(
-        &film,
-        &layers,
-        &output,
-        args.exposure,
-        args.view.view(),
-        &record.attributes(),
-    )?;
-    println!("wrote {}", output.display());
+    let (mut film, mut layers) = (film, Vec::new());
+    let mut attributes = record.attributes();
+    if fault.is_none() {
+        let backend = &*backend;
+        layers = render_path_layers(backend, &prepared, &settings, &path_layers, end)?;
+        layers.extend(render_aov_layers(
+            backend, &prepared, &settings, &aovs, end,
+        )?);
+        if let Some(denoiser) = &denoiser {
+            let (denoised, note) = denoise(denoiser, &film, &layers)?;
+            println!("{note}");
+            attributes.push(("wavetrace.denoised".to_owned(), note));
+            layers.push(wavetrace::image_io::Layer {
+                name: "noisy".to_owned(),
+                kind: wavetrace::image_io::LayerKind::Paths,
+                film: std::mem::replace(&mut film, denoised),
+            });
+            // The guides are written only where --aov asks for them.
+            let asked = args.opts.aov_layers();
+            layers.retain(|l| {
+                !matches!(l.name.as_str(), "albedo" | "normal")
+                    || asked.iter().any(|a| a.name() == l.name)
+            });
+        }
+    }
+    wavetrace::image_io::write_output(&film, &layers, &output, &write_options, &attributes)?;
+    match &to_stdout {
+        Some((stdout, temporary)) => {
+            let copied = std::fs::read(temporary).and_then(|bytes| {
+                use std::io::Write;
+                let mut out = stdout;
+                out.write_all(&bytes)?;
+                out.flush()
+            });
+            let _ = std::fs::remove_file(temporary);
+            copied.context("writing the image to standard output")?;
+            eprintln!("wrote the image to standard output");
+        }
+        None => println!("wrote {}", output.display()),
+    }
     if let Some(fault) = fault {
         let held = record
             .samples
@@ -274,28 +385,12 @@ pub(crate) fn resume_hint(output: &Path, otherwise: &str) -> String {
 /// place of the image's, on the same device with the same random numbers, so each layer holds
 /// exactly the image's paths that match its expression.
 pub(crate) fn render_path_layers(
-    args: &RenderArgs,
+    backend: &dyn Backend,
     prepared: &PreparedScene,
     settings: &RenderSettings,
-    device: DeviceKind,
     layers: &[(String, std::sync::Arc<wavetrace::paths::PathExpr>)],
     samples: u32,
-) -> Result<Vec<(String, wavetrace::film::Film)>> {
-    if layers.is_empty() {
-        return Ok(Vec::new());
-    }
-    let backend: Box<dyn Backend> = match device {
-        DeviceKind::Gpu => Box::new(GpuBackend {
-            renderer: GpuRenderer::new(&GpuOptions {
-                device_index: args.opts.gpu_index.as_ref().and_then(|g| g.one()),
-                validation: args.opts.validate,
-                timing: false,
-                count_fetches: false,
-            })?,
-            wavefront: args.opts.wavefront,
-        }),
-        _ => Box::new(CpuBackend),
-    };
+) -> Result<Vec<Layer>> {
     let never = AtomicBool::new(false);
     let hidden = ProgressBar::hidden();
     layers
@@ -309,11 +404,141 @@ pub(crate) fn render_path_layers(
             if let Some(fault) = out.stats.fault {
                 bail!("layer {name}: {fault}");
             }
-            let film = out.film;
             println!("layer {name}: the paths {}", expr.source);
-            Ok((name.clone(), film))
+            Ok(Layer {
+                name: name.clone(),
+                kind: LayerKind::Paths,
+                film: out.film,
+            })
         })
         .collect()
+}
+
+/// The AOV passes a render needs: those `--aov` asks for, alpha for `--transparent`, albedo
+/// and normal for `--denoise`.
+pub(crate) fn aov_passes(args: &RenderArgs) -> Vec<AovArg> {
+    let mut aovs = args.opts.aov_layers();
+    let mut need = |a: AovArg| {
+        if !aovs.contains(&a) {
+            aovs.push(a);
+        }
+    };
+    if args.out.transparent {
+        need(AovArg::Alpha);
+    }
+    if args.out.denoise {
+        need(AovArg::Albedo);
+        need(AovArg::Normal);
+    }
+    aovs
+}
+
+/// The AOV layers: one pass each at the first hit of the camera rays — the image's samples
+/// 0..`samples` with the same random numbers (so they line up with the image's antialiasing,
+/// as a denoiser wants), or one ray through each pixel's centre for the layers that must not
+/// be averaged (depth, position, uv, IDs).
+pub(crate) fn render_aov_layers(
+    backend: &dyn Backend,
+    prepared: &PreparedScene,
+    settings: &RenderSettings,
+    aovs: &[AovArg],
+    samples: u32,
+) -> Result<Vec<Layer>> {
+    let never = AtomicBool::new(false);
+    let hidden = ProgressBar::hidden();
+    aovs.iter()
+        .map(|&a| {
+            let mut s = RenderSettings {
+                aov: a.code(),
+                paths: None,
+                ..settings.clone()
+            };
+            let range = if a.through_centre() {
+                s.debug_flags |= wavetrace::layout::FLAG_PIXEL_CENTRE;
+                0..1
+            } else {
+                0..samples
+            };
+            let (out, _) = backend.render_range(prepared, &s, range, &hidden, &never)?;
+            if let Some(fault) = out.stats.fault {
+                bail!("layer {}: {fault}", a.name());
+            }
+            Ok(Layer {
+                name: a.name().to_owned(),
+                kind: a.kind(),
+                film: out.film,
+            })
+        })
+        .collect()
+}
+
+/// The image denoised with its albedo and normal layers as guides (OIDN's "RT" filter, HDR,
+/// auxiliary images as rendered, not prefiltered), as a film whose pixels hold the denoised
+/// mean with no variance; and a line saying what ran and how long it took.
+fn denoise(
+    denoiser: &wavetrace::denoise::Denoiser,
+    film: &wavetrace::film::Film,
+    layers: &[Layer],
+) -> Result<(wavetrace::film::Film, String)> {
+    let plane = |f: &wavetrace::film::Film| -> Vec<[f32; 3]> {
+        (0..f.len()).map(|p| f.mean(p).to_array()).collect()
+    };
+    let find = |name: &str| {
+        layers
+            .iter()
+            .find(|l| l.name == name)
+            .map(|l| plane(&l.film))
+    };
+    let (color, albedo, normal) = (plane(film), find("albedo"), find("normal"));
+    let started = std::time::Instant::now();
+    let denoised = denoiser.denoise(&wavetrace::denoise::DenoiseInput {
+        width: film.width,
+        height: film.height,
+        color: &color,
+        albedo: albedo.as_deref(),
+        normal: normal.as_deref(),
+        clean_aux: false,
+    })?;
+    let seconds = started.elapsed().as_secs_f64();
+    let pixels = denoised
+        .iter()
+        .zip(&film.pixels)
+        .map(|(d, p)| {
+            let n = p.count.max(1) as f32;
+            wavetrace::layout::FilmPixel {
+                sum: d.map(|c| c * n),
+                sum_sq: d.map(|c| c * c * n),
+                count: p.count.max(1),
+                ..Default::default()
+            }
+        })
+        .collect();
+    let out = wavetrace::film::Film::from_pixels(film.width, film.height, pixels, 0);
+    let note = format!(
+        "denoised with Open Image Denoise ({}) in {seconds:.3} s",
+        denoiser.device_name()
+    );
+    Ok((out, note))
+}
+
+/// Points standard output at standard error, so that what wavetrace prints does not mix with an
+/// image written to standard output; returns the original standard output.
+fn stdout_to_stderr() -> Result<std::fs::File> {
+    use std::io::Write;
+    use std::os::fd::FromRawFd;
+    std::io::stdout().flush()?;
+    // SAFETY: dup and dup2 on the process's own standard descriptors; the duplicate is owned
+    // by the File returned.
+    unsafe {
+        let saved = libc::dup(1);
+        if saved < 0 || libc::dup2(2, 1) < 0 {
+            bail!(
+                "cannot redirect standard output: {}",
+                std::io::Error::last_os_error()
+            );
+        }
+        Ok(std::fs::File::from_raw_fd(saved))
+    }
 }
 
 /// The devices of `--gpu-index LIST|all`, or None for one device.

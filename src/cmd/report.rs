@@ -1,7 +1,12 @@
 //! What a render prints: its statistics (`--stats`: per-kernel time, texel fetches, the
-//! deferred arrays, the host's phases) and its progress bar.
+//! deferred arrays, the host's phases) and its progress: a bar on a terminal, lines a log
+//! keeps elsewhere.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 use wavetrace::render::RenderStats;
 
 /// A kernel's scene-image fetches per ray it handles: shadow rays for the connect kernels,
@@ -120,4 +125,100 @@ pub(crate) fn progress_bar(samples: u64) -> ProgressBar {
         bar.set_style(style);
     }
     bar
+}
+
+/// How a render reports its progress (`--quiet`, `--progress-interval`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ProgressMode {
+    pub quiet: bool,
+    /// Seconds between lines where stderr is not a terminal; None: a line per 10 %.
+    pub interval: Option<f64>,
+}
+
+/// The progress of one render: the bar the backends advance, drawn on a terminal; elsewhere
+/// (a CI log, a batch job's file) a thread that prints a line to stderr per 10 % of the
+/// samples, or every `--progress-interval` seconds, with the rate and the time left. Stops
+/// (and clears the bar) when dropped.
+pub(crate) struct Progress {
+    pub bar: ProgressBar,
+    reporter: Option<(std::thread::JoinHandle<()>, Arc<AtomicBool>)>,
+}
+
+impl Progress {
+    pub fn new(samples: u64, mode: ProgressMode) -> Progress {
+        let bar = progress_bar(samples);
+        if mode.quiet {
+            bar.set_draw_target(ProgressDrawTarget::hidden());
+            return Progress {
+                bar,
+                reporter: None,
+            };
+        }
+        if std::io::stderr().is_terminal() {
+            return Progress {
+                bar,
+                reporter: None,
+            };
+        }
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+        let done = Arc::new(AtomicBool::new(false));
+        let (watched, stop) = (bar.clone(), done.clone());
+        let reporter = std::thread::spawn(move || report_lines(&watched, &stop, mode.interval));
+        Progress {
+            bar,
+            reporter: Some((reporter, done)),
+        }
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        if let Some((thread, done)) = self.reporter.take() {
+            done.store(true, Ordering::Relaxed);
+            let _ = thread.join();
+        }
+        self.bar.finish_and_clear();
+    }
+}
+
+/// Prints progress lines until `done`: at each 10 % of the samples (or every `interval`
+/// seconds), none at 0 % or after the end (the render's own lines say that).
+fn report_lines(bar: &ProgressBar, done: &AtomicBool, interval: Option<f64>) {
+    let (mut last_line, mut next_tenth) = (Instant::now(), 1u64);
+    let mut length = bar.length().unwrap_or(0);
+    while !done.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(100));
+        let (position, total) = (bar.position(), bar.length().unwrap_or(0));
+        if total != length {
+            // Renders in passes restart the bar each pass.
+            (length, next_tenth) = (total, 1);
+        }
+        if total == 0 || position >= total {
+            continue;
+        }
+        let due = match interval {
+            Some(seconds) => last_line.elapsed().as_secs_f64() >= seconds,
+            None => position * 10 >= next_tenth * total,
+        };
+        if !due {
+            continue;
+        }
+        while next_tenth * total <= position * 10 {
+            next_tenth += 1;
+        }
+        last_line = Instant::now();
+        let seconds = bar.elapsed().as_secs_f64();
+        let rate = position as f64 / seconds.max(1e-9);
+        let left = (total - position) as f64 / rate.max(1e-9);
+        let message = bar.message();
+        eprintln!(
+            "progress: {:>3} % ({position} of {total} samples) in {seconds:.1} s, {:.3} M samples/s, about {left:.0} s left{}",
+            100 * position / total,
+            rate * 1e-6,
+            match message.is_empty() {
+                true => String::new(),
+                false => format!("  {message}"),
+            }
+        );
+    }
 }

@@ -7,7 +7,7 @@
 
 use super::options::RenderArgs;
 use super::prepare::{check_output, open, prepare_at, resolve_device, scenes_dir};
-use super::report::progress_bar;
+use super::report::Progress;
 use super::shards::{record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Context as _, Result};
 use std::path::{Path, PathBuf};
@@ -55,9 +55,13 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
     let path = path.as_path();
     let device = resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0));
-    if !args.opts.path_layers()?.is_empty() {
-        bail!("--aov NAME=EXPR renders its layers beside one image: it does not combine with --frames");
+    if !args.opts.path_layers()?.is_empty() || !super::render::aov_passes(args).is_empty() {
+        bail!("--aov, --transparent and --denoise render beside one image: they do not combine with --frames yet");
     }
+    if args.output.as_deref() == Some(std::path::Path::new("-")) {
+        bail!("--frames writes one file per frame: -o - (standard output) holds one image");
+    }
+    let write_options = args.out.write_options()?;
     let pattern = args.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
             "{}_####.png",
@@ -118,10 +122,13 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
             baseline.is_none(),
         )?;
         let prepare_s = started.elapsed().as_secs_f64();
-        let progress = progress_bar(settings.pixel_count() * settings.spp as u64);
+        let progress = Progress::new(
+            settings.pixel_count() * settings.spp as u64,
+            args.progress_mode(),
+        );
         let (out, end) =
-            backend.render_range(&prepared, &settings, 0..settings.spp, &progress, stop)?;
-        progress.finish_and_clear();
+            backend.render_range(&prepared, &settings, 0..settings.spp, &progress.bar, stop)?;
+        drop(progress);
         if let Some(fault) = out.stats.fault {
             bail!("frame {frame}: {fault}; the frame is not written");
         }
@@ -144,12 +151,11 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
                 .and_then(|n| n.to_str())
                 .unwrap_or("frame.png")
         ));
-        wavetrace::image_io::write_image_viewed(
+        wavetrace::image_io::write_output(
             &out.film,
             &[],
             &partial,
-            args.exposure,
-            args.view.view(),
+            &write_options,
             &record.attributes(),
         )?;
         std::fs::rename(&partial, &output)

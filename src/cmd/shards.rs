@@ -117,7 +117,13 @@ pub fn record(
         ("rr_depth", o.rr_depth.to_string()),
         ("light_sampler", lower(&o.light_sampler)),
         ("environment", environment),
-        ("aov", lower(&o.aov_property()?)),
+        (
+            "aov",
+            match o.aov_layers() {
+                l if l.is_empty() => "none".to_owned(),
+                l => l.iter().map(|a| a.name()).collect::<Vec<_>>().join(","),
+            },
+        ),
         ("texture_lod", lower(&o.texture_lod)),
         ("energy_compensation", lower(&o.energy_compensation)),
         (

@@ -7,9 +7,10 @@ use crate::bsdf::{fresnel_coat, ShadingFrame, TransportMode, VertexBsdf};
 use crate::bvh::Ray;
 use crate::layout::LIGHT_SAMPLER_BVH;
 use crate::layout::{
-    dim, FrameParams, GpuMaterial, PathState, AOV_BASE_COLOR, AOV_NORMAL, AOV_RADIANCE, AOV_UV,
-    DEBUG_NO_NEE, LIGHT_ENTRY_PUNCTUAL, MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED, MATERIAL_UNLIT,
-    RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
+    dim, FrameParams, GpuMaterial, PathState, AOV_ALPHA, AOV_BASE_COLOR, AOV_DEPTH, AOV_INSTANCE,
+    AOV_MATERIAL, AOV_NORMAL, AOV_POSITION, AOV_RADIANCE, AOV_UV, DEBUG_NO_NEE, FLAG_PIXEL_CENTRE,
+    FLAG_TRANSPARENT_BACKGROUND, LIGHT_ENTRY_PUNCTUAL, MATERIAL_DOUBLE_SIDED, MATERIAL_TEXTURED,
+    MATERIAL_UNLIT, RR_ALBEDO, RR_OFF, SAMPLER_STRATIFIED,
 };
 use crate::lights::environment::{env_pdf, env_radiance, env_sample, EnvironmentMap};
 use crate::lights::light_bvh::{light_bvh_pmf, light_bvh_sample};
@@ -165,6 +166,10 @@ pub fn primary_ray(frame: &FrameParams, pixel: u32, sample: u32) -> Ray {
     } else {
         Vec2::new(u.z, u.w)
     };
+    // AOV layers that must not be averaged: the pixel's centre, the lens's centre.
+    if frame.debug_flags & FLAG_PIXEL_CENTRE != 0 {
+        return camera_ray(frame, pixel, Vec2::splat(0.5), Vec2::splat(0.5));
+    }
     camera_ray(frame, pixel, jitter, lens_u)
 }
 
@@ -255,7 +260,9 @@ fn shade(
         if scene.attenuates {
             throughput *= transmittance(Vec3::from(state.medium), f32::MAX);
         }
-        if frame.aov == AOV_RADIANCE && frame.env_width > 0 && class.ends_here(&[]) {
+        // --transparent: a camera ray that escapes sees nothing (alpha 0 there).
+        let hidden = depth == 0 && frame.debug_flags & FLAG_TRANSPARENT_BACKGROUND != 0;
+        if frame.aov == AOV_RADIANCE && frame.env_width > 0 && !hidden && class.ends_here(&[]) {
             let le = env_radiance(env, frame, ray.dir);
             let mut w = 1.0;
             if state.prev_specular == 0 {
@@ -307,8 +314,17 @@ fn shade(
     if frame.aov != AOV_RADIANCE {
         let value = match frame.aov {
             AOV_BASE_COLOR => Vec3::from(mat.base_color),
-            AOV_NORMAL => surface_normal(&textures, raw, &sp, lod) * 0.5 + Vec3::splat(0.5),
+            AOV_NORMAL => surface_normal(&textures, raw, &sp, lod),
             AOV_UV => sp.uv[0].extend(0.0),
+            // The camera ray starts on the near plane: its distance from the eye (the lens
+            // point; an orthographic camera's film plane) is added back.
+            AOV_DEPTH => {
+                Vec3::splat(hit.t + frame.cam_znear / ray.dir.dot(Vec3::from(frame.cam_forward)))
+            }
+            AOV_POSITION => p,
+            AOV_MATERIAL => Vec3::splat((tri.material_index() + 1) as f32),
+            AOV_INSTANCE => Vec3::splat((scene.instances[instance as usize].placement + 1) as f32),
+            AOV_ALPHA => Vec3::ONE,
             _ => Vec3::from(mat.emission),
         };
         state.radiance = value.to_array();

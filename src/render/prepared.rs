@@ -381,7 +381,11 @@ impl PreparedScene {
             scene
                 .instances
                 .iter()
-                .map(|i| gpu_instance(&i.transform, mesh_roots[i.mesh as usize])),
+                .enumerate()
+                .map(|(k, i)| GpuInstance {
+                    placement: k as u32 + 1,
+                    ..gpu_instance(&i.transform, mesh_roots[i.mesh as usize])
+                }),
         );
         let boxes: Vec<(Vec3, Vec3)> = placed
             .iter()

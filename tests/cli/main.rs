@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod aov;
 mod cli;
 mod output;
 mod sequence;

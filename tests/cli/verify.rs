@@ -234,6 +234,9 @@ fn references_without_variance_are_judged_by_flip() {
             "32",
             "--spp",
             "256",
+            // FLIP shows an EXR clipped to [0, 1], as the standard view does.
+            "--view",
+            "standard",
             "-o",
             out.to_str().unwrap(),
         ]);

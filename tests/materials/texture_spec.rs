@@ -1185,7 +1185,7 @@ impl Oracle {
                         .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), n| {
                             (l.min(n[c]), h.max(n[c]))
                         });
-                    *out = [0.5 * (lo - slack) + 0.5, 0.5 * (hi + slack) + 0.5];
+                    *out = [lo - slack, hi + slack];
                 }
             }
         }
@@ -1863,7 +1863,22 @@ fn synthetic_texture_lookups_through_the_command_line() {
             "wavetrace {args:?}: {}",
             String::from_utf8_lossy(&o.stderr)
         );
-        let film = wavetrace::image_io::read_film(&out).unwrap();
+        // `--aov emission` is a layer beside the image.
+        let film = if k == 0 {
+            let layer = wavetrace::image_io::read_exr_layer(&out, "emission").unwrap();
+            let pixels = layer
+                .mean
+                .iter()
+                .map(|m| wavetrace::layout::FilmPixel {
+                    sum: *m,
+                    count: 1,
+                    ..Default::default()
+                })
+                .collect();
+            wavetrace::film::Film::from_pixels(layer.width, layer.height, pixels, 0)
+        } else {
+            wavetrace::image_io::read_film(&out).unwrap()
+        };
         check_synthetic(&film, &cases, &texels, &format!("CLI {extra:?}"));
     }
 }
@@ -2602,7 +2617,7 @@ fn normal_map_bumps(t: &TexRef) -> Vec<(DVec2, f64)> {
     out
 }
 
-/// Whether the rendered normals (n/2 + 1/2) around world point `c` bulge outward like a dome
+/// Whether the rendered normals (raw, in [−1, 1]) around world point `c` bulge outward like a dome
 /// of radius `r` facing +Z: n·x > 0 on the right half and < 0 on the left, n·y > 0 on the
 /// upper half and < 0 on the lower (means over the pixels of each half, the middle fifth of
 /// the radius left out).
@@ -2614,7 +2629,7 @@ fn bulges_outward(view: &View, film: &Film, c: DVec3, r: f64) -> Result<(), Stri
             if d.truncate().length() > 0.8 * r {
                 continue;
             }
-            let n = mean(film, x, y).map(|v| 2.0 * v - 1.0);
+            let n = mean(film, x, y);
             for (k, (side, component)) in [(d.x, n[0]), (-d.x, n[0]), (d.y, n[1]), (-d.y, n[1])]
                 .iter()
                 .enumerate()
