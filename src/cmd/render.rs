@@ -145,21 +145,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     let stop = stop_flag(progressive.is_some());
     let mut end = todo.end;
     check_output(&output)?;
-    // Data layers beside a display image are refused before anything renders.
-    let display = matches!(
-        wavetrace::image_io::extension(&output).as_deref(),
-        Some("png" | "jpg" | "jpeg" | "hdr")
-    );
-    if let Some(a) = aovs.iter().find(|a| {
-        use wavetrace::image_io::LayerKind::*;
-        display && matches!(a.kind(), Point | Depth | Id)
-    }) {
-        bail!(
-            "cannot write layer {} beside {}: write an .exr to keep it",
-            a.name(),
-            output.display()
-        );
-    }
+    check_layer_output(&aovs, &output)?;
     let b = &prepared.bvh.stats;
     println!(
         "{}: {} triangles stored, {} placements, {} emitting{}, {} materials{}, {} textures ({:.1} MiB with mip levels); BVH {} nodes, depth {}, SAH cost {:.2}, built in {:.2} ms{}",
@@ -302,27 +288,19 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
     let (mut film, mut layers) = (film, Vec::new());
     let mut attributes = record.attributes();
     if fault.is_none() {
-        let backend = &*backend;
-        layers = render_path_layers(backend, &prepared, &settings, &path_layers, end)?;
-        layers.extend(render_aov_layers(
-            backend, &prepared, &settings, &aovs, end,
-        )?);
-        if let Some(denoiser) = &denoiser {
-            let (denoised, note) = denoise(denoiser, &film, &layers)?;
-            println!("{note}");
-            attributes.push(("wavetrace.denoised".to_owned(), note));
-            layers.push(wavetrace::image_io::Layer {
-                name: "noisy".to_owned(),
-                kind: wavetrace::image_io::LayerKind::Paths,
-                film: std::mem::replace(&mut film, denoised),
-            });
-            // The guides are written only where --aov asks for them.
-            let asked = args.opts.aov_layers();
-            layers.retain(|l| {
-                !matches!(l.name.as_str(), "albedo" | "normal")
-                    || asked.iter().any(|a| a.name() == l.name)
-            });
-        }
+        layers = render_path_layers(&*backend, &prepared, &settings, &path_layers, end)?;
+        let (denoised, more) = aov_layers_and_denoise(
+            args,
+            &*backend,
+            &prepared,
+            &settings,
+            film,
+            end,
+            denoiser.as_ref(),
+            &mut attributes,
+        )?;
+        film = denoised;
+        layers.extend(more);
     }
     wavetrace::image_io::write_output(&film, &layers, &output, &write_options, &attributes)?;
     match &to_stdout {
@@ -431,6 +409,58 @@ pub(crate) fn aov_passes(args: &RenderArgs) -> Vec<AovArg> {
         need(AovArg::Normal);
     }
     aovs
+}
+
+/// Refuses, before anything renders, AOV layers that `output`'s format cannot hold.
+pub(crate) fn check_layer_output(aovs: &[AovArg], output: &Path) -> Result<()> {
+    let display = matches!(
+        wavetrace::image_io::extension(output).as_deref(),
+        Some("png" | "jpg" | "jpeg" | "hdr")
+    );
+    if let Some(a) = aovs.iter().find(|a| {
+        use wavetrace::image_io::LayerKind::*;
+        display && matches!(a.kind(), Point | Depth | Id)
+    }) {
+        bail!(
+            "cannot write layer {} beside {}: write an .exr to keep it",
+            a.name(),
+            output.display()
+        );
+    }
+    Ok(())
+}
+
+/// The AOV layers `args` ask for (`aov_passes`) of the image's samples 0..`samples`, and with
+/// `denoiser` the image denoised, its noisy self kept as layer `noisy` and the record noting
+/// it; the albedo and normal guides stay only where `--aov` asks for them.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn aov_layers_and_denoise(
+    args: &RenderArgs,
+    backend: &dyn Backend,
+    prepared: &PreparedScene,
+    settings: &RenderSettings,
+    film: wavetrace::film::Film,
+    samples: u32,
+    denoiser: Option<&wavetrace::denoise::Denoiser>,
+    attributes: &mut Vec<(String, String)>,
+) -> Result<(wavetrace::film::Film, Vec<Layer>)> {
+    let mut layers = render_aov_layers(backend, prepared, settings, &aov_passes(args), samples)?;
+    let Some(denoiser) = denoiser else {
+        return Ok((film, layers));
+    };
+    let (denoised, note) = denoise(denoiser, &film, &layers)?;
+    println!("{note}");
+    attributes.push(("wavetrace.denoised".to_owned(), note));
+    let asked = args.opts.aov_layers();
+    layers.retain(|l| {
+        !matches!(l.name.as_str(), "albedo" | "normal") || asked.iter().any(|a| a.name() == l.name)
+    });
+    layers.push(Layer {
+        name: "noisy".to_owned(),
+        kind: LayerKind::Paths,
+        film,
+    });
+    Ok((denoised, layers))
 }
 
 /// The AOV layers: one pass each at the first hit of the camera rays — the image's samples

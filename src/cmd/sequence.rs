@@ -55,9 +55,19 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
         .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
     let path = path.as_path();
     let device = resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0));
-    if !args.opts.path_layers()?.is_empty() || !super::render::aov_passes(args).is_empty() {
-        bail!("--aov, --transparent and --denoise render beside one image: they do not combine with --frames yet");
+    if !args.opts.path_layers()?.is_empty() {
+        bail!("--aov NAME=EXPR renders its layers beside one image: it does not combine with --frames");
     }
+    let aovs = super::render::aov_passes(args);
+    if !aovs.is_empty() && super::render::multi_gpu(&args.opts.gpu_index).is_some() {
+        bail!(
+            "--aov PROPERTY, --transparent and --denoise render on one device: give --gpu-index N"
+        );
+    }
+    let denoiser = match args.out.denoise {
+        true => Some(wavetrace::denoise::Denoiser::load()?),
+        false => None,
+    };
     if args.output.as_deref() == Some(std::path::Path::new("-")) {
         bail!("--frames writes one file per frame: -o - (standard output) holds one image");
     }
@@ -71,6 +81,7 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
         ))
     });
     check_output(&pattern)?;
+    super::render::check_layer_output(&aovs, &pattern)?;
     let frames = shard_frames(first, last, args.shard);
     let cold = Instant::now();
     let opened = open(path, &args.opts)?;
@@ -122,6 +133,13 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
             baseline.is_none(),
         )?;
         let prepare_s = started.elapsed().as_secs_f64();
+        let mut settings = settings;
+        if args.out.transparent {
+            settings.debug_flags |= wavetrace::layout::FLAG_TRANSPARENT_BACKGROUND;
+        }
+        if !aovs.is_empty() && settings.integrator != wavetrace::render::Integrator::Path {
+            bail!("--aov PROPERTY, --transparent and --denoise need --integrator path");
+        }
         let progress = Progress::new(
             settings.pixel_count() * settings.spp as u64,
             args.progress_mode(),
@@ -151,13 +169,18 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
                 .and_then(|n| n.to_str())
                 .unwrap_or("frame.png")
         ));
-        wavetrace::image_io::write_output(
-            &out.film,
-            &[],
-            &partial,
-            &write_options,
-            &record.attributes(),
+        let mut attributes = record.attributes();
+        let (film, layers) = super::render::aov_layers_and_denoise(
+            args,
+            &*backend,
+            &prepared,
+            &settings,
+            out.film,
+            end,
+            denoiser.as_ref(),
+            &mut attributes,
         )?;
+        wavetrace::image_io::write_output(&film, &layers, &partial, &write_options, &attributes)?;
         std::fs::rename(&partial, &output)
             .with_context(|| format!("moving {} to {}", partial.display(), output.display()))?;
         println!(

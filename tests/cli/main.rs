@@ -8,6 +8,7 @@ mod common;
 
 mod aov;
 mod cli;
+mod denoise;
 mod output;
 mod sequence;
 mod verify;

@@ -190,3 +190,55 @@ fn moments_are_checked_by_name() {
     );
     assert!(e.contains("cannot be used with"), "{e}");
 }
+
+/// Every frame of a sequence carries the AOV layers and the alpha a single render does: frame
+/// 2's layers equal those of `--time` alone, bit for bit.
+#[test]
+fn frames_carry_their_layers() {
+    let Some(scene) = box_animated() else { return };
+    let scene = scene.to_str().unwrap();
+    let pattern = common::temp("cli", "layered-#.exr");
+    let layers = ["--aov", "depth,normal,material", "--transparent"];
+    run(&[
+        vec!["render", scene, "--frames", "1..2", "--fps", "4", "-o"],
+        vec![pattern.to_str().unwrap()],
+        small("cpu", &layers),
+    ]
+    .concat());
+    let alone = common::temp("cli", "layered-alone.exr");
+    run(&[
+        vec![
+            "render",
+            scene,
+            "--time",
+            "0.5",
+            "-o",
+            alone.to_str().unwrap(),
+        ],
+        small("cpu", &layers),
+    ]
+    .concat());
+    let framed = common::temp("cli", "layered-2.exr");
+    assert_bitwise_equal(&framed, &alone);
+    let channel = |path: &std::path::Path, name: &str| {
+        let image = exr::prelude::read_first_flat_layer_from_file(path).unwrap();
+        let found = image
+            .layer_data
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name == *name);
+        let samples = found.unwrap_or_else(|| panic!("{} has no {name}", path.display()));
+        samples
+            .sample_data
+            .values_as_f32()
+            .map(f32::to_bits)
+            .collect::<Vec<_>>()
+    };
+    for name in ["depth.Z", "normal.X", "material.id", "A"] {
+        assert!(
+            channel(&framed, name) == channel(&alone, name),
+            "frame 2's {name} differs from --time 0.5 alone"
+        );
+    }
+}

@@ -657,7 +657,7 @@ fn path_layers_partition_the_image() {
     for (args, expect) in [
         (
             vec!["--aov", "R=LE"],
-            "'R' names a channel of the image itself",
+            "'R' names a channel or layer of the image itself",
         ),
         (
             vec!["--aov", "bad name=LE"],
