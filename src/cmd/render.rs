@@ -243,7 +243,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         // The strategy images are the CPU twin's (the device is the CPU here).
         (None, Some(dir)) => {
             let (out, strategies) =
-                wavetrace::cpu::render_strategies(&prepared, &settings, &progress);
+                wavetrace::cpu::render_strategies(&prepared, &settings, progress);
             wavetrace::cpu::bidir::write_strategies(&strategies, dir, args.out.exposure)?;
             println!(
                 "wrote {} strategy images and strategies.png to {}",
@@ -253,13 +253,13 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
             Ok(out)
         }
         (None, None) => backend
-            .render_range(&prepared, &settings, todo.clone(), &progress, stop)
+            .render_range(&prepared, &settings, todo.clone(), progress, stop)
             .map(|(out, e)| {
                 end = e;
                 out
             }),
         (Some(p), _) => backend
-            .render_progressive(&prepared, &settings, p, &progress)
+            .render_progressive(&prepared, &settings, p, progress)
             .map(|(out, r)| {
                 report = Some(r);
                 out

@@ -42,7 +42,7 @@ fn render(out: &Path, spp: &str, seed: &str, extra: &[&str]) -> std::process::Ou
 
 /// At 16 spp on the Cornell box (64 px wide), the denoised image's relative MSE against a
 /// 1024-spp reference of another seed is at least 4 times smaller than the noisy image's:
-/// `tools/denoise_measure.sh` measured 13.7 times at 128 px (docs/perf-log/2026-12-08-denoiser.md);
+/// `tools/denoise_measure.sh` measured 10.0 times at 128 px (docs/perf-log/2026-12-08-denoiser.md);
 /// 4 leaves room for the smaller image and another machine's OIDN build. The reference's own
 /// noise (relative MSE ≈ 1/64 of the noisy image's) bounds what a denoiser can show here.
 #[test]
