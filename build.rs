@@ -89,6 +89,7 @@ fn main() {
     let test_dir = root.join("shaders/tests");
     let include_dir = root.join("shaders/inc");
     println!("cargo:rerun-if-changed=shaders");
+    commit(&root);
 
     for dir in [&kernel_dir, &test_dir, &include_dir] {
         for entry in std::fs::read_dir(dir).expect("shader folder exists") {
@@ -161,4 +162,32 @@ fn comp_files(dir: &Path) -> Vec<PathBuf> {
 
 fn words_to_bytes(words: &[u32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+/// `wavetrace --version` names the commit it was built from (WAVETRACE_COMMIT): `git describe`
+/// of the checkout, with "-dirty" for uncommitted changes; "unknown" outside a git checkout
+/// (a source archive). The build script runs again when HEAD moves.
+fn commit(root: &std::path::Path) {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .current_dir(root)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+    };
+    let described = git(&["describe", "--always", "--dirty", "--abbrev=12"]);
+    println!(
+        "cargo:rustc-env=WAVETRACE_COMMIT={}",
+        described.as_deref().unwrap_or("unknown")
+    );
+    if let Some(dir) = git(&["rev-parse", "--absolute-git-dir"]) {
+        let dir = std::path::Path::new(&dir);
+        println!("cargo:rerun-if-changed={}", dir.join("HEAD").display());
+        if let Some(head) = git(&["symbolic-ref", "-q", "HEAD"]) {
+            println!("cargo:rerun-if-changed={}", dir.join(head).display());
+        }
+        println!("cargo:rerun-if-changed={}", dir.join("index").display());
+    }
 }

@@ -11,7 +11,7 @@ use std::process::ExitCode;
 #[derive(Parser, Debug)]
 #[command(
     name = "wavetrace",
-    version,
+    version = cmd::version::LONG,
     about = "Headless GPU wavefront path tracer with a CPU reference integrator"
 )]
 pub struct Cli {
@@ -66,13 +66,14 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            ExitCode::from(2)
         }
     }
 }
 
 /// Exit status of the commands that answer a yes/no question, like diff(1): 0 yes, 1 no,
-/// 2 error.
+/// 2 error. Every command's errors exit 2 (docs/usage.md, "Exit status"): 1 always means a
+/// check that ran and failed.
 fn exit_like_diff(answer: Result<bool>) -> ExitCode {
     match answer {
         Ok(true) => ExitCode::SUCCESS,

@@ -26,6 +26,9 @@ pub struct SceneVerdict {
     pub seconds: f64,
     /// `--detect`: the sample count chosen for the stated bias and the power it gives.
     pub detect: Option<DetectPlan>,
+    /// The settings that decided the rendered side's image (`shard::Record`'s, key and value);
+    /// empty where the scene did not get that far.
+    pub settings: Vec<(String, String)>,
 }
 
 /// What `verify --detect` chose for one scene.
@@ -48,13 +51,47 @@ pub enum Judgement {
     Welch(Comparison),
     /// FLIP against a reference without variance, passing where the mean is at most `max`.
     Flip { result: FlipResult, max: f64 },
+    /// The scene could not be judged: it failed to load or render, or its reference does not
+    /// match it. A failed test case carrying the message; the other scenes still run.
+    Error(String),
+}
+
+/// What the whole run was: wavetrace's version and the device of the rendered side, for the
+/// JSON report.
+pub struct RunInfo {
+    pub version: String,
+    pub device: String,
 }
 
 impl SceneVerdict {
+    /// The verdict of a scene that could not be judged, with the reason.
+    pub fn error(scene: String, message: String, settings: Vec<(String, String)>) -> Self {
+        SceneVerdict {
+            scene,
+            label_a: String::new(),
+            label_b: String::new(),
+            a: Film::new(0, 0),
+            b: Film::new(0, 0),
+            judgement: Judgement::Error(message),
+            seconds: 0.0,
+            detect: None,
+            settings,
+        }
+    }
+
     pub fn passed(&self) -> bool {
         match &self.judgement {
             Judgement::Welch(c) => c.passed(),
             Judgement::Flip { result, max } => result.mean <= *max,
+            Judgement::Error(_) => false,
+        }
+    }
+
+    /// The error that kept the scene from being judged, if one did.
+    pub fn error_message(&self) -> Option<&str> {
+        match &self.judgement {
+            Judgement::Error(m) => Some(m),
+            _ => None,
         }
     }
 
@@ -127,17 +164,21 @@ fn xml_escape(text: &str) -> String {
 
 /// JUnit XML: one test case per scene; a failure carries the worst tiles.
 pub fn junit_xml(verdicts: &[SceneVerdict]) -> String {
-    let failures = verdicts.iter().filter(|v| !v.passed()).count();
+    let errors = verdicts
+        .iter()
+        .filter(|v| v.error_message().is_some())
+        .count();
+    let failures = verdicts.iter().filter(|v| !v.passed()).count() - errors;
     let seconds: f64 = verdicts.iter().map(|v| v.seconds).sum();
     let mut x = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     let _ = writeln!(
         x,
-        "<testsuites name=\"wavetrace verify\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" time=\"{seconds:.3}\">",
+        "<testsuites name=\"wavetrace verify\" tests=\"{}\" failures=\"{failures}\" errors=\"{errors}\" time=\"{seconds:.3}\">",
         verdicts.len()
     );
     let _ = writeln!(
         x,
-        "  <testsuite name=\"wavetrace verify\" tests=\"{}\" failures=\"{failures}\" errors=\"0\" skipped=\"0\" time=\"{seconds:.3}\">",
+        "  <testsuite name=\"wavetrace verify\" tests=\"{}\" failures=\"{failures}\" errors=\"{errors}\" skipped=\"0\" time=\"{seconds:.3}\">",
         verdicts.len()
     );
     for v in verdicts {
@@ -147,7 +188,15 @@ pub fn junit_xml(verdicts: &[SceneVerdict]) -> String {
             xml_escape(&v.scene),
             v.seconds
         );
-        if v.passed() {
+        if let Some(error) = v.error_message() {
+            let first = error.lines().next().unwrap_or_default();
+            let _ = writeln!(
+                x,
+                ">\n      <error message=\"{}\" type=\"SceneError\">{}</error>\n    </testcase>",
+                xml_escape(first),
+                xml_escape(error)
+            );
+        } else if v.passed() {
             x.push_str("/>\n");
         } else {
             let message = match &v.judgement {
@@ -163,6 +212,7 @@ pub fn junit_xml(verdicts: &[SceneVerdict]) -> String {
                     "mean FLIP error of {} against {} is {:.6}, above --max-flip {max}",
                     v.label_a, v.label_b, result.mean
                 ),
+                Judgement::Error(m) => m.clone(),
             };
             let _ = writeln!(
                 x,
@@ -176,59 +226,83 @@ pub fn junit_xml(verdicts: &[SceneVerdict]) -> String {
     x
 }
 
+/// The version of the JSON report's layout (`json_report`): 2 added it, the run's version and
+/// device, each scene's settings and errors.
+pub const JSON_REPORT_VERSION: u32 = 2;
+
 /// Every figure of the verdicts as JSON.
-pub fn json_report(verdicts: &[SceneVerdict]) -> serde_json::Value {
+pub fn json_report(verdicts: &[SceneVerdict], run: &RunInfo) -> serde_json::Value {
     let scenes: Vec<serde_json::Value> = verdicts
         .iter()
         .map(|v| {
-            let (mean_a, se_a) = film_mean(&v.a);
-            let (mean_b, se_b) = film_mean(&v.b);
-            let c = match &v.judgement {
-                Judgement::Welch(c) => c,
-                Judgement::Flip { result, max } => {
-                    return json!({
-                        "scene": v.scene,
-                        "passed": v.passed(),
-                        "a": {"label": v.label_a, "mean": mean_a.to_array(), "std_error": se_a.to_array()},
-                        "b": {"label": v.label_b, "mean": mean_b.to_array()},
-                        "width": result.width,
-                        "height": result.height,
-                        "flip": {"mean": result.mean, "median": result.median, "p99": result.p99,
-                                 "max": result.max, "max_allowed": max},
-                        "seconds": v.seconds,
-                    });
-                }
-            };
-            json!({
-                "scene": v.scene,
-                "passed": v.passed(),
-                "a": {"label": v.label_a, "mean": mean_a.to_array(), "std_error": se_a.to_array(),
-                      "samples_per_pixel": v.a.total_samples() as f64 / v.a.len().max(1) as f64},
-                "b": {"label": v.label_b, "mean": mean_b.to_array(), "std_error": se_b.to_array(),
-                      "samples_per_pixel": v.b.total_samples() as f64 / v.b.len().max(1) as f64},
-                "width": c.width,
-                "height": c.height,
-                "tile": c.tile,
-                "tests": c.tests,
-                "alpha": c.alpha,
-                "per_test_alpha": c.per_test_alpha,
-                "min_p": c.min_p,
-                "failures": c.failures.iter().map(|f| json!({
-                    "tile_x": f.tile_x, "tile_y": f.tile_y, "channel": f.channel,
-                    "mean_a": f.mean_a, "mean_b": f.mean_b, "std_err": f.std_err, "t": f.t, "p": f.p,
-                })).collect::<Vec<_>>(),
-                "tile_t": c.tile_t,
-                "seconds": v.seconds,
-                "detect": v.detect.map(|d| json!({
-                    "bias": d.bias, "pilot_spp": d.pilot_spp, "spp": d.spp,
-                    "power": d.power, "target_power": d.target,
-                })),
-            })
+            let settings: serde_json::Map<String, serde_json::Value> = v
+                .settings
+                .iter()
+                .map(|(k, value)| (k.clone(), json!(value)))
+                .collect();
+            let mut entry = scene_json(v);
+            entry["settings"] = serde_json::Value::Object(settings);
+            entry
         })
         .collect();
     json!({
+        "report_version": JSON_REPORT_VERSION,
+        "wavetrace_version": run.version,
+        "device": run.device,
         "passed": verdicts.iter().all(SceneVerdict::passed),
         "scenes": scenes,
+        "errors": verdicts.iter().filter(|v| v.error_message().is_some()).count(),
+    })
+}
+
+/// One scene's figures.
+fn scene_json(v: &SceneVerdict) -> serde_json::Value {
+    if let Some(error) = v.error_message() {
+        return json!({"scene": v.scene, "passed": false, "error": error});
+    }
+    let (mean_a, se_a) = film_mean(&v.a);
+    let (mean_b, se_b) = film_mean(&v.b);
+    let c = match &v.judgement {
+        Judgement::Welch(c) => c,
+        Judgement::Error(_) => unreachable!("answered above"),
+        Judgement::Flip { result, max } => {
+            return json!({
+                "scene": v.scene,
+                "passed": v.passed(),
+                "a": {"label": v.label_a, "mean": mean_a.to_array(), "std_error": se_a.to_array()},
+                "b": {"label": v.label_b, "mean": mean_b.to_array()},
+                "width": result.width,
+                "height": result.height,
+                "flip": {"mean": result.mean, "median": result.median, "p99": result.p99,
+                         "max": result.max, "max_allowed": max},
+                "seconds": v.seconds,
+            });
+        }
+    };
+    json!({
+        "scene": v.scene,
+        "passed": v.passed(),
+        "a": {"label": v.label_a, "mean": mean_a.to_array(), "std_error": se_a.to_array(),
+              "samples_per_pixel": v.a.total_samples() as f64 / v.a.len().max(1) as f64},
+        "b": {"label": v.label_b, "mean": mean_b.to_array(), "std_error": se_b.to_array(),
+              "samples_per_pixel": v.b.total_samples() as f64 / v.b.len().max(1) as f64},
+        "width": c.width,
+        "height": c.height,
+        "tile": c.tile,
+        "tests": c.tests,
+        "alpha": c.alpha,
+        "per_test_alpha": c.per_test_alpha,
+        "min_p": c.min_p,
+        "failures": c.failures.iter().map(|f| json!({
+            "tile_x": f.tile_x, "tile_y": f.tile_y, "channel": f.channel,
+            "mean_a": f.mean_a, "mean_b": f.mean_b, "std_err": f.std_err, "t": f.t, "p": f.p,
+        })).collect::<Vec<_>>(),
+        "tile_t": c.tile_t,
+        "seconds": v.seconds,
+        "detect": v.detect.map(|d| json!({
+            "bias": d.bias, "pilot_spp": d.pilot_spp, "spp": d.spp,
+            "power": d.power, "target_power": d.target,
+        })),
     })
 }
 
@@ -288,6 +362,15 @@ pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
     let passed = verdicts.iter().filter(|v| v.passed()).count();
     let _ = writeln!(html, "<p>{passed} of {} scenes agree.</p>", verdicts.len());
     for (i, v) in verdicts.iter().enumerate() {
+        if let Some(error) = v.error_message() {
+            let _ = writeln!(
+                html,
+                "<h2><span class=\"fail\">ERROR</span> {}</h2>\n<pre>{}</pre>",
+                xml_escape(&v.scene),
+                xml_escape(error)
+            );
+            continue;
+        }
         let slug = v.slug(i);
         let (a_png, b_png, heat_png) = (
             format!("{slug}-a.png"),
@@ -299,6 +382,7 @@ pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
         let heat = match &v.judgement {
             Judgement::Welch(c) => heat_map(c),
             Judgement::Flip { result, .. } => flip_heat_map(result),
+            Judgement::Error(_) => unreachable!("written above"),
         };
         heat.save(dir.join(&heat_png))
             .with_context(|| format!("writing {}", dir.join(&heat_png).display()))?;
@@ -343,6 +427,7 @@ pub fn write_report(dir: &Path, verdicts: &[SceneVerdict]) -> Result<()> {
                 );
                 "FLIP error per pixel (magma: black none, yellow most)"
             }
+            Judgement::Error(_) => unreachable!("written above"),
         };
         let _ = writeln!(
             html,

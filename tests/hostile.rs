@@ -138,13 +138,13 @@ fn a_named_pipe_is_refused_without_blocking() {
     let run = render(&dir.join("pipe.gltf"), &[], "fifo");
     let as_scene = render(&fifo, &[], "fifo-scene");
     std::fs::remove_dir_all(&dir).ok();
-    assert_eq!(as_scene.status.code(), Some(1), "{}", as_scene.stderr);
+    assert_eq!(as_scene.status.code(), Some(2), "{}", as_scene.stderr);
     assert!(
         as_scene.stderr.contains("not a regular file"),
         "{}",
         as_scene.stderr
     );
-    assert_eq!(run.status.code(), Some(1), "{}", run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{}", run.stderr);
     assert!(
         run.stderr.contains("buffers[0].uri") && run.stderr.contains("not a regular file"),
         "{}",
@@ -170,7 +170,7 @@ fn a_small_budget_refuses_with_the_memory_needed() {
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(
         stderr.contains("would need") && stderr.contains("20.00 KiB (--max-memory)"),
         "{stderr}"

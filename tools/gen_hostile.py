@@ -6,7 +6,7 @@ memory, errors without a JSON path), and tests/hostile/expect.json, what each mu
     python3 tools/gen_hostile.py            # writes tests/hostile/
     python3 tools/gen_hostile.py OUT_DIR    # writes into OUT_DIR instead
 
-Every expectation names the exit status, the strings the error must contain (the JSON path
+Every expectation names the exit status (0 rendered, 2 refused), the strings the error must contain (the JSON path
 first) and the extra command-line arguments. Output is deterministic. Python 3 stdlib only.
 The corpus also seeds tools/fuzz_gltf.py.
 """
@@ -506,7 +506,10 @@ def main():
         os.remove(link)
     os.symlink("../hostile.rs", link)
     expect = []
-    for name, content, status, needles, args in cases():
+    # A case's status says whether the file renders (0) or is refused (1); a refusal exits with
+    # wavetrace's status for an input error, 2 (docs/usage.md, "Exit status").
+    for name, content, refused, needles, args in cases():
+        status = 2 if refused else 0
         if isinstance(content, dict):
             content = (json.dumps(content, indent=1) + "\n").encode()
         with open(os.path.join(out, name), "wb") as f:

@@ -62,6 +62,18 @@ pub(crate) fn compare(args: &CompareArgs) -> Result<bool> {
     if args.max_flip.is_some() {
         bail!("--max-flip applies to --flip");
     }
+    for image in [&args.a, &args.b] {
+        if !image
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+        {
+            bail!(
+                "{}: the statistical comparison needs EXRs written by wavetrace (mean, variance and \
+                 count per pixel); compare --flip A B judges images without variance by NVIDIA's FLIP",
+                image.display()
+            );
+        }
+    }
     let a = wavetrace::image_io::read_film(&args.a)?;
     let b = wavetrace::image_io::read_film(&args.b)?;
     let cmp = wavetrace::stats::compare_films(&a, &b, args.tile, args.alpha)

@@ -38,6 +38,33 @@ pub(crate) fn image_size(
 }
 
 /// The committed scenes folder, from the working directory or from the source tree.
+/// The scene `render` draws without one named: `scenes/cornell-box.gltf` where the working
+/// folder has it (a checkout), else the same file built into the binary, written once to the
+/// temporary folder (an installed wavetrace has no checkout to read it from).
+pub(crate) fn default_scene() -> Result<PathBuf> {
+    const CORNELL_BOX: &[u8] = include_bytes!("../../scenes/cornell-box.gltf");
+    let local = Path::new("scenes/cornell-box.gltf");
+    if local.is_file() {
+        return Ok(local.to_path_buf());
+    }
+    let dir = std::env::temp_dir().join(format!(
+        "wavetrace-{}-default-scene",
+        env!("CARGO_PKG_VERSION")
+    ));
+    let path = dir.join("cornell-box.gltf");
+    if std::fs::read(&path).ok().as_deref() != Some(CORNELL_BOX) {
+        std::fs::create_dir_all(&dir)
+            .and_then(|()| {
+                // Written beside and renamed: another process never reads half of it.
+                let partial = dir.join(format!(".cornell-box.gltf.{}", std::process::id()));
+                std::fs::write(&partial, CORNELL_BOX)?;
+                std::fs::rename(&partial, &path)
+            })
+            .with_context(|| format!("writing the built-in default scene to {}", path.display()))?;
+    }
+    Ok(path)
+}
+
 pub(crate) fn scenes_dir() -> PathBuf {
     let local = PathBuf::from("scenes");
     if local.is_dir() {

@@ -3,7 +3,7 @@
 //! layers (`--aov NAME=EXPR`) beside the image.
 
 use super::options::{AovArg, DeviceKind, GpuIndex, RenderArgs};
-use super::prepare::{check_output, prepare, resolve_device, scenes_dir};
+use super::prepare::{check_output, default_scene, prepare, resolve_device};
 use super::report::{print_stats, Progress};
 use super::shards::{finish, plan, record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Context, Result};
@@ -44,10 +44,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
         to_stdout = None;
         args
     };
-    let path = args
-        .scene
-        .clone()
-        .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+    let path = args.scene.clone().map_or_else(default_scene, Ok)?;
     // The strategy images are written by the CPU twin.
     let cpu_only = args.bdpt_strategies.is_some();
     if cpu_only && args.device == DeviceKind::Gpu {
@@ -70,7 +67,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<()> {
             .unwrap_or("render")
     ));
     let mut record = record(
-        args,
+        &args.opts,
         &path,
         &prepared,
         &settings,

@@ -6,7 +6,7 @@
 //! rendered alone, bit for bit, on whichever shard renders it.
 
 use super::options::RenderArgs;
-use super::prepare::{check_output, open, prepare_at, resolve_device, scenes_dir};
+use super::prepare::{check_output, default_scene, open, prepare_at, resolve_device};
 use super::report::Progress;
 use super::shards::{record, stop_flag, INTERRUPTED_EXIT};
 use anyhow::{bail, Context as _, Result};
@@ -49,10 +49,7 @@ pub(crate) fn frame_path(pattern: &Path, frame: u32) -> PathBuf {
 /// device `--device` picks.
 pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
     let (first, last) = args.frames.expect("called for --frames");
-    let path = args
-        .scene
-        .clone()
-        .unwrap_or_else(|| scenes_dir().join("cornell-box.gltf"));
+    let path = args.scene.clone().map_or_else(default_scene, Ok)?;
     let path = path.as_path();
     let device = resolve_device(args.device, args.opts.gpu_index.as_ref().map(|_| 0));
     if !args.opts.path_layers()?.is_empty() {
@@ -158,7 +155,7 @@ pub(crate) fn render_sequence(args: &RenderArgs) -> Result<()> {
             );
             std::process::exit(INTERRUPTED_EXIT);
         }
-        let mut record = record(args, path, &prepared, &settings, device, &moment)?;
+        let mut record = record(&args.opts, path, &prepared, &settings, device, &moment)?;
         record.samples = Some(wavetrace::shard::SampleRange::new(0, end));
         record.dropped = out.film.dropped;
         // Written beside and renamed into place, so that a frame's file is whole or absent.

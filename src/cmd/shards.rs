@@ -1,7 +1,7 @@
 //! `render --sample-range | --shard | --resume` and the signal handler that turns SIGINT and
 //! SIGTERM into a resumable partial EXR (`wavetrace::shard`).
 
-use super::options::{DeviceKind, MisArg, RenderArgs};
+use super::options::{DeviceKind, MisArg, RenderArgs, RenderOptions};
 use anyhow::{bail, Context as _, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -50,14 +50,13 @@ pub fn interrupt_flag() -> &'static AtomicBool {
 
 /// The record of a render: every setting that decides its image (`shard::Record`).
 pub fn record(
-    args: &RenderArgs,
+    o: &RenderOptions,
     scene_path: &Path,
     prepared: &PreparedScene,
     settings: &RenderSettings,
     device: DeviceKind,
     moment: &wavetrace::scene::Moment,
 ) -> Result<Record> {
-    let o = &args.opts;
     let file =
         std::fs::read(scene_path).with_context(|| format!("reading {}", scene_path.display()))?;
     let environment = match &settings.env_map {

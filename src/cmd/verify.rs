@@ -15,7 +15,7 @@ use wavetrace::render::RenderSettings;
 use wavetrace::stats::compare_films;
 use wavetrace::stats::PowerModel;
 use wavetrace::verify::{
-    json_report, junit_xml, write_report, DetectPlan, Judgement, SceneVerdict,
+    json_report, junit_xml, write_report, DetectPlan, Judgement, RunInfo, SceneVerdict,
 };
 
 #[derive(Args, Debug, Clone)]
@@ -62,9 +62,34 @@ pub struct VerifyArgs {
     /// FLIP perceptual error instead, passing where its mean is at most E.
     #[arg(long, value_name = "E", value_parser = parse_unit_interval)]
     pub max_flip: Option<f64>,
+    /// With --against: judge even where the reference's recorded settings differ from the
+    /// render's in what decides the image (max depth, size, camera, lighting, …); without it
+    /// such a scene fails, every difference named.
+    #[arg(long)]
+    pub allow_settings_mismatch: bool,
     #[command(flatten)]
     pub opts: RenderOptions,
 }
+
+/// The recorded settings that decide a render's expectation: a reference must match the render
+/// in these. The others (samples, seed, sampler, MIS, roulette, light sampler, device, version,
+/// instancing, layers) change only the noise, so a reference may differ in them.
+const DECIDING_SETTINGS: &[&str] = &[
+    "scene_hash",
+    "width",
+    "height",
+    "camera",
+    "camera_placed",
+    "aperture",
+    "focus_distance",
+    "paths",
+    "max_depth",
+    "environment",
+    "sky",
+    "texture_lod",
+    "energy_compensation",
+    "moment",
+];
 
 /// Runs every scene; true if all agree.
 pub fn verify(args: &VerifyArgs) -> Result<bool> {
@@ -84,6 +109,22 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     }
     if args.detect.is_some() && !args.against.is_empty() {
         bail!("--detect chooses the sample count of the GPU and CPU renders; it does not apply with --against");
+    }
+    if args.max_flip.is_none() {
+        if let Some(image) = args
+            .against
+            .iter()
+            .find(|r| !r.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")))
+        {
+            bail!(
+                "{}: the reference carries no variance (not an EXR written by wavetrace), so the statistical \
+                 test cannot judge it; give --max-flip E to judge by NVIDIA's FLIP perceptual error",
+                image.display()
+            );
+        }
+    }
+    if args.against.is_empty() && args.device == DeviceKind::Cpu {
+        bail!("--device cpu: without --against, verify renders each scene on the GPU and with the CPU reference; --device chooses the side that renders against a stored reference (--against REF.exr)");
     }
     let side = if args.against.is_empty() {
         DeviceKind::Gpu
@@ -112,136 +153,21 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     };
     let mut verdicts = Vec::new();
     for (i, path) in args.scenes.iter().enumerate() {
-        let device = side;
-        let (_scene, prepared, settings) = prepare(path, &args.opts, device)?;
-        let start = Instant::now();
-        let render_gpu = |s: &RenderSettings| -> Result<wavetrace::film::Film> {
-            let g = gpu
-                .as_ref()
-                .expect("a GPU renderer exists when a side renders on it");
-            Ok(g.render(&prepared, s, args.opts.wavefront)?.film)
-        };
-        let render_cpu = |s: &RenderSettings| {
-            // The debug flags bias the GPU side only: the reference stays the reference.
-            let clean = RenderSettings {
-                debug_flags: 0,
-                ..s.clone()
-            };
-            wavetrace::cpu::render(&prepared, &clean).film
-        };
-        // --detect: pilot renders at --spp choose the sample count of the real ones.
-        let mut detect = None;
-        let mut settings = settings;
-        if let Some(bias) = args.detect {
-            // The power model needs the film's variance to be that of the pixel mean: independent
-            // samples (stats::power).
-            settings.sampler = wavetrace::layout::SAMPLER_INDEPENDENT;
-            let pilot_cpu = RenderSettings {
-                seed: settings.seed.wrapping_add(1),
-                ..settings.clone()
-            };
-            let (pa, pb) = (render_gpu(&settings)?, render_cpu(&pilot_cpu));
-            let model = PowerModel::new(&pa, &pb, settings.spp, args.tile, args.alpha);
-            let (spp, power) = model.plan(
-                bias,
-                args.power,
-                settings.spp,
-                args.detect_max_spp.max(settings.spp),
-            );
-            println!(
-                "{}: --detect {}%: {spp} spp per side gives power {power:.3} (asked {}; pilot {} spp)",
-                path.display(),
-                bias * 100.0,
-                args.power,
-                settings.spp
-            );
-            detect = Some(DetectPlan {
-                bias,
-                pilot_spp: settings.spp,
-                spp,
-                power,
-                target: args.power,
-            });
-            // Fresh seeds: the final renders are independent of the pilots that chose their size.
-            settings = RenderSettings {
-                spp,
-                seed: settings.seed.wrapping_add(2),
-                ..settings
-            };
-        }
-        let (label_a, a, label_b, b) = match args.against.get(i) {
-            None => {
-                // Independent seeds: the same seed would draw the same numbers on both sides.
-                let cpu_settings = RenderSettings {
-                    seed: settings.seed.wrapping_add(1),
-                    ..settings.clone()
-                };
-                (
-                    gpu_label(settings.seed),
-                    render_gpu(&settings)?,
-                    format!("CPU reference, seed {}", cpu_settings.seed),
-                    Reference::Film(render_cpu(&cpu_settings)),
-                )
-            }
-            Some(reference) => {
-                let b = read_reference(reference, args.max_flip)?;
-                let a = match side {
-                    DeviceKind::Gpu => render_gpu(&settings)?,
-                    // (resolve_device never answers Auto.)
-                    DeviceKind::Cpu | DeviceKind::Auto => render_cpu(&settings),
-                };
-                let label = match side {
-                    DeviceKind::Gpu => gpu_label(settings.seed),
-                    DeviceKind::Cpu | DeviceKind::Auto => format!("CPU, seed {}", settings.seed),
-                };
-                (label, a, format!("reference {}", reference.display()), b)
-            }
-        };
-        let b_film = match &b {
-            Reference::Film(f) | Reference::Display(_, f) => f,
-        };
-        for (label, film) in [(&label_a, &a), (&label_b, b_film)] {
-            if film.dropped > 0 {
-                eprintln!(
-                    "note: {}: {label} dropped {} NaN/Inf samples",
-                    path.display(),
-                    film.dropped
-                );
+        // A scene that cannot be judged is a failed test case; the others still run and the
+        // reports are written.
+        let mut settings = Vec::new();
+        match verify_scene(args, i, path, side, gpu.as_ref(), &gpu_label, &mut settings) {
+            Ok(verdict) => verdicts.push(verdict),
+            Err(e) => {
+                let message = format!("{e:#}");
+                eprintln!("error: {}: {message}", path.display());
+                verdicts.push(SceneVerdict::error(
+                    path.display().to_string(),
+                    message,
+                    settings,
+                ));
             }
         }
-        let judgement = match b {
-            Reference::Film(b) => {
-                let comparison = compare_films(&a, &b, args.tile, args.alpha)
-                    .with_context(|| format!("comparing the two renders of {}", path.display()))?;
-                println!("{}: {comparison}", path.display());
-                (b, Judgement::Welch(comparison))
-            }
-            Reference::Display(display, b) => {
-                let result = flip(&display, &DisplayImage::from_film(&a))
-                    .with_context(|| format!("comparing the render of {}", path.display()))?;
-                let max = args.max_flip.expect("read_reference asks for --max-flip");
-                println!(
-                    "{}: {}: mean FLIP error {:.6} (at most {max}), median {:.6}, 99th percentile {:.6}, max {:.6}",
-                    path.display(),
-                    if result.mean <= max { "PASS" } else { "FAIL" },
-                    result.mean,
-                    result.median,
-                    result.p99,
-                    result.max
-                );
-                (b, Judgement::Flip { result, max })
-            }
-        };
-        verdicts.push(SceneVerdict {
-            scene: path.display().to_string(),
-            label_a,
-            label_b,
-            a,
-            b: judgement.0,
-            judgement: judgement.1,
-            seconds: start.elapsed().as_secs_f64(),
-            detect,
-        });
     }
     let agreeing = verdicts.iter().filter(|v| v.passed()).count();
     println!(
@@ -263,10 +189,223 @@ pub fn verify(args: &VerifyArgs) -> Result<bool> {
     if let Some(file) = &args.json {
         write_creating_folders(
             file,
-            &serde_json::to_string_pretty(&json_report(&verdicts))?,
+            &serde_json::to_string_pretty(&json_report(
+                &verdicts,
+                &RunInfo {
+                    version: super::version::LONG.to_owned(),
+                    device: match &gpu {
+                        Some(g) => g.device().name.clone(),
+                        None => "CPU".to_owned(),
+                    },
+                },
+            ))?,
         )?;
     }
     Ok(agreeing == verdicts.len())
+}
+
+/// One scene rendered and judged; `recorded` receives the settings of the rendered side as soon
+/// as they are known (for the reports of a scene that fails after that).
+#[allow(clippy::too_many_arguments)]
+fn verify_scene(
+    args: &VerifyArgs,
+    i: usize,
+    path: &std::path::Path,
+    side: DeviceKind,
+    gpu: Option<&GpuRenderer>,
+    gpu_label: &dyn Fn(u32) -> String,
+    recorded: &mut Vec<(String, String)>,
+) -> Result<SceneVerdict> {
+    let device = side;
+    let (_scene, prepared, settings) = prepare(path, &args.opts, device)?;
+    let moment = args.opts.moment();
+    let record = super::shards::record(&args.opts, path, &prepared, &settings, device, &moment)?;
+    *recorded = record.settings.clone();
+    if let Some(reference) = args.against.get(i) {
+        check_reference_settings(reference, &record, args.allow_settings_mismatch)?;
+    }
+    let start = Instant::now();
+    let render_gpu = |s: &RenderSettings| -> Result<wavetrace::film::Film> {
+        let g = gpu
+            .as_ref()
+            .expect("a GPU renderer exists when a side renders on it");
+        Ok(g.render(&prepared, s, args.opts.wavefront)?.film)
+    };
+    let render_cpu = |s: &RenderSettings| {
+        // The debug flags bias the GPU side only: the reference stays the reference.
+        let clean = RenderSettings {
+            debug_flags: 0,
+            ..s.clone()
+        };
+        wavetrace::cpu::render(&prepared, &clean).film
+    };
+    // --detect: pilot renders at --spp choose the sample count of the real ones.
+    let mut detect = None;
+    let mut settings = settings;
+    if let Some(bias) = args.detect {
+        // The power model needs the film's variance to be that of the pixel mean: independent
+        // samples (stats::power).
+        settings.sampler = wavetrace::layout::SAMPLER_INDEPENDENT;
+        let pilot_cpu = RenderSettings {
+            seed: settings.seed.wrapping_add(1),
+            ..settings.clone()
+        };
+        let (pa, pb) = (render_gpu(&settings)?, render_cpu(&pilot_cpu));
+        let model = PowerModel::new(&pa, &pb, settings.spp, args.tile, args.alpha);
+        let (spp, power) = model.plan(
+            bias,
+            args.power,
+            settings.spp,
+            args.detect_max_spp.max(settings.spp),
+        );
+        println!(
+            "{}: --detect {}%: {spp} spp per side gives power {power:.3} (asked {}; pilot {} spp)",
+            path.display(),
+            bias * 100.0,
+            args.power,
+            settings.spp
+        );
+        detect = Some(DetectPlan {
+            bias,
+            pilot_spp: settings.spp,
+            spp,
+            power,
+            target: args.power,
+        });
+        // Fresh seeds: the final renders are independent of the pilots that chose their size.
+        settings = RenderSettings {
+            spp,
+            seed: settings.seed.wrapping_add(2),
+            ..settings
+        };
+    }
+    let (label_a, a, label_b, b) = match args.against.get(i) {
+        None => {
+            // Independent seeds: the same seed would draw the same numbers on both sides.
+            let cpu_settings = RenderSettings {
+                seed: settings.seed.wrapping_add(1),
+                ..settings.clone()
+            };
+            (
+                gpu_label(settings.seed),
+                render_gpu(&settings)?,
+                format!("CPU reference, seed {}", cpu_settings.seed),
+                Reference::Film(render_cpu(&cpu_settings)),
+            )
+        }
+        Some(reference) => {
+            let b = read_reference(reference, args.max_flip)?;
+            let a = match side {
+                DeviceKind::Gpu => render_gpu(&settings)?,
+                // (resolve_device never answers Auto.)
+                DeviceKind::Cpu | DeviceKind::Auto => render_cpu(&settings),
+            };
+            let label = match side {
+                DeviceKind::Gpu => gpu_label(settings.seed),
+                DeviceKind::Cpu | DeviceKind::Auto => format!("CPU, seed {}", settings.seed),
+            };
+            (label, a, format!("reference {}", reference.display()), b)
+        }
+    };
+    let b_film = match &b {
+        Reference::Film(f) | Reference::Display(_, f) => f,
+    };
+    for (label, film) in [(&label_a, &a), (&label_b, b_film)] {
+        if film.dropped > 0 {
+            eprintln!(
+                "note: {}: {label} dropped {} NaN/Inf samples",
+                path.display(),
+                film.dropped
+            );
+        }
+    }
+    let judgement = match b {
+        Reference::Film(b) => {
+            let comparison = compare_films(&a, &b, args.tile, args.alpha)
+                .with_context(|| format!("comparing the two renders of {}", path.display()))?;
+            println!("{}: {comparison}", path.display());
+            (b, Judgement::Welch(comparison))
+        }
+        Reference::Display(display, b) => {
+            let result = flip(&display, &DisplayImage::from_film(&a))
+                .with_context(|| format!("comparing the render of {}", path.display()))?;
+            let max = args.max_flip.expect("read_reference asks for --max-flip");
+            println!(
+                "{}: {}: mean FLIP error {:.6} (at most {max}), median {:.6}, 99th percentile {:.6}, max {:.6}",
+                path.display(),
+                if result.mean <= max { "PASS" } else { "FAIL" },
+                result.mean,
+                result.median,
+                result.p99,
+                result.max
+            );
+            (b, Judgement::Flip { result, max })
+        }
+    };
+    Ok(SceneVerdict {
+        scene: path.display().to_string(),
+        label_a,
+        label_b,
+        a,
+        b: judgement.0,
+        judgement: judgement.1,
+        seconds: start.elapsed().as_secs_f64(),
+        detect,
+        settings: record.settings,
+    })
+}
+
+/// Refuses a stored reference whose recorded settings differ from the render's in what decides
+/// the image ([`DECIDING_SETTINGS`]), naming every difference, unless `allow` says to judge
+/// anyway (then each is a note). A reference without a record (another renderer's image) is
+/// not checked.
+fn check_reference_settings(
+    reference: &std::path::Path,
+    render: &wavetrace::shard::Record,
+    allow: bool,
+) -> Result<()> {
+    let is_exr = reference
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        return Ok(());
+    }
+    let (_, attributes) = wavetrace::image_io::read_film_exact(reference)?;
+    let Some(stored) = wavetrace::shard::Record::from_attributes(reference, &attributes)? else {
+        return Ok(());
+    };
+    let differences: Vec<String> = DECIDING_SETTINGS
+        .iter()
+        .filter_map(|&key| {
+            let (theirs, ours) = (stored.get(key), render.get(key));
+            (theirs != ours).then(|| {
+                format!(
+                    "{key}: the reference {}, the render {}",
+                    theirs.unwrap_or("(not recorded)"),
+                    ours.unwrap_or("(not recorded)")
+                )
+            })
+        })
+        .collect();
+    if differences.is_empty() {
+        return Ok(());
+    }
+    if allow {
+        for d in &differences {
+            eprintln!(
+                "note: {}: {d} (--allow-settings-mismatch)",
+                reference.display()
+            );
+        }
+        return Ok(());
+    }
+    bail!(
+        "the reference {} was rendered with other settings than this render, so their images \
+         differ whatever the renderer: {}; render the reference again with the same settings, or \
+         give --allow-settings-mismatch to judge anyway",
+        reference.display(),
+        differences.join("; ")
+    )
 }
 
 /// A stored reference: a wavetrace EXR with variance (judged by the Welch test), or an image

@@ -796,7 +796,7 @@ fn bench_kernels_reports_a_gpu_compilers_registers_without_rendering() {
     let mut args: Vec<&std::ffi::OsStr> = render.split(' ').map(std::ffi::OsStr::new).collect();
     args.push(out.as_os_str());
     let o = on_radv_null_device(&icd, &args);
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("RADV") && stderr(&o).contains("cannot render"),
         "{}",

@@ -7,6 +7,7 @@
 mod common;
 
 mod aov;
+mod ci;
 mod cli;
 mod denoise;
 mod output;

@@ -204,17 +204,122 @@ fn a_render_verifies_against_a_stored_reference() {
     };
     assert_eq!(verify(&[]).status.code(), Some(0));
     assert_eq!(verify(&["--device", "cpu"]).status.code(), Some(0));
-    // A depth-1 render is not the reference.
-    assert_eq!(verify(&["--max-depth", "1"]).status.code(), Some(1));
-    // A missing reference is an error, exit 2.
+    // A depth-1 render is not the reference: refused by its recorded settings, the difference
+    // named; with --allow-settings-mismatch the images are compared, and differ.
+    let o = verify(&["--max-depth", "1"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("max_depth: the reference 8, the render 1")
+            && err.contains("--allow-settings-mismatch"),
+        "{err}"
+    );
+    let o = verify(&["--max-depth", "1", "--allow-settings-mismatch"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(
+        out.contains("tile×channel") || out.contains("tiles"),
+        "{out}"
+    );
+    // A missing reference fails its scene (exit 1), named; the reports are still written.
+    let junit = temp("missing-reference.xml");
     let o = wavetrace(&[
         "verify",
         "scenes/cornell-box.gltf",
         "--against",
         "no-such.exr",
+        "--junit",
+        junit.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such.exr"));
+    assert!(std::fs::read_to_string(&junit)
+        .unwrap()
+        .contains("no-such.exr"));
+    // --device cpu without a reference to render against is a usage error.
+    let o = wavetrace(&["verify", "scenes/cornell-box.gltf", "--device", "cpu"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--against"));
+}
+
+/// A set with one scene that cannot load: that scene is a failed test case carrying its error
+/// (JUnit `<error>`, a JSON entry), the other scenes are still judged, every report is written,
+/// and the exit status is 1; the JSON names wavetrace's version, the device and each scene's
+/// settings.
+#[test]
+fn a_broken_scene_fails_its_test_case_and_the_reports_are_complete() {
+    if common::skip_gpu() {
+        return;
+    }
+    let dir = temp("broken");
+    std::fs::create_dir_all(&dir).unwrap();
+    let broken = dir.join("broken.gltf");
+    std::fs::write(
+        &broken,
+        r#"{"asset": {"version": "2.0"}, "meshes": [{"primitives": "#,
+    )
+    .unwrap();
+    let (junit, json_file, report) = (
+        dir.join("junit.xml"),
+        dir.join("verify.json"),
+        dir.join("report"),
+    );
+    let o = wavetrace(&[
+        "verify",
+        "scenes/cornell-box.gltf",
+        broken.to_str().unwrap(),
+        "scenes/furnace.gltf",
+        "--width",
+        "16",
+        "--spp",
+        "16",
+        "--junit",
+        junit.to_str().unwrap(),
+        "--json",
+        json_file.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(1), "{out}\n{err}");
+    assert!(out.contains("2 of 3 scenes agree"), "{out}");
+    assert!(err.contains("broken.gltf"), "{err}");
+    assert_valid_junit(&junit);
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        xml.contains("tests=\"3\" failures=\"0\" errors=\"1\""),
+        "{xml}"
+    );
+    assert!(
+        xml.contains("<error message=") && xml.contains("broken.gltf"),
+        "{xml}"
+    );
+    let v = json(&json_file);
+    assert_eq!(v["report_version"], 2);
+    assert!(
+        v["wavetrace_version"].as_str().unwrap().contains("commit"),
+        "{v}"
+    );
+    assert!(!v["device"].as_str().unwrap().is_empty(), "{v}");
+    assert_eq!(v["passed"], false);
+    assert_eq!(v["errors"], 1);
+    let scenes = v["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 3);
+    assert!(
+        scenes[1]["error"].as_str().unwrap().contains("broken.gltf"),
+        "{v}"
+    );
+    assert_eq!(scenes[0]["passed"], true);
+    assert_eq!(scenes[0]["settings"]["max_depth"], "8");
+    assert_eq!(scenes[2]["passed"], true);
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(
+        html.contains("ERROR") && html.contains("2 of 3 scenes agree"),
+        "{html}"
+    );
 }
 
 /// References without variance (another renderer's PNG) are judged by FLIP, and only with a

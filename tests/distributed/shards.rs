@@ -506,7 +506,7 @@ fn gpu_faults_in_an_image_of_several_bands_keep_whole_samples() {
     // (The process's first batch is the kernels' warm-up on a few pixels, render.rs.)
     let o = run_render_with_fault("device-lost@11", 32, 6, &bands, &partial);
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(
         err.contains("(VK_ERROR_DEVICE_LOST)")
@@ -536,7 +536,7 @@ fn gpu_faults_end_cleanly_and_keep_the_finished_samples() {
     // (The process's first batch is the kernels' warm-up on a few pixels, render.rs.)
     let o = run_render_with_fault("device-lost@5", 32, 12, &wavefront, &partial);
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(
         err.contains("the GPU was lost during a wavefront batch (VK_ERROR_DEVICE_LOST)")
@@ -555,7 +555,7 @@ fn gpu_faults_end_cleanly_and_keep_the_finished_samples() {
     let none = temp("fault-none.exr");
     let o = run_render_with_fault("device-lost@1", 32, 12, &wavefront, &none);
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("holds the samples 0..0 finished before it"),
         "{err}"
@@ -567,7 +567,7 @@ fn gpu_faults_end_cleanly_and_keep_the_finished_samples() {
         let out = temp(&format!("fault-{buffer}.exr"));
         let o = run_render_with_fault(&format!("oom@{buffer}"), 16, 2, &[], &out);
         let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(!err.contains("panicked"), "{err}");
         assert!(
             err.contains(&format!("out of GPU memory allocating buffer '{buffer}'")),
