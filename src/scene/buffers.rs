@@ -236,18 +236,27 @@ fn escapes(relative: &Path) -> bool {
 /// A file opened for reading if it is a regular file (devices, pipes and folders are refused,
 /// and it is opened without blocking so that a pipe cannot stall the load), with its size.
 pub(super) fn open_regular(path: &Path) -> Result<(std::fs::File, u64)> {
+    open_regular_named(path, &path.display())
+}
+
+/// [`open_regular`], its errors naming the file as `name` (the scene file is "the file": the
+/// message around it names its path once).
+pub(super) fn open_regular_named(
+    path: &Path,
+    name: &dyn std::fmt::Display,
+) -> Result<(std::fs::File, u64)> {
     let mut open = std::fs::OpenOptions::new();
     open.read(true);
     #[cfg(unix)]
     std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NONBLOCK);
     let file = open
         .open(path)
-        .with_context(|| format!("cannot read {}", path.display()))?;
+        .with_context(|| format!("cannot read {name}"))?;
     let metadata = file
         .metadata()
-        .with_context(|| format!("cannot read {}", path.display()))?;
+        .with_context(|| format!("cannot read {name}"))?;
     if !metadata.is_file() {
-        bail!("{} is not a regular file, expected one", path.display());
+        bail!("{name} is not a regular file, expected one");
     }
     Ok((file, metadata.len()))
 }

@@ -25,7 +25,7 @@
 //! `Scene::skipped_primitives`).
 
 use super::animation::{self, infos, read_clips, AnimationInfo, Animations, Clip, Moment};
-use super::buffers::{check_image_uris, load_buffers, open_regular};
+use super::buffers::{check_image_uris, load_buffers, open_regular_named};
 use super::camera::Camera;
 use super::extensions::{unsupported_extension, SUPPORTED_EXTENSIONS};
 use super::images::TextureBuilder;
@@ -116,7 +116,7 @@ pub(super) fn guarded<T>(
 
 /// The scene file's bytes: a regular file, no larger than the memory budget allows.
 pub(super) fn read_scene_file(path: &Path, budget: &Budget) -> Result<Vec<u8>> {
-    let (file, size) = open_regular(path)?;
+    let (file, size) = open_regular_named(path, &"the file")?;
     budget.reserve(&format!("the file ({})", format_bytes(size)), size)?;
     let mut bytes = Vec::with_capacity(size as usize);
     file.take(size)
