@@ -60,6 +60,8 @@ pub mod lights;
 pub mod mc;
 pub mod mis;
 pub mod paths;
+#[cfg(feature = "python")]
+mod python;
 pub mod render;
 pub mod sampling;
 pub mod scene;

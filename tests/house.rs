@@ -197,7 +197,8 @@ fn picture() -> String {
         .collect();
     let graph = imports::import_graph(root());
     let mut unit_layer: BTreeMap<String, u32> = BTreeMap::new();
-    for (file, layer) in &layers {
+    // (The Python package's files under src/python/ are not Rust: named in the map, not drawn.)
+    for (file, layer) in layers.iter().filter(|(f, _)| f.ends_with(".rs")) {
         let u = unit(file, &layers);
         let l = unit_layer.entry(u).or_insert(*layer);
         *l = (*l).max(*layer);

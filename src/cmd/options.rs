@@ -149,56 +149,29 @@ pub enum AovArg {
 }
 
 impl AovArg {
-    pub fn code(self) -> u32 {
-        use wavetrace::layout::*;
+    /// The library's layer.
+    pub fn aov(self) -> wavetrace::render::Aov {
+        use wavetrace::render::Aov;
         match self {
-            AovArg::Albedo => AOV_BASE_COLOR,
-            AovArg::Normal => AOV_NORMAL,
-            AovArg::Depth => AOV_DEPTH,
-            AovArg::Position => AOV_POSITION,
-            AovArg::Uv => AOV_UV,
-            AovArg::Material => AOV_MATERIAL,
-            AovArg::Instance => AOV_INSTANCE,
-            AovArg::Emission => AOV_EMISSION,
-            AovArg::Alpha => AOV_ALPHA,
+            AovArg::Albedo => Aov::Albedo,
+            AovArg::Normal => Aov::Normal,
+            AovArg::Depth => Aov::Depth,
+            AovArg::Position => Aov::Position,
+            AovArg::Uv => Aov::Uv,
+            AovArg::Material => Aov::Material,
+            AovArg::Instance => Aov::Instance,
+            AovArg::Emission => Aov::Emission,
+            AovArg::Alpha => Aov::Alpha,
         }
     }
 
     /// The layer's name in the EXR (and its file beside a PNG).
     pub fn name(self) -> &'static str {
-        match self {
-            AovArg::Albedo => "albedo",
-            AovArg::Normal => "normal",
-            AovArg::Depth => "depth",
-            AovArg::Position => "position",
-            AovArg::Uv => "uv",
-            AovArg::Material => "material",
-            AovArg::Instance => "instance",
-            AovArg::Emission => "emission",
-            AovArg::Alpha => "alpha",
-        }
+        self.aov().name()
     }
 
     pub fn kind(self) -> wavetrace::image_io::LayerKind {
-        use wavetrace::image_io::LayerKind;
-        match self {
-            AovArg::Albedo | AovArg::Emission => LayerKind::Color,
-            AovArg::Normal => LayerKind::Direction,
-            AovArg::Depth => LayerKind::Depth,
-            AovArg::Position => LayerKind::Point,
-            AovArg::Uv => LayerKind::Uv,
-            AovArg::Material | AovArg::Instance => LayerKind::Id,
-            AovArg::Alpha => LayerKind::Alpha,
-        }
-    }
-
-    /// Whether the layer is one camera ray through each pixel's centre (exact, not averaged)
-    /// rather than the mean over the image's own samples.
-    pub fn through_centre(self) -> bool {
-        matches!(
-            self,
-            AovArg::Depth | AovArg::Position | AovArg::Uv | AovArg::Material | AovArg::Instance
-        )
+        self.aov().kind()
     }
 }
 

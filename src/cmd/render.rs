@@ -460,10 +460,7 @@ pub(crate) fn aov_layers_and_denoise(
     Ok((denoised, layers))
 }
 
-/// The AOV layers: one pass each at the first hit of the camera rays — the image's samples
-/// 0..`samples` with the same random numbers (so they line up with the image's antialiasing,
-/// as a denoiser wants), or one ray through each pixel's centre for the layers that must not
-/// be averaged (depth, position, uv, IDs).
+/// The AOV layers, one pass each (`wavetrace::render::aov`).
 pub(crate) fn render_aov_layers(
     backend: &dyn Backend,
     prepared: &PreparedScene,
@@ -471,29 +468,14 @@ pub(crate) fn render_aov_layers(
     aovs: &[AovArg],
     samples: u32,
 ) -> Result<Vec<Layer>> {
-    let never = AtomicBool::new(false);
-    let hidden = ProgressBar::hidden();
     aovs.iter()
         .map(|&a| {
-            let mut s = RenderSettings {
-                aov: a.code(),
-                paths: None,
-                ..settings.clone()
-            };
-            let range = if a.through_centre() {
-                s.debug_flags |= wavetrace::layout::FLAG_PIXEL_CENTRE;
-                0..1
-            } else {
-                0..samples
-            };
-            let (out, _) = backend.render_range(prepared, &s, range, &hidden, &never)?;
-            if let Some(fault) = out.stats.fault {
-                bail!("layer {}: {fault}", a.name());
-            }
+            let film =
+                wavetrace::render::aov::render_aov(backend, prepared, settings, a.aov(), samples)?;
             Ok(Layer {
                 name: a.name().to_owned(),
                 kind: a.kind(),
-                film: out.film,
+                film,
             })
         })
         .collect()
