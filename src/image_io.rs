@@ -205,32 +205,6 @@ pub fn write_output(
     }
 }
 
-/// [`write_image_layers`] with a view transform for the PNGs (`render --view`; the EXR stays
-/// scene-linear).
-pub fn write_image_viewed(
-    film: &Film,
-    layers: &[(String, Film)],
-    path: &Path,
-    exposure: f32,
-    view: View,
-    attributes: &[(String, String)],
-) -> anyhow::Result<()> {
-    let layers: Vec<Layer> = layers
-        .iter()
-        .map(|(name, film)| Layer {
-            name: name.clone(),
-            kind: LayerKind::Paths,
-            film: film.clone(),
-        })
-        .collect();
-    let options = WriteOptions {
-        exposure,
-        view,
-        ..Default::default()
-    };
-    write_output(film, &layers, path, &options, attributes)
-}
-
 /// An image read back from an EXR file, row-major with the top row first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImageData {

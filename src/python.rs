@@ -215,6 +215,7 @@ impl Scene {
             variance: variance.unbind(),
             layers: dict.unbind(),
             stats: stats_dict.unbind(),
+            film,
         })
     }
 
@@ -271,12 +272,18 @@ fn layer_array<'py>(py: Python<'py>, aov: Aov, film: &Film) -> PyResult<Bound<'p
 
 /// One render: `image` (H × W × 3 float32, linear radiance, the mean of each pixel's samples),
 /// `variance` (of that mean), `layers` (the AOVs asked for, by name) and `stats`.
-#[pyclass(module = "wavetrace", frozen, get_all)]
+#[pyclass(module = "wavetrace", frozen)]
 struct Render {
+    #[pyo3(get)]
     image: Py<numpy::PyArray3<f32>>,
+    #[pyo3(get)]
     variance: Py<numpy::PyArray3<f32>>,
+    #[pyo3(get)]
     layers: Py<PyDict>,
+    #[pyo3(get)]
     stats: Py<PyDict>,
+    /// The film itself (its exact sums), for `verify`.
+    film: Film,
 }
 
 #[pymethods]
@@ -313,35 +320,106 @@ fn render(
     )
 }
 
+/// The verdict of the per-tile Welch test (`wavetrace compare`, `wavetrace verify`): `passed`,
+/// the number of tile × channel `tests`, the `failures`, the smallest p-value `min_p`, the
+/// `relative_mse` of the first image against the second, and the test's `summary` line.
+/// True where the images agree.
+#[pyclass(module = "wavetrace", frozen, get_all)]
+struct Verdict {
+    passed: bool,
+    tests: usize,
+    failures: usize,
+    min_p: f64,
+    relative_mse: f64,
+    summary: String,
+}
+
+#[pymethods]
+impl Verdict {
+    fn __bool__(&self) -> bool {
+        self.passed
+    }
+
+    fn __repr__(&self) -> String {
+        format!("wavetrace.Verdict({})", self.summary)
+    }
+}
+
+fn verdict(a: &Film, b: &Film, tile: u32, alpha: f64) -> anyhow::Result<Verdict> {
+    let cmp = crate::stats::compare_films(a, b, tile, alpha)?;
+    let e = crate::stats::image_error(a, b, crate::stats::RELATIVE_MSE_EPSILON)?;
+    Ok(Verdict {
+        passed: cmp.passed(),
+        tests: cmp.tests,
+        failures: cmp.failures.len(),
+        min_p: cmp.min_p,
+        relative_mse: e.relative_mse,
+        summary: cmp.to_string(),
+    })
+}
+
 /// Whether two EXRs written by wavetrace have the same expectation, by the per-tile Welch test
-/// `wavetrace compare` runs: a dict with `passed`, `tests`, `failures`, `min_p` and the
-/// `relative_mse` of `a` against `b`.
+/// `wavetrace compare` runs (family-wise level `alpha`, tiles of `tile` pixels).
 #[pyfunction]
 #[pyo3(signature = (a, b, *, tile=8, alpha=0.01))]
-fn compare<'py>(
-    py: Python<'py>,
+fn compare(
+    py: Python<'_>,
     a: std::path::PathBuf,
     b: std::path::PathBuf,
     tile: u32,
     alpha: f64,
-) -> PyResult<Bound<'py, PyDict>> {
-    let (cmp, relative_mse) = py
-        .detach(|| -> anyhow::Result<_> {
-            let fa = crate::image_io::read_film(&a)?;
-            let fb = crate::image_io::read_film(&b)?;
-            let cmp = crate::stats::compare_films(&fa, &fb, tile, alpha)?;
-            let e = crate::stats::image_error(&fa, &fb, crate::stats::RELATIVE_MSE_EPSILON)?;
-            Ok((cmp, e.relative_mse))
-        })
-        .map_err(error)?;
-    let out = PyDict::new(py);
-    out.set_item("passed", cmp.passed())?;
-    out.set_item("tests", cmp.tests)?;
-    out.set_item("failures", cmp.failures.len())?;
-    out.set_item("min_p", cmp.min_p)?;
-    out.set_item("relative_mse", relative_mse)?;
-    out.set_item("summary", cmp.to_string())?;
-    Ok(out)
+) -> PyResult<Verdict> {
+    py.detach(|| -> anyhow::Result<Verdict> {
+        let fa = crate::image_io::read_film(&a)?;
+        let fb = crate::image_io::read_film(&b)?;
+        verdict(&fa, &fb, tile, alpha)
+    })
+    .map_err(error)
+}
+
+/// `wavetrace verify` of one scene: rendered on the GPU and with the CPU reference
+/// (independent seeds `seed` and `seed + 1`, the same settings), then the per-tile Welch test.
+#[pyfunction]
+#[pyo3(signature = (path, *, camera=None, env=None, width=64, height=None, spp=256, seed=0, max_depth=8, tile=8, alpha=0.01))]
+#[allow(clippy::too_many_arguments)]
+fn verify(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    camera: Option<String>,
+    env: Option<String>,
+    width: Option<u32>,
+    height: Option<u32>,
+    spp: u32,
+    seed: u32,
+    max_depth: u32,
+    tile: u32,
+    alpha: f64,
+) -> PyResult<Verdict> {
+    let scene = Scene::new(py, path, camera, env)?;
+    let gpu = scene.render(
+        py,
+        width,
+        height,
+        spp,
+        seed,
+        max_depth,
+        "gpu",
+        Vec::new(),
+        None,
+    )?;
+    let cpu = scene.render(
+        py,
+        width,
+        height,
+        spp,
+        seed.wrapping_add(1),
+        max_depth,
+        "cpu",
+        Vec::new(),
+        None,
+    )?;
+    let (a, b) = (&gpu.film, &cpu.film);
+    py.detach(|| verdict(a, b, tile, alpha)).map_err(error)
 }
 
 /// The mean (H × W × 3 float32) and, where the file has them, the variance of the mean of an
@@ -367,7 +445,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scene>()?;
     m.add_class::<Render>()?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_class::<Verdict>()?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(verify, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add("WavetraceError", m.py().get_type::<WavetraceError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -118,62 +118,8 @@ fn parse_paths(s: &str) -> Result<std::sync::Arc<wavetrace::paths::PathExpr>, St
     wavetrace::paths::PathExpr::parse(s).map(std::sync::Arc::new)
 }
 
-/// An AOV layer written beside the image (`--aov`): a property of the surface each camera ray
-/// hits first.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum AovArg {
-    /// Base colour (factor × texture × vertex colour, linear RGB), black where the camera ray
-    /// leaves the scene; averaged over the image's samples (a denoiser's albedo).
-    #[value(alias = "base-color")]
-    Albedo,
-    /// World-space shading normal with its normal map, raw in [−1, 1]; averaged over the
-    /// image's samples (a denoiser's normal).
-    Normal,
-    /// Distance from the eye along the camera ray through the pixel's centre, scene units
-    /// (0 where it escapes).
-    Depth,
-    /// World-space position of the hit through the pixel's centre (0 where it escapes).
-    Position,
-    /// TEXCOORD_0 (u, v) through the pixel's centre.
-    Uv,
-    /// The material through the pixel's centre: its index in the file + 1 (0 where nothing is
-    /// hit; the default material numbered after the file's last).
-    Material,
-    /// The placement through the pixel's centre (0 where nothing is hit): 1 for the meshes
-    /// baked into world space, k + 2 for the k-th node that places a mesh several nodes share.
-    Instance,
-    /// Emitted radiance (emissive factor × texture × strength), averaged.
-    Emission,
-    /// Coverage: the fraction of the pixel's samples whose camera ray hits a surface.
-    Alpha,
-}
-
-impl AovArg {
-    /// The library's layer.
-    pub fn aov(self) -> wavetrace::render::Aov {
-        use wavetrace::render::Aov;
-        match self {
-            AovArg::Albedo => Aov::Albedo,
-            AovArg::Normal => Aov::Normal,
-            AovArg::Depth => Aov::Depth,
-            AovArg::Position => Aov::Position,
-            AovArg::Uv => Aov::Uv,
-            AovArg::Material => Aov::Material,
-            AovArg::Instance => Aov::Instance,
-            AovArg::Emission => Aov::Emission,
-            AovArg::Alpha => Aov::Alpha,
-        }
-    }
-
-    /// The layer's name in the EXR (and its file beside a PNG).
-    pub fn name(self) -> &'static str {
-        self.aov().name()
-    }
-
-    pub fn kind(self) -> wavetrace::image_io::LayerKind {
-        self.aov().kind()
-    }
-}
+/// An AOV layer written beside the image (`--aov`): the library's, with its help.
+pub use wavetrace::render::Aov as AovArg;
 
 /// `--texture-lod`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -470,8 +470,7 @@ pub(crate) fn render_aov_layers(
 ) -> Result<Vec<Layer>> {
     aovs.iter()
         .map(|&a| {
-            let film =
-                wavetrace::render::aov::render_aov(backend, prepared, settings, a.aov(), samples)?;
+            let film = wavetrace::render::aov::render_aov(backend, prepared, settings, a, samples)?;
             Ok(Layer {
                 name: a.name().to_owned(),
                 kind: a.kind(),

@@ -11,17 +11,32 @@ use crate::film::Film;
 use crate::image_io::LayerKind;
 use crate::layout::*;
 
-/// One AOV layer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// One AOV layer (the command line's `--aov` values, whose help these comments are).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Aov {
+    /// Base colour (factor × texture × vertex colour, linear RGB), black where the camera ray
+    /// leaves the scene; averaged over the image's samples (a denoiser's albedo).
+    #[value(alias = "base-color")]
     Albedo,
+    /// World-space shading normal with its normal map, raw in [−1, 1]; averaged over the
+    /// image's samples (a denoiser's normal).
     Normal,
+    /// Distance from the eye along the camera ray through the pixel's centre, scene units
+    /// (0 where it escapes).
     Depth,
+    /// World-space position of the hit through the pixel's centre (0 where it escapes).
     Position,
+    /// TEXCOORD_0 (u, v) through the pixel's centre.
     Uv,
+    /// The material through the pixel's centre: its index in the file + 1 (0 where nothing is
+    /// hit; the default material numbered after the file's last).
     Material,
+    /// The placement through the pixel's centre (0 where nothing is hit): 1 for the meshes
+    /// baked into world space, k + 2 for the k-th node that places a mesh several nodes share.
     Instance,
+    /// Emitted radiance (emissive factor × texture × strength), averaged.
     Emission,
+    /// Coverage: the fraction of the pixel's samples whose camera ray hits a surface.
     Alpha,
 }
 

@@ -263,8 +263,6 @@ fn render_cli(scene: &Path, out: &Path, extra: &[&str]) {
         &size,
         "--spp",
         "16",
-        "--env",
-        "none",
         "-o",
         out.to_str().unwrap(),
     ];
@@ -286,6 +284,8 @@ fn aov_layers_hold_what_the_geometry_puts_under_each_pixel() {
         &scene,
         &out,
         &[
+            "--env",
+            "none",
             "--aov",
             "albedo,normal,depth",
             "--aov",
@@ -549,36 +549,14 @@ fn transparent_background_is_alpha_zero_where_camera_rays_escape() {
     let exr = common::temp("aov", "transparent.exr");
     let png = common::temp("aov", "transparent.png");
     let opaque = common::temp("aov", "opaque.exr");
-    let base = ["--environment", "0.5"];
-    let with = |out: &Path, extra: &[&str]| {
-        let size = SIZE.to_string();
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "--device",
-            "cpu",
-            "--width",
-            &size,
-            "--height",
-            &size,
-            "--spp",
-            "16",
-            "-o",
-            out.to_str().unwrap(),
-            base[0],
-            base[1],
-        ];
-        args.extend_from_slice(extra);
-        let o = wavetrace(&args);
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-    };
-    with(&exr, &["--transparent"]);
-    with(&png, &["--transparent", "--view", "standard"]);
-    with(&opaque, &[]);
+    let lit = "--environment";
+    render_cli(&scene, &exr, &[lit, "0.5", "--transparent"]);
+    render_cli(
+        &scene,
+        &png,
+        &[lit, "0.5", "--transparent", "--view", "standard"],
+    );
+    render_cli(&scene, &opaque, &[lit, "0.5"]);
     let (t, o) = (exr_channels(&exr), exr_channels(&opaque));
     assert!(!o.contains_key("A"), "an opaque render has no alpha");
     let shown = image::open(&png).unwrap().to_rgba8();

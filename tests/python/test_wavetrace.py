@@ -1,6 +1,6 @@
 """The Python package (issue 60, item 1): its arrays are the command line's EXR bit for bit, a
 bad file raises WavetraceError with the file's JSON path, a Scene renders many times, layers and
-progress come back. Run by .ci/run in a fresh venv after `pip install .`:
+progress come back, compare and verify judge the GPU against the CPU reference. Run by .ci/run in a fresh venv after `pip install .`:
 
     python -m pytest tests/python
 
@@ -86,4 +86,7 @@ def test_progress_is_reported_and_the_gpu_renders():
                             "--spp", "64", "--seed", seed, "--quiet", "-o", out],
                            check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
         verdict = wavetrace.compare(ea, eb)
-        assert verdict["passed"], verdict["summary"]
+        assert verdict and verdict.tests > 0, verdict.summary
+    # The same through verify: one scene, GPU against the CPU reference.
+    v = wavetrace.verify(CORNELL, width=32, spp=64)
+    assert isinstance(v, wavetrace.Verdict) and v.passed, v.summary

@@ -12,6 +12,26 @@ Images are linear radiance, the mean of each pixel's samples, row 0 at the top. 
 ``wavetrace.WavetraceError`` with the message the command line prints. docs/python.md.
 """
 
-from ._native import Render, Scene, WavetraceError, __version__, compare, read_exr, render
+from ._native import (
+    Render,
+    Scene,
+    Verdict,
+    WavetraceError,
+    __version__,
+    compare,
+    read_exr,
+    render,
+    verify,
+)
 
-__all__ = ["Render", "Scene", "WavetraceError", "__version__", "compare", "read_exr", "render"]
+__all__ = [
+    "Render",
+    "Scene",
+    "Verdict",
+    "WavetraceError",
+    "__version__",
+    "compare",
+    "read_exr",
+    "render",
+    "verify",
+]

@@ -69,9 +69,37 @@ def render(
 ) -> Render:
     """``Scene(path, camera=camera, env=env).render(...)``."""
 
-def compare(a: _Path, b: _Path, *, tile: int = 8, alpha: float = 0.01) -> Dict[str, Any]:
-    """The per-tile Welch test of two wavetrace EXRs: passed, tests, failures, min_p,
-    relative_mse, summary."""
+class Verdict:
+    """The per-tile Welch test's verdict; true where the images agree."""
+
+    passed: bool
+    tests: int
+    """Tile x channel tests."""
+    failures: int
+    """Tests that reject equal expectations (family-wise level alpha, Sidak-corrected)."""
+    min_p: float
+    relative_mse: float
+    """Of the first image against the second."""
+    summary: str
+    def __bool__(self) -> bool: ...
+
+def compare(a: _Path, b: _Path, *, tile: int = 8, alpha: float = 0.01) -> Verdict:
+    """The per-tile Welch test of two wavetrace EXRs, as `wavetrace compare` runs it."""
+
+def verify(
+    path: _Path,
+    *,
+    camera: Optional[str] = None,
+    env: Optional[str] = None,
+    width: Optional[int] = 64,
+    height: Optional[int] = None,
+    spp: int = 256,
+    seed: int = 0,
+    max_depth: int = 8,
+    tile: int = 8,
+    alpha: float = 0.01,
+) -> Verdict:
+    """The scene on the GPU (seed) and with the CPU reference (seed + 1), tested per tile."""
 
 def read_exr(
     path: _Path,
